@@ -1,0 +1,32 @@
+# Two entry points: `make all` regenerates every study, `make test` runs the tests.
+PY ?= python3
+VENV := .venv
+BIN := $(VENV)/bin
+STAMP := $(VENV)/.installed
+
+.PHONY: all test lint bench lock clean
+
+all: $(STAMP)
+	$(BIN)/snakemake all -c 2
+
+test: $(STAMP)
+	$(BIN)/python -m pytest
+
+lint: $(STAMP)
+	$(BIN)/ruff check src tests scripts
+	$(BIN)/snakemake --lint
+
+bench: $(STAMP)
+	$(BIN)/python scripts/bench_en02.py
+
+$(STAMP): pyproject.toml constraints.txt
+	$(PY) -m venv $(VENV)
+	$(BIN)/python -m pip install --quiet --upgrade pip
+	$(BIN)/python -m pip install --quiet -c constraints.txt -e '.[dev]'
+	touch $(STAMP)
+
+lock: $(STAMP)
+	$(BIN)/python -m pip freeze --exclude-editable | sed '1i # Exact versions for every install (make bootstraps with pip -c constraints.txt).\n# Regenerate: make lock' > constraints.txt
+
+clean:
+	rm -rf $(VENV) .snakemake

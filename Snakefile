@@ -1,0 +1,36 @@
+# creatio workflow: every study from its Hydra config to datasets, reports and figures.
+#
+#   snakemake all -c 2                                         default configs -> data/
+#   snakemake all -c 2 --config 'overrides=["sphere.mu=0.3"]'  -> data/runs/<config hash>/
+#   snakemake all -c 2 --config 'studies=["ct02"]'             a subset of the studies
+#
+# Overrides are Hydra overrides, applied to every study whose config has the key.
+import sys
+
+from snakemake.utils import min_version
+
+from creatio.config import STUDIES
+from creatio.workflow import compare_targets, plan
+
+min_version("9.0")
+
+CREATIO = f'"{sys.executable}" -m creatio.cli'
+PLAN = plan(config.get("overrides", []), config.get("studies", STUDIES))
+for _p in PLAN.values():
+    if _p.overrides:
+        print(f"creatio: {_p.study} {list(_p.overrides)} -> {_p.root}", file=sys.stderr)
+
+wildcard_constraints:
+    root=r"data|data/runs/[0-9a-f]{12}",
+
+
+include: "workflows/kinematics.smk"
+include: "workflows/dynamics.smk"
+include: "workflows/reports.smk"
+
+
+rule all:
+    default_target: True
+    input:
+        [f for p in PLAN.values() for f in p.reports],
+        compare_targets(PLAN),

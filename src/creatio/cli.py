@@ -1,0 +1,220 @@
+"""`creatio` command line: Hydra apps for users, plain tasks for the Snakemake rules.
+
+    creatio run [study=ID] [KEY=VALUE ...]       run one study (a Hydra app: --help, --cfg job)
+    creatio probe [alpha=DEG R=R t=T KEY=VALUE]  surface quantities at one point (Hydra app)
+    creatio task dataset|report ...              one workflow step (used by the Snakefile)
+"""
+
+from __future__ import annotations
+
+import argparse
+import logging
+import sys
+import time
+from collections.abc import Sequence
+from pathlib import Path
+
+from creatio.config import (
+    CONF_DIR,
+    DYNAMIC,
+    STUDIES,
+    ConfigError,
+    Resolved,
+    dataset_path,
+    output_root,
+    resolve,
+    validate,
+)
+
+log = logging.getLogger("creatio")
+
+USAGE = """usage: creatio COMMAND [ARGS]
+
+commands:
+  run     run one study and write its datasets and report (Hydra app)
+            creatio run study=en02 sphere.mu=0.3      creatio run --help
+  probe   position, velocity, normal and J at one surface point (Hydra app)
+            creatio probe alpha=30 R=0.5 t=1.0 phases.gamma.phi0=45 phases.gamma.unit=deg
+  task    one workflow step, as the Snakefile calls it
+            creatio task dataset ct02 OUT.nc [--dt DT] [--override K=V ...]
+            creatio task report ct02 OUTDIR DATASET.nc [DATASET.nc ...]
+
+Studies: {studies}. Configs live in {conf}.
+"""
+
+
+# ------------------------------------------------------------------------------ study work
+def compute_dataset(resolved: Resolved, out: Path, dt: float | None = None) -> Path:
+    """Run one study (at dt for a dynamic one) and write its dataset atomically."""
+    from creatio.io import write_dataset
+    from creatio.studies import run_study
+
+    t0 = time.perf_counter()
+    ds = run_study(resolved, dt=dt)
+    write_dataset(ds, out)
+    status = ds.attrs.get("status")
+    log.info("%s%s: wrote %s in %.2f s%s", resolved.study, f" dt={dt:g}" if dt else "", out,
+             time.perf_counter() - t0, f" (status {status})" if status else "")
+    return out
+
+
+def write_report(study: str, outdir: Path, datasets: Sequence[Path]) -> None:
+    """Derive a study's report files from its dataset(s)."""
+    from creatio import reports
+
+    if study in DYNAMIC:
+        paths = reports.write_dynamic_report([Path(p) for p in datasets], outdir)
+    else:
+        paths = reports.write_kinematic_report(datasets[0], outdir)
+    log.info("%s: report %s", study, ", ".join(str(p) for p in paths.values()))
+
+
+def run_resolved(resolved: Resolved, data_dir: Path = Path("data")) -> Path:
+    """Everything `snakemake all` does for one study, in this process."""
+    root = output_root(resolved, data_dir)
+    if root != data_dir:
+        log.info("%s: overridden config %s -> %s", resolved.study, resolved.key, root)
+    if resolved.study in DYNAMIC:
+        dts = resolved.obj.solver.timesteps()
+        outs = [compute_dataset(resolved, dataset_path(root, resolved.study, dt), dt)
+                for dt in dts]
+    else:
+        outs = [compute_dataset(resolved, dataset_path(root, resolved.study))]
+    write_report(resolved.study, root / "reports", outs)
+    return root
+
+
+# ------------------------------------------------------------------------------ hydra apps
+def _hydra_app(config_name: str, task) -> None:
+    import hydra
+
+    from creatio.config import _register_schemas
+
+    _register_schemas()
+    hydra.main(config_path=str(CONF_DIR), config_name=config_name, version_base="1.3")(task)()
+
+
+def _run_task(cfg) -> None:
+    try:
+        resolved = validate(cfg)
+    except ConfigError as e:
+        print(f"creatio run: {e}", file=sys.stderr)
+        sys.exit(2)
+    run_resolved(resolved)
+
+
+def _probe_task(cfg) -> None:
+    import numpy as np
+
+    from creatio.config import ProbeConfig
+    from creatio.geometry import Frame, Motion
+
+    try:
+        p = validate(cfg, schema=ProbeConfig).obj
+    except ConfigError as e:
+        print(f"creatio probe: {e}", file=sys.stderr)
+        sys.exit(2)
+    surface = p.geometry.surface()
+    motion = Motion(*p.phases.laws())
+    fr = Frame(surface, motion, np.deg2rad(p.alpha), p.R, p.t)
+    pr, pa, gm = motion.at(p.t)
+    vel = fr.c_t
+    rows = [
+        ("point", f"alpha = {p.alpha:g} deg, R = {p.R:g}, t = {p.t:g} s"),
+        ("phases", f"phi_r = {float(pr.value):.6g} rad, phi_a = {float(pa.value):.6g} rad, "
+                   f"gamma = {np.rad2deg(float(gm.value)):.6g} deg"),
+        ("position c", _vec(fr.position)),
+        ("velocity c_t", _vec(vel)),
+        ("|velocity|", f"{float(np.linalg.norm(vel)):.9g}"),
+        ("unit normal n", _vec(fr.normal)),
+        ("J", f"{float(fr.J):.9g}"),
+    ]
+    if not 0.0 <= p.R <= surface.dR:
+        rows.append(("note", f"R = {p.R:g} lies outside [0, dR = {surface.dR:g}]: "
+                             "the formula is extended beyond the annulus"))
+    width = max(len(k) for k, _ in rows)
+    print("\n".join(f"{k:<{width}}  {v}" for k, v in rows))
+
+
+def _vec(v) -> str:
+    return "(" + ", ".join(f"{float(x): .9f}" for x in v) + ")"
+
+
+def _prevalidate(study_args: Sequence[str], config_name: str) -> None:
+    """Refuse bad overrides with creatio's own message before Hydra starts."""
+    if any(a.startswith("-") for a in study_args):  # --help, --cfg, -m: Hydra's business
+        return
+    overrides = [a for a in study_args if not a.startswith("hydra")]
+    try:
+        if config_name == "probe":
+            from creatio.config import ProbeConfig, compose
+
+            try:
+                cfg = compose("", overrides, config_name="probe")
+            except Exception as e:  # noqa: BLE001 - Hydra override refusal
+                raise ConfigError("overrides", overrides, str(e).splitlines()[0]) from None
+            validate(cfg, schema=ProbeConfig)
+        else:
+            study = next((a.split("=", 1)[1] for a in overrides if a.startswith("study=")),
+                         "ct02")
+            resolve(study, [a for a in overrides if not a.startswith("study=")])
+    except ConfigError as e:
+        print(f"creatio {'probe' if config_name == 'probe' else 'run'}: {e}", file=sys.stderr)
+        sys.exit(2)
+
+
+# ------------------------------------------------------------------------------ tasks
+def _task(argv: Sequence[str]) -> int:
+    ap = argparse.ArgumentParser(prog="creatio task", description="One workflow step.")
+    sub = ap.add_subparsers(dest="step", required=True)
+    d = sub.add_parser("dataset", help="compute one study dataset")
+    d.add_argument("study", choices=STUDIES)
+    d.add_argument("out", type=Path)
+    d.add_argument("--dt", type=float, default=None, help="timestep of a dynamic study (s)")
+    d.add_argument("--override", action="append", default=[], metavar="KEY=VALUE")
+    d.add_argument("--expect-sha", default=None,
+                   help="refuse if the resolved config hash differs (workflow consistency)")
+    r = sub.add_parser("report", help="derive a study's report from its datasets")
+    r.add_argument("study", choices=STUDIES)
+    r.add_argument("outdir", type=Path)
+    r.add_argument("datasets", type=Path, nargs="+")
+    args = ap.parse_args(argv)
+    try:
+        if args.step == "dataset":
+            resolved = resolve(args.study, args.override)
+            if args.expect_sha and not resolved.sha256.startswith(args.expect_sha):
+                print(f"creatio task: config hash {resolved.key} != expected {args.expect_sha}",
+                      file=sys.stderr)
+                return 2
+            compute_dataset(resolved, args.out, args.dt)
+        else:
+            write_report(args.study, args.outdir, args.datasets)
+    except ConfigError as e:
+        print(f"creatio task: {e}", file=sys.stderr)
+        return 2
+    return 0
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Entry point of the `creatio` console script."""
+    argv = list(sys.argv[1:] if argv is None else argv)
+    logging.basicConfig(level=logging.INFO, format="%(message)s", stream=sys.stderr)
+    if not argv or argv[0] in ("-h", "--help", "help"):
+        print(USAGE.format(studies=", ".join(STUDIES), conf=CONF_DIR))
+        return 0
+    command, rest = argv[0], argv[1:]
+    if command in ("run", "probe"):
+        config_name = "config" if command == "run" else "probe"
+        _prevalidate(rest, config_name)
+        sys.argv = [f"creatio {command}", *rest]
+        _hydra_app(config_name, _run_task if command == "run" else _probe_task)
+        return 0
+    if command == "task":
+        return _task(rest)
+    print(f"creatio: unknown command {command!r}\n", file=sys.stderr)
+    print(USAGE.format(studies=", ".join(STUDIES), conf=CONF_DIR), file=sys.stderr)
+    return 2
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,588 @@
+"""Structured configs: compose with Hydra, validate once, hash, and place outputs.
+
+Every study config is composed from ``conf/`` (``config.yaml`` + groups), merged onto the
+dataclass schema of its study (unknown keys and wrong types are refused by OmegaConf), then
+checked rule by rule. A bad value raises :class:`ConfigError` naming the key, the value and
+the rule, before anything is computed.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import math
+import os
+from collections.abc import Sequence
+from dataclasses import dataclass, field, fields, is_dataclass
+from enum import Enum, StrEnum
+from pathlib import Path
+from typing import Any
+
+from omegaconf import MISSING, DictConfig, OmegaConf
+from omegaconf.errors import OmegaConfBaseException
+
+from creatio.geometry import Surface
+from creatio.laws import Law, LawKind
+
+__all__ = [
+    "ConfigError",
+    "Resolved",
+    "STUDIES",
+    "compose",
+    "dataset_path",
+    "output_root",
+    "resolve",
+    "validate",
+]
+
+CONF_DIR = Path(os.environ.get("CREATIO_CONF_DIR", Path(__file__).resolve().parents[2] / "conf"))
+STUDIES = ("ct02", "en01", "en02", "en02r")
+KINEMATIC = ("ct02", "en01")
+DYNAMIC = ("en02", "en02r")
+
+
+class ConfigError(ValueError):
+    """A configuration value broke a rule; the message names key, value and rule."""
+
+    def __init__(self, key: str, value: Any, rule: str) -> None:
+        self.key, self.value, self.rule = key, value, rule
+        super().__init__(f"invalid config: {key}={value!r}: {rule}")
+
+
+class AngleUnit(StrEnum):
+    """Unit of the angle-valued parameters of a law (converted to radians once)."""
+
+    rad = "rad"
+    deg = "deg"
+
+
+class Method(StrEnum):
+    """Integration scheme for the dynamic studies."""
+
+    rk4 = "rk4"
+
+
+def _require(ok: bool, key: str, value: Any, rule: str) -> None:
+    if not ok:
+        raise ConfigError(key, value, rule)
+
+
+# --------------------------------------------------------------------------------- schemas
+_USED = {
+    LawKind.constant: {"phi0"},
+    LawKind.linear: {"phi0", "rate"},
+    LawKind.quintic: {"phi0", "delta"},
+    LawKind.sinusoid: {"phi0", "amplitude", "omega"},
+}
+
+
+@dataclass
+class LawConfig:
+    """A time law: phi0 + rate t + delta s(t/T) + amplitude sin(omega t), by kind."""
+
+    kind: LawKind = LawKind.constant
+    phi0: float = 0.0
+    rate: float = 0.0
+    delta: float = 0.0
+    amplitude: float = 0.0
+    omega: float = 0.0
+    unit: AngleUnit = AngleUnit.rad
+
+    def to_law(self, T: float = 1.0) -> Law:
+        """Convert to a :class:`Law` in radians (T is the quintic cycle length)."""
+        f = math.pi / 180.0 if self.unit is AngleUnit.deg else 1.0
+        return Law(
+            phi0=self.phi0 * f,
+            rate=self.rate * f,
+            delta=self.delta * f,
+            T=T,
+            amplitude=self.amplitude * f,
+            omega=self.omega,
+            kind=self.kind,
+        )
+
+    def check(self, path: str, inclination: bool = False) -> None:
+        """Refuse parameters the kind does not use, negative amplitude, out-of-range gamma."""
+        for name in ("phi0", "rate", "delta", "amplitude", "omega"):
+            v = getattr(self, name)
+            _require(math.isfinite(v), f"{path}.{name}", v, "must be a finite number")
+            if name not in _USED[self.kind]:
+                _require(v == 0.0, f"{path}.{name}", v, f"is not used by kind={self.kind.value}")
+        _require(self.amplitude >= 0.0, f"{path}.amplitude", self.amplitude, "must be >= 0")
+        if inclination:
+            lo, hi = self.to_law().bounds()
+            _require(
+                -math.pi / 2 - 1e-12 <= lo and hi <= math.pi / 2 + 1e-12,
+                f"{path}",
+                f"range [{lo:.6g}, {hi:.6g}] rad",
+                "an inclination must stay in [-pi/2, pi/2] (|gamma0| + G <= pi/2)",
+            )
+
+
+@dataclass
+class GeometryConfig:
+    """Surface shape: inner radius, width, amplitude, radial and angular cycle counts."""
+
+    R0: float = MISSING
+    dR: float = MISSING
+    A: float = MISSING
+    Kr: int = MISSING
+    Ka: int = MISSING
+
+    def check(self, path: str) -> None:
+        """R0 > 0, dR > 0, 0 <= A < R0, Kr and Ka positive integers."""
+        _require(self.R0 > 0.0, f"{path}.R0", self.R0, "must be > 0")
+        _require(self.dR > 0.0, f"{path}.dR", self.dR, "must be > 0")
+        _require(
+            0.0 <= self.A < self.R0, f"{path}.A", self.A, f"must satisfy 0 <= A < R0 = {self.R0}"
+        )
+        _require(self.Kr >= 1, f"{path}.Kr", self.Kr, "must be a positive integer")
+        _require(self.Ka >= 1, f"{path}.Ka", self.Ka, "must be a positive integer")
+
+    def surface(self) -> Surface:
+        """The numeric-core surface."""
+        return Surface(self.R0, self.dR, self.A, self.Kr, self.Ka)
+
+
+@dataclass
+class PhasePairConfig:
+    """Radial and angular phase laws (the inclination is set by the study)."""
+
+    r: LawConfig = field(default_factory=LawConfig)
+    a: LawConfig = field(default_factory=LawConfig)
+
+    def check(self, path: str) -> None:
+        """Each law valid."""
+        self.r.check(f"{path}.r")
+        self.a.check(f"{path}.a")
+
+
+@dataclass
+class PhasesConfig:
+    """Radial phase, angular phase and inclination laws; T is every quintic law's cycle."""
+
+    T: float = 1.0
+    r: LawConfig = field(default_factory=LawConfig)
+    a: LawConfig = field(default_factory=LawConfig)
+    gamma: LawConfig = field(default_factory=LawConfig)
+
+    def check(self, path: str) -> None:
+        """T > 0, each law valid, inclination within [-pi/2, pi/2]."""
+        _require(self.T > 0.0, f"{path}.T", self.T, "must be > 0")
+        self.r.check(f"{path}.r")
+        self.a.check(f"{path}.a")
+        self.gamma.check(f"{path}.gamma", inclination=True)
+
+    def laws(self) -> tuple[Law, Law, Law]:
+        """(phi_r, phi_a, gamma) as numeric-core laws."""
+        return self.r.to_law(self.T), self.a.to_law(self.T), self.gamma.to_law(self.T)
+
+
+@dataclass
+class SphereConfig:
+    """The rigid sphere and its contact: mass, radius, gravity, friction, regularisation."""
+
+    m: float = MISSING
+    b: float = MISSING
+    g: float = 9.81
+    mu: float = MISSING
+    eps: float = 0.01
+
+    def check(self, path: str) -> None:
+        """m > 0, b > 0, g >= 0, mu >= 0, eps > 0."""
+        _require(self.m > 0.0, f"{path}.m", self.m, "must be > 0")
+        _require(self.b > 0.0, f"{path}.b", self.b, "must be > 0")
+        _require(self.g >= 0.0, f"{path}.g", self.g, "must be >= 0")
+        _require(self.mu >= 0.0, f"{path}.mu", self.mu, "must be >= 0")
+        _require(self.eps > 0.0, f"{path}.eps", self.eps, "must be > 0")
+
+
+@dataclass
+class SolverConfig:
+    """Time integration: method, step, refinement for the convergence pair, output sampling."""
+
+    method: Method = Method.rk4
+    dt: float = 0.002
+    refine: int = 2
+    output_interval: float = 0.1
+    allow_unstable: bool = False
+
+    def check(self, path: str) -> None:
+        """dt > 0, refine >= 2, output_interval a positive integer multiple of dt."""
+        _require(self.dt > 0.0, f"{path}.dt", self.dt, "must be > 0")
+        _require(self.refine >= 2, f"{path}.refine", self.refine, "must be an integer >= 2")
+        ratio = self.output_interval / self.dt
+        _require(
+            self.output_interval > 0.0 and abs(ratio - round(ratio)) <= 1e-9 * ratio,
+            f"{path}.output_interval",
+            self.output_interval,
+            f"must be a positive integer multiple of solver.dt = {self.dt}",
+        )
+
+    def timesteps(self) -> list[float]:
+        """The compared steps: dt and dt / refine."""
+        return [self.dt, self.dt / self.refine]
+
+
+def _check_positive_list(path: str, values: Sequence[float], minimum: int = 1) -> None:
+    _require(len(values) >= minimum, path, list(values), f"needs at least {minimum} value(s)")
+    for i, v in enumerate(values):
+        _require(v > 0.0 and math.isfinite(v), f"{path}[{i}]", v, "must be > 0")
+
+
+def _check_inclinations(path: str, values: Sequence[float]) -> None:
+    _require(len(values) >= 1, path, list(values), "needs at least 1 value")
+    for i, v in enumerate(values):
+        _require(-90.0 <= v <= 90.0, f"{path}[{i}]", v, "must lie in [-90, 90] degrees")
+
+
+def _check_grid(path: str, n_radii: int, n_angles: int) -> None:
+    _require(n_radii >= 2, f"{path}.n_radii", n_radii, "must be >= 2 (both ends are sampled)")
+    _require(n_angles >= 1, f"{path}.n_angles", n_angles, "must be >= 1")
+
+
+@dataclass
+class Ct02Study:
+    """CT-02 sampling: FD steps, inclinations, grid, times, gamma(t) case, feature times."""
+
+    id: str = "ct02"
+    title: str = ""
+    h: list[float] = MISSING
+    inclinations_deg: list[float] = MISSING
+    n_radii: int = 9
+    n_angles: int = 24
+    times: list[float] = MISSING
+    varying_gamma: LawConfig = field(default_factory=LawConfig)
+    feature_times: list[float] = MISSING
+    feature_h: float = 1e-4
+
+    def check(self, path: str) -> None:
+        """Steps positive, inclinations in range, grid sizes sane, gamma(t) in range."""
+        _check_positive_list(f"{path}.h", self.h)
+        _check_inclinations(f"{path}.inclinations_deg", self.inclinations_deg)
+        _check_grid(path, self.n_radii, self.n_angles)
+        _require(len(self.times) >= 1, f"{path}.times", self.times, "needs at least 1 value")
+        self.varying_gamma.check(f"{path}.varying_gamma", inclination=True)
+        _require(self.feature_h > 0.0, f"{path}.feature_h", self.feature_h, "must be > 0")
+
+
+@dataclass
+class LawSetConfig:
+    """One EN-01 time-law case: radial phase, angular phase, inclination (no quintic T)."""
+
+    r: LawConfig = field(default_factory=LawConfig)
+    a: LawConfig = field(default_factory=LawConfig)
+    gamma: LawConfig = field(default_factory=LawConfig)
+
+    def check(self, path: str) -> None:
+        """Each law valid, inclination within [-pi/2, pi/2]."""
+        self.r.check(f"{path}.r")
+        self.a.check(f"{path}.a")
+        self.gamma.check(f"{path}.gamma", inclination=True)
+
+
+@dataclass
+class RegularityConfig:
+    """Regularity grid: inclinations and a radius x angle grid per inclination."""
+
+    inclinations_deg: list[float] = MISSING
+    n_radii: int = 168
+    n_angles: int = 168
+
+    def check(self, path: str) -> None:
+        """Inclinations in range, grid sizes sane."""
+        _check_inclinations(f"{path}.inclinations_deg", self.inclinations_deg)
+        _check_grid(path, self.n_radii, self.n_angles)
+
+
+@dataclass
+class PatternConfig:
+    """Pattern velocity check over one quintic cycle of the angular phase."""
+
+    T: float = 120.0
+    a: LawConfig = field(default_factory=LawConfig)
+    sample_interval: float = 0.1
+    fd_step: float = 1e-3
+
+    def check(self, path: str) -> None:
+        """T, sample interval and difference step positive."""
+        _require(self.T > 0.0, f"{path}.T", self.T, "must be > 0")
+        self.a.check(f"{path}.a")
+        _require(
+            0.0 < self.sample_interval <= self.T,
+            f"{path}.sample_interval",
+            self.sample_interval,
+            f"must lie in (0, T = {self.T}]",
+        )
+        _require(self.fd_step > 0.0, f"{path}.fd_step", self.fd_step, "must be > 0")
+
+
+@dataclass
+class En01Study:
+    """EN-01 sampling: FD steps, grid, times, three law cases, regularity, pattern."""
+
+    id: str = "en01"
+    title: str = ""
+    h: list[float] = MISSING
+    n_radii: int = 17
+    n_angles: int = 36
+    times: list[float] = MISSING
+    laws: dict[str, LawSetConfig] = field(default_factory=dict)
+    regularity: RegularityConfig = field(default_factory=RegularityConfig)
+    pattern: PatternConfig = field(default_factory=PatternConfig)
+
+    def check(self, path: str) -> None:
+        """Every sub-config valid; at least one law case."""
+        _check_positive_list(f"{path}.h", self.h)
+        _check_grid(path, self.n_radii, self.n_angles)
+        _require(len(self.times) >= 1, f"{path}.times", self.times, "needs at least 1 value")
+        _require(len(self.laws) >= 1, f"{path}.laws", dict(self.laws), "needs at least 1 case")
+        for name, case in self.laws.items():
+            case.check(f"{path}.laws.{name}")
+        self.regularity.check(f"{path}.regularity")
+        self.pattern.check(f"{path}.pattern")
+
+
+@dataclass
+class InitialConfig:
+    """Initial contact point and its rates (the sphere starts with zero spin)."""
+
+    R: float = MISSING
+    alpha_deg: float = MISSING
+    Rdot: float = 0.0
+    alphadot: float = 0.0
+
+
+@dataclass
+class DynamicStudy:
+    """EN-02 family: duration and initial state."""
+
+    id: str = MISSING
+    title: str = ""
+    duration: float = MISSING
+    initial: InitialConfig = field(default_factory=InitialConfig)
+
+    def check(self, path: str) -> None:
+        """Duration positive."""
+        _require(self.duration > 0.0, f"{path}.duration", self.duration, "must be > 0")
+
+
+@dataclass
+class Ct02Config:
+    """Root schema of CT-02."""
+
+    study: Ct02Study = field(default_factory=Ct02Study)
+    geometry: GeometryConfig = field(default_factory=GeometryConfig)
+    phases: PhasePairConfig = field(default_factory=PhasePairConfig)
+
+    def check(self) -> None:
+        """Validate every group."""
+        self.geometry.check("geometry")
+        self.phases.check("phases")
+        self.study.check("study")
+
+
+@dataclass
+class En01Config:
+    """Root schema of EN-01."""
+
+    study: En01Study = field(default_factory=En01Study)
+    geometry: GeometryConfig = field(default_factory=GeometryConfig)
+
+    def check(self) -> None:
+        """Validate every group."""
+        self.geometry.check("geometry")
+        self.study.check("study")
+
+
+@dataclass
+class DynamicConfig:
+    """Root schema of the sphere studies (EN-02, EN-02R)."""
+
+    study: DynamicStudy = field(default_factory=DynamicStudy)
+    geometry: GeometryConfig = field(default_factory=GeometryConfig)
+    phases: PhasesConfig = field(default_factory=PhasesConfig)
+    sphere: SphereConfig = field(default_factory=SphereConfig)
+    solver: SolverConfig = field(default_factory=SolverConfig)
+
+    def check(self) -> None:
+        """Validate every group, then the cross-group rules (start inside the annulus)."""
+        self.geometry.check("geometry")
+        self.phases.check("phases")
+        self.sphere.check("sphere")
+        self.solver.check("solver")
+        self.study.check("study")
+        R = self.study.initial.R
+        _require(
+            0.0 <= R <= self.geometry.dR,
+            "study.initial.R",
+            R,
+            f"must lie in [0, geometry.dR = {self.geometry.dR}]",
+        )
+        steps = self.study.duration / self.solver.dt
+        _require(
+            abs(steps - round(steps)) <= 1e-9 * steps,
+            "study.duration",
+            self.study.duration,
+            f"must be an integer multiple of solver.dt = {self.solver.dt}",
+        )
+
+
+@dataclass
+class ProbeConfig:
+    """`creatio probe`: one point (alpha in degrees, R, t) of a configured surface."""
+
+    geometry: GeometryConfig = field(default_factory=GeometryConfig)
+    phases: PhasesConfig = field(default_factory=PhasesConfig)
+    alpha: float = 0.0
+    R: float = 0.0
+    t: float = 0.0
+
+    def check(self) -> None:
+        """Geometry and phases valid; the point finite."""
+        self.geometry.check("geometry")
+        self.phases.check("phases")
+        for name in ("alpha", "R", "t"):
+            v = getattr(self, name)
+            _require(math.isfinite(v), name, v, "must be a finite number")
+
+
+SCHEMAS: dict[str, type] = {
+    "ct02": Ct02Config,
+    "en01": En01Config,
+    "en02": DynamicConfig,
+    "en02r": DynamicConfig,
+}
+
+
+# --------------------------------------------------------------------------- composition
+@dataclass(frozen=True)
+class Resolved:
+    """A validated config: typed object tree, plain dict, canonical YAML and its sha256."""
+
+    study: str
+    obj: Any
+    data: dict
+    yaml: str
+    sha256: str
+
+    @property
+    def key(self) -> str:
+        """Short config hash used to key output directories."""
+        return self.sha256[:12]
+
+
+def _register_schemas() -> None:
+    """Put the study schemas in Hydra's ConfigStore so composition is typed from the start."""
+    from hydra.core.config_store import ConfigStore
+
+    cs = ConfigStore.instance()
+    for name, schema in {**SCHEMAS, "probe": ProbeConfig}.items():
+        cs.store(group="schema", name=name, node=schema, package="_global_")
+
+
+def compose(study: str, overrides: Sequence[str] = (), config_name: str = "config") -> DictConfig:
+    """Compose conf/ for one study with Hydra overrides (context-manager API, re-entrant)."""
+    from hydra import compose as hydra_compose
+    from hydra import initialize_config_dir
+    from hydra.core.global_hydra import GlobalHydra
+
+    _register_schemas()
+    # Inside a running Hydra app the global instance is taken: park it while composing.
+    gh = GlobalHydra.instance()
+    outer, gh.hydra = gh.hydra, None
+    try:
+        with initialize_config_dir(config_dir=str(CONF_DIR), version_base="1.3"):
+            extra = [f"study={study}"] if config_name == "config" else []
+            return hydra_compose(config_name=config_name, overrides=[*extra, *overrides])
+    finally:
+        GlobalHydra.instance().hydra = outer
+
+
+def validate(cfg: DictConfig | dict, schema: type | None = None) -> Resolved:
+    """Merge onto the study's schema, check every rule, return the resolved config.
+
+    Raises ConfigError for unknown keys, wrong types, missing values and broken rules.
+    """
+    cfg = OmegaConf.create(cfg) if isinstance(cfg, dict) else cfg
+    cfg = OmegaConf.masked_copy(cfg, [k for k in cfg if k != "hydra"])
+    study = str(OmegaConf.select(cfg, "study.id", default="probe"))
+    if schema is None:
+        if study not in SCHEMAS:
+            raise ConfigError("study.id", study, f"must be one of {', '.join(SCHEMAS)}")
+        schema = SCHEMAS[study]
+    try:
+        merged = OmegaConf.merge(OmegaConf.structured(schema), cfg)
+        data = OmegaConf.to_container(merged, resolve=True, enum_to_str=True,
+                                      throw_on_missing=True)
+        obj = OmegaConf.to_object(merged)
+    except OmegaConfBaseException as e:
+        key = getattr(e, "full_key", None) or "?"
+        msg = str(getattr(e, "msg", e)).splitlines()[0]
+        raise ConfigError(key, getattr(e, "value", None), msg) from None
+    obj.check()
+    text = OmegaConf.to_yaml(OmegaConf.create(data), sort_keys=True)
+    return Resolved(study, obj, data, text, hashlib.sha256(text.encode()).hexdigest())
+
+
+def applicable(study: str, overrides: Sequence[str]) -> list[str]:
+    """The overrides whose top-level key exists in this study's config."""
+    base = compose(study)
+    keep = []
+    for ov in overrides:
+        key = ov.split("=", 1)[0].lstrip("+~")
+        if key.split(".", 1)[0].split("@", 1)[0] in base:
+            keep.append(ov)
+    return keep
+
+
+def resolve(study: str, overrides: Sequence[str] = (), only_applicable: bool = False) -> Resolved:
+    """Compose and validate one study's config with overrides."""
+    if study not in SCHEMAS:
+        raise ConfigError("study", study, f"must be one of {', '.join(SCHEMAS)}")
+    ovs = applicable(study, overrides) if only_applicable else list(overrides)
+    try:
+        cfg = compose(study, ovs)
+    except Exception as e:  # Hydra refused an override: unknown key, bad type, bad syntax
+        raise _override_error(study, ovs, e) from None
+    return validate(cfg)
+
+
+def _override_error(study: str, overrides: Sequence[str], error: Exception) -> ConfigError:
+    """Find the first override Hydra refuses on its own and name its key, value and reason."""
+    for ov in overrides:
+        try:
+            compose(study, [ov])
+        except Exception as e:  # noqa: BLE001 - any refusal pins the culprit
+            key, _, value = ov.partition("=")
+            cause = e.__cause__ or e
+            reason = str(cause).splitlines()[0]
+            if "not in struct" in reason or "Could not override" in reason:
+                reason = "unknown key (not in this study's config)"
+            return ConfigError(key.lstrip("+~"), value, reason)
+    return ConfigError("overrides", list(overrides), str(error).splitlines()[0])
+
+
+def output_root(resolved: Resolved, data_dir: str | Path = "data") -> Path:
+    """Default config -> ``data``; anything else -> ``data/runs/<config hash>``."""
+    default = resolve(resolved.study)
+    data_dir = Path(data_dir)
+    return data_dir if default.sha256 == resolved.sha256 else data_dir / "runs" / resolved.key
+
+
+def plain(obj: Any) -> Any:
+    """Dataclass/enum tree to plain Python values (for attrs and JSON)."""
+    if is_dataclass(obj):
+        return {f.name: plain(getattr(obj, f.name)) for f in fields(obj)}
+    if isinstance(obj, Enum):
+        return obj.value
+    if isinstance(obj, dict):
+        return {k: plain(v) for k, v in obj.items()}
+    if isinstance(obj, list | tuple):
+        return [plain(v) for v in obj]
+    return obj
+
+
+def dataset_path(root: str | Path, study: str, dt: float | None = None) -> Path:
+    """Where a study's dataset lives under an output root (dynamic ones keyed by dt)."""
+    name = study if dt is None else f"{study}_dt{dt:g}"
+    return Path(root) / "studies" / study / f"{name}.nc"

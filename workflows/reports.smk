@@ -1,0 +1,62 @@
+# Reports derived from the datasets: JSON contract, markdown, CSV and figures.
+
+
+rule kinematic_report:
+    input:
+        lambda wc: PLAN[wc.study].datasets,
+    output:
+        json="{root}/reports/{study}.json",
+        md="{root}/reports/{study}.md",
+        png="{root}/reports/{study}.png",
+        csv="{root}/reports/{study}_fd_error.csv",
+    wildcard_constraints:
+        study="ct02|en01",
+    params:
+        creatio=CREATIO,
+    conda:
+        "envs/creatio.yaml"
+    log:
+        "{root}/logs/{study}_report.log",
+    shell:
+        "{params.creatio} task report {wildcards.study} {wildcards.root}/reports {input} 2> {log}"
+
+
+rule dynamic_report:
+    input:
+        lambda wc: PLAN[wc.study].datasets,
+    output:
+        json="{root}/reports/{study}.json",
+        md="{root}/reports/{study}.md",
+        png="{root}/reports/{study}.png",
+        csv="{root}/reports/{study}_history.csv",
+        trajectory="{root}/reports/{study}_trajectory.png",
+        convergence="{root}/reports/{study}_convergence.png",
+    wildcard_constraints:
+        study="en02|en02r",
+    params:
+        creatio=CREATIO,
+    conda:
+        "envs/creatio.yaml"
+    log:
+        "{root}/logs/{study}_report.log",
+    shell:
+        "{params.creatio} task report {wildcards.study} {wildcards.root}/reports {input} 2> {log}"
+
+
+rule compare:
+    input:
+        json=["{root}/reports/en02.json", "{root}/reports/en02r.json"],
+        datasets=[PLAN["en02"].datasets[0], PLAN["en02r"].datasets[0]]
+        if "en02" in PLAN and "en02r" in PLAN
+        else [],
+    output:
+        md="{root}/reports/compare_en02_en02r.md",
+        png="{root}/reports/compare_en02_en02r.png",
+    params:
+        creatio=CREATIO,
+    conda:
+        "envs/creatio.yaml"
+    log:
+        "{root}/logs/compare_en02_en02r.log",
+    shell:
+        "{params.creatio} task compare {wildcards.root}/reports {input.datasets} 2> {log}"
