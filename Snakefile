@@ -7,15 +7,19 @@
 # Overrides are Hydra overrides, applied to every study whose config has the key.
 import sys
 
+from snakemake.exceptions import WorkflowError
 from snakemake.utils import min_version
 
-from creatio.config import STUDIES
+from creatio.config import STUDIES, ConfigError
 from creatio.workflow import compare_targets, plan
 
 min_version("9.0")
 
 CREATIO = f'"{sys.executable}" -m creatio.cli'
-PLAN = plan(config.get("overrides", []), config.get("studies", STUDIES))
+try:
+    PLAN = plan(config.get("overrides", []), config.get("studies", STUDIES))
+except ConfigError as e:
+    raise WorkflowError(str(e)) from None
 for _p in PLAN.values():
     if _p.overrides:
         print(f"creatio: {_p.study} {list(_p.overrides)} -> {_p.root}", file=sys.stderr)

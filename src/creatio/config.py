@@ -525,12 +525,13 @@ def validate(cfg: DictConfig | dict, schema: type | None = None) -> Resolved:
 
 
 def applicable(study: str, overrides: Sequence[str]) -> list[str]:
-    """The overrides whose top-level key exists in this study's config."""
+    """The overrides whose full key (or group) exists in this study's config."""
     base = compose(study)
+    missing = object()
     keep = []
     for ov in overrides:
-        key = ov.split("=", 1)[0].lstrip("+~")
-        if key.split(".", 1)[0].split("@", 1)[0] in base:
+        key = ov.split("=", 1)[0].lstrip("+~").split("@", 1)[0]
+        if OmegaConf.select(base, key, default=missing, throw_on_missing=False) is not missing:
             keep.append(ov)
     return keep
 
