@@ -81,7 +81,7 @@ def test_en01_pattern_velocity_figures(en01):
 
 
 def test_ct02_sampling_and_classes(ct02):
-    """19 x 648 + 648 = 12,960 samples in all; 0 deg is an annulus, 90 deg a cylinder, the rest cones."""
+    """19 x 648 + 648 = 12,960 samples; 0 deg annulus, 90 deg cylinder, the rest cones."""
     ds, s = ct02
     assert ds.attrs["n_samples"] == 19 * 9 * 24 * 3 + 648 == 12960
     assert s["surface_class"]["0"] == "annulus"
