@@ -38,6 +38,7 @@ commands:
   task    one workflow step, as the Snakefile calls it
             creatio task dataset ct02 OUT.nc [--dt DT] [--override K=V ...]
             creatio task report ct02 OUTDIR DATASET.nc [DATASET.nc ...]
+            creatio task compare OUTDIR EN02.nc EN02R.nc
 
 Studies: {studies}. Configs live in {conf}.
 """
@@ -178,6 +179,9 @@ def _task(argv: Sequence[str]) -> int:
     r.add_argument("study", choices=STUDIES)
     r.add_argument("outdir", type=Path)
     r.add_argument("datasets", type=Path, nargs="+")
+    c = sub.add_parser("compare", help="EN-02 vs EN-02R comparison from both datasets")
+    c.add_argument("outdir", type=Path)
+    c.add_argument("datasets", type=Path, nargs=2)
     args = ap.parse_args(argv)
     try:
         if args.step == "dataset":
@@ -187,8 +191,13 @@ def _task(argv: Sequence[str]) -> int:
                       file=sys.stderr)
                 return 2
             compute_dataset(resolved, args.out, args.dt)
-        else:
+        elif args.step == "report":
             write_report(args.study, args.outdir, args.datasets)
+        else:
+            from creatio.reports import write_comparison
+
+            paths = write_comparison(args.datasets, args.outdir)
+            log.info("comparison: %s", ", ".join(str(p) for p in paths.values()))
     except ConfigError as e:
         print(f"creatio task: {e}", file=sys.stderr)
         return 2

@@ -425,6 +425,21 @@ class DynamicConfig:
             self.study.duration,
             f"must be an integer multiple of solver.dt = {self.solver.dt}",
         )
+        self._check_stability()
+
+    def _check_stability(self) -> None:
+        """Refuse a dt beyond the RK4 limit of the regularised friction (MODEL.md s.6)."""
+        from creatio.studies.en02 import step_limit  # the dynamics core, imported on demand
+
+        limit = step_limit(self)
+        if self.solver.dt > limit and not self.solver.allow_unstable:
+            raise ConfigError(
+                "solver.dt",
+                self.solver.dt,
+                f"beyond the RK4 stability limit of the regularised friction (sphere.mu = "
+                f"{self.sphere.mu}, sphere.eps = {self.sphere.eps}): the largest stable dt is "
+                f"{limit:.6g} s; set solver.allow_unstable=true to run anyway (with a warning)",
+            )
 
 
 @dataclass
