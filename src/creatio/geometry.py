@@ -43,6 +43,10 @@ class Surface:
             raise ValueError(f"dR must be > 0, got {self.dR}")
         if not 0.0 <= self.A < self.R0:
             raise ValueError(f"A must satisfy 0 <= A < R0 = {self.R0}, got {self.A}")
+        for name in ("Kr", "Ka"):
+            value = getattr(self, name)
+            if int(value) != value or value < 1:
+                raise ValueError(f"{name} must be a positive integer, got {value}")
 
     @property
     def k(self) -> float:

@@ -111,9 +111,12 @@ class Law:
         return LawValue(value, d1 + 0.0 * t, d2 + 0.0 * t)
 
     def bounds(self) -> tuple[float, float]:
-        """Lower and upper bound of phi over all t >= 0 (exact for each special kind)."""
+        """Lower and upper bound of phi over t >= 0: exact for each special kind, safe else."""
         lo = hi = self.phi0
-        if self.rate != 0.0:
-            return (-np.inf, np.inf)
+        if self.rate > 0.0:
+            hi = np.inf
+        elif self.rate < 0.0:
+            lo = -np.inf
         lo, hi = lo + min(0.0, self.delta), hi + max(0.0, self.delta)
-        return lo - abs(self.amplitude), hi + abs(self.amplitude)
+        swing = abs(self.amplitude) if self.omega != 0.0 else 0.0
+        return lo - swing, hi + swing
