@@ -85,3 +85,24 @@ def test_bad_override_fails_before_any_job(workdir):
     assert proc.returncode != 0
     out = proc.stdout + proc.stderr
     assert "geometry.A=0.9" in out and "0 <= A < R0" in out
+
+
+def test_dynamic_study_runs_both_timesteps_into_its_hash_dir(tmp_path):
+    """A 2 s EN-02 cycle: dt and dt/2 jobs, then the report with the contract's keys."""
+    override = ["phases.T=2.0"]
+    proc = snakemake(tmp_path, "all", "--config", 'studies=["en02"]',
+                     'overrides=["phases.T=2.0"]')
+    assert proc.returncode == 0, proc.stdout[-3000:] + proc.stderr[-3000:]
+    root = tmp_path / "data" / "runs" / resolve("en02", override).key
+    assert (root / "studies" / "en02" / "en02_dt0.002.nc").is_file()
+    assert (root / "studies" / "en02" / "en02_dt0.001.nc").is_file()
+    data = json.loads((root / "reports" / "en02.json").read_text())
+    assert {"angular_displacement_deg", "initial_radius_m", "final_radius_m",
+            "min_normal_reaction_N", "max_slip_speed_m_s", "cumulative_spin_deg",
+            "cavity_tracking_error_m", "min_edge_clearance_m", "timestep_difference_m",
+            "energy_residual_J", "dt_s", "status"} <= set(data)
+    assert data["dt_s"] == [0.002, 0.001]
+    for name in ("en02.md", "en02.png", "en02_history.csv", "en02_trajectory.png",
+                 "en02_convergence.png"):
+        assert (root / "reports" / name).stat().st_size > 0
+    assert not (tmp_path / "data" / "reports").exists()  # defaults untouched
