@@ -1,0 +1,151 @@
+"""Benchmark one EN-02 run (120 s, RK4 dt = 0.002 s, 60,000 steps) of the compiled sphere core.
+
+Reports the JIT compile time (a cold compile in a fresh process with an empty numba cache,
+and the first call of this process with its cache state), then the median and min of
+repeated runs for full diagnostics and for trajectory-only specialisations. Target: one
+EN-02 run <= 0.1 s of core time, JIT excluded.
+
+Usage: .venv/bin/python scripts/bench_en02.py [--repeats 9] [--no-cold]
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import math
+import os
+import platform
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+
+import numba
+import numpy as np
+
+from creatio.dynamics import SphereProblem, core, simulate
+
+EN02 = SphereProblem(
+    R0=0.68, dR=1.72, A=0.18, Kr=1, Ka=6,
+    law_r=(0.0, 0.0, 0.0, 120.0, 0.0, 0.0),
+    law_a=(0.0, 0.0, 12.0 * math.pi, 120.0, 0.0, 0.0),
+    law_gamma=(0.0, 0.0, 0.0, 1.0, 0.0, 0.0),
+    m=1.0, b=0.12, g=9.81, mu=0.15, eps=0.01,
+    R_init=0.43, alpha_init=math.pi / 6,
+)  # fmt: skip
+
+VARIANTS = {
+    "EN-02 full (rotation + energy)": EN02,
+    "EN-02 trajectory-only (energy off; mu > 0 needs rotation)": dataclasses.replace(
+        EN02, energy=False
+    ),
+    "EN-02 mu=0 full (rotation forced + energy)": dataclasses.replace(EN02, mu=0.0, rotation=True),
+    "EN-02 mu=0 trajectory-only (rotation + energy off)": dataclasses.replace(
+        EN02, mu=0.0, rotation=False, energy=False
+    ),
+}
+
+COLD_SNIPPET = """
+import math, time
+t0 = time.perf_counter()
+from creatio.dynamics import SphereProblem, simulate
+t1 = time.perf_counter()
+p = SphereProblem(R0=0.68, dR=1.72, A=0.18, Kr=1, Ka=6, law_r=(0, 0, 0, 120, 0, 0),
+                  law_a=(0, 0, 12 * math.pi, 120, 0, 0), law_gamma=(0, 0, 0, 1, 0, 0),
+                  m=1, b=0.12, g=9.81, mu=0.15, eps=0.01, R_init=0.43,
+                  alpha_init=math.pi / 6, t_end=0.1)
+simulate(p)
+print(t1 - t0, time.perf_counter() - t1)
+"""
+
+
+def machine_info() -> str:
+    """One line per fact about the machine and the numeric stack."""
+    return "\n".join(
+        [
+            f"platform: {platform.platform()}",
+            f"processor: {platform.processor() or platform.machine()}",
+            f"cpu count: {os.cpu_count()}",
+            f"python: {platform.python_version()}, numpy {np.__version__}, "
+            f"numba {numba.__version__}",
+        ]
+    )
+
+
+def cold_compile() -> tuple[float, float]:
+    """Import time and first EN-02 call time (JIT of the rotation + energy loop), no cache."""
+    with tempfile.TemporaryDirectory() as cache:
+        env = dict(os.environ, NUMBA_CACHE_DIR=cache)
+        cmd = [sys.executable, "-c", COLD_SNIPPET]
+        out = subprocess.run(cmd, env=env, capture_output=True, text=True, check=True)
+    imp, first = (float(x) for x in out.stdout.split())
+    return imp, first
+
+
+def core_call(problem: SphereProblem) -> tuple[float, int]:
+    """Time one call of the compiled loop alone (arrays prepared beforehand)."""
+    rot = problem.rotation_integrated
+    en = problem.energy
+    n_steps = round(problem.t_end / problem.dt)
+    stride = round(problem.output_interval / problem.dt)
+    args = (
+        problem.parameter_vector(),
+        problem.law_matrix(),
+        problem.initial_state(rot, en),
+        n_steps,
+        problem.dt,
+        stride,
+        np.empty((n_steps // stride + 2, core.NCOL)),
+        rot,
+        en,
+    )
+    t0 = time.perf_counter()
+    result = core.run(*args)
+    elapsed = time.perf_counter() - t0
+    return elapsed, int(result[3])
+
+
+def main() -> None:
+    """Run the benchmark and print machine info, compile times and per-variant timings."""
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--repeats", type=int, default=9, help="timed runs per variant (>= 7)")
+    parser.add_argument("--no-cold", action="store_true", help="skip the cold-compile probe")
+    args = parser.parse_args()
+    repeats = max(7, args.repeats)
+    print(machine_info())
+    if not args.no_cold:
+        imp, first = cold_compile()
+        print(f"cold JIT (fresh process, empty numba cache): import {imp:.2f} s, "
+              f"first EN-02 simulate (compiles its specialisation) {first:.2f} s")  # fmt: skip
+    t0 = time.perf_counter()
+    simulate(dataclasses.replace(EN02, t_end=0.1))
+    first = time.perf_counter() - t0
+    stats = core.SPECIALISATIONS[(True, True)].stats
+    hits = sum(stats.cache_hits.values())
+    misses = sum(stats.cache_misses.values())
+    print(f"this process: first simulate {first:.3f} s (numba cache hits {hits}, misses {misses})")
+    print(f"timed: {repeats} repeats, 60,000 RK4 steps each; core = compiled loop alone, "
+          f"simulate = whole call")  # fmt: skip
+    for name, problem in VARIANTS.items():
+        core_times = []
+        evals = 0
+        for _ in range(repeats):
+            elapsed, evals = core_call(problem)
+            core_times.append(elapsed)
+        sim_times = []
+        for _ in range(repeats):
+            t0 = time.perf_counter()
+            res = simulate(problem)
+            sim_times.append(time.perf_counter() - t0)
+        med = statistics.median(core_times)
+        print(
+            f"{name}:\n    core median {med * 1e3:.1f} ms, min {min(core_times) * 1e3:.1f} ms; "
+            f"simulate median {statistics.median(sim_times) * 1e3:.1f} ms, "
+            f"min {min(sim_times) * 1e3:.1f} ms; {evals} RHS evals, "
+            f"{med / evals * 1e9:.0f} ns per RHS eval; status {res.status}"
+        )
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,460 @@
+"""Compiled right-hand side and fixed-step RK4 time loop of the sphere dynamics (MODEL.md s.4-6).
+
+The whole loop runs inside one compiled function. Each step evaluates the right-hand side
+four times; the first evaluation of a step is at the step's start state and also yields
+every diagnostic (normal reaction, slip, energy, stop conditions, extrema, curvature), so
+extrema are taken over all integration steps at no extra cost. Rotation and energy
+bookkeeping are compile-time specialisations (literal flags), so switching them off removes
+their work from the loop instead of branching around it.
+
+State layout: [R, alpha, Rdot, alphadot] + (rotation) [omega_x, omega_y, omega_z, q0, q1, q2,
+q3, cumulative spin] + (energy) [surface work, friction dissipation].
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+from creatio.dynamics.kinematics import offset_jets
+from creatio.dynamics.laws import law_eval
+
+STATUS_NAMES = (
+    "ok",
+    "contact_lost",
+    "left_annulus",
+    "edge_crossed",
+    "offset_singular",
+    "non_finite",
+)
+
+# Columns of the history table written by the loop (world frame unless noted).
+COL_T = 0
+COL_X = 1
+COL_R = 4
+COL_ALPHA = 5
+COL_V = 6
+COL_SPEED = 9
+COL_N = 10
+COL_F = 11
+COL_SLIP = 14
+COL_OMEGA = 15
+COL_SPIN_RATE = 18
+COL_SPIN = 19
+COL_Q = 20
+COL_MARKER = 24
+COL_AZIMUTH = 27
+COL_KINETIC = 28
+COL_POTENTIAL = 29
+COL_ENERGY = 30
+COL_WORK = 31
+COL_DISSIPATION = 32
+COL_RESIDUAL = 33
+COL_CAVITY_R = 34
+NCOL = 35
+
+# Parameter vector layout.
+P_R0, P_DR, P_K, P_A, P_KA, P_M, P_B, P_G, P_MU, P_EPS, P_I, P_NCAV = range(12)
+NPAR = 12
+
+
+@njit(cache=True)
+def _rhs(t, y, dy, pp, lc, rot, en, diag):
+    """Write dy/dt into dy; return (N, |v_s|, X, V, f (rotating frame), phi_r, gamma, b kappa).
+
+    pp = (R0, dR, k, A, Ka, m, b, g, mu, eps, I); lc = the 18 law coefficients (r, a, gamma).
+    b kappa (the largest principal curvature times b) is computed only when diag is True.
+    """
+    R0, dR, k, A, Ka, m, b, g, mu, eps, inertia = pp
+    R = y[0]
+    a = y[1]
+    Rd = y[2]
+    ad = y[3]
+    pr, pr1, pr2 = law_eval(lc[0], lc[1], lc[2], lc[3], lc[4], lc[5], t)
+    pa, pa1, pa2 = law_eval(lc[6], lc[7], lc[8], lc[9], lc[10], lc[11], t)
+    gm, g1, g2 = law_eval(lc[12], lc[13], lc[14], lc[15], lc[16], lc[17], t)
+    rho, z, n1, n2, n3, P, Q, Z = offset_jets(
+        R, a, R0, k, A, Ka, b, pr, pr1, pr2, pa, pa1, pa2, gm, g1, g2
+    )
+    # derivatives of X in the rotating frame (alpha rule: (P_a - Q, Q_a + P, Z_a))
+    xR1, xR2, xR3 = P[1], Q[1], Z[1]
+    xa1, xa2, xa3 = P[2] - Q[0], Q[2] + P[0], Z[2]
+    xt1, xt2, xt3 = P[3], Q[3], Z[3]
+    RdRd = Rd * Rd
+    Rdad2 = 2.0 * Rd * ad
+    adad = ad * ad
+    a01 = (
+        P[9]
+        + 2.0 * (P[6] * Rd + (P[8] - Q[3]) * ad)
+        + P[4] * RdRd
+        + (P[5] - Q[1]) * Rdad2
+        + (P[7] - 2.0 * Q[2] - P[0]) * adad
+    )
+    a02 = (
+        Q[9]
+        + 2.0 * (Q[6] * Rd + (Q[8] + P[3]) * ad)
+        + Q[4] * RdRd
+        + (Q[5] + P[1]) * Rdad2
+        + (Q[7] + 2.0 * P[2] - Q[0]) * adad
+    )
+    a03 = Z[9] + 2.0 * (Z[6] * Rd + Z[8] * ad) + Z[4] * RdRd + Z[5] * Rdad2 + Z[7] * adad
+    N = m * (n1 * a01 + n2 * a02 + n3 * (a03 + g))
+    V1 = xt1 + xR1 * Rd + xa1 * ad
+    V2 = xt2 + xR2 * Rd + xa2 * ad
+    V3 = xt3 + xR3 * Rd + xa3 * ad
+    ct1 = rho[3]
+    ct3 = z[3]
+    # relative velocity of the sphere's contact point and the membrane, tangential part
+    u1 = V1 - ct1
+    u2 = V2
+    u3 = V3 - ct3
+    ca = 0.0
+    sa = 0.0
+    w1 = 0.0
+    w2 = 0.0
+    w3 = 0.0
+    if rot:
+        ca = math.cos(a)
+        sa = math.sin(a)
+        wx = y[4]
+        wy = y[5]
+        w3 = y[6]
+        w1 = wx * ca + wy * sa
+        w2 = wy * ca - wx * sa
+        u1 -= b * (w2 * n3 - w3 * n2)
+        u2 -= b * (w3 * n1 - w1 * n3)
+        u3 -= b * (w1 * n2 - w2 * n1)
+    un = u1 * n1 + u2 * n2 + u3 * n3
+    vs1 = u1 - un * n1
+    vs2 = u2 - un * n2
+    vs3 = u3 - un * n3
+    slip2 = vs1 * vs1 + vs2 * vs2 + vs3 * vs3
+    fc = 0.0
+    if mu > 0.0:
+        fc = -mu * N / math.sqrt(slip2 + eps * eps)
+    f1 = fc * vs1
+    f2 = fc * vs2
+    f3 = fc * vs3
+    # (J^T J) qddot = J^T (g + f/m - a0)
+    r1 = f1 / m - a01
+    r2 = f2 / m - a02
+    r3 = f3 / m - g - a03
+    j11 = xR1 * xR1 + xR2 * xR2 + xR3 * xR3
+    j12 = xR1 * xa1 + xR2 * xa2 + xR3 * xa3
+    j22 = xa1 * xa1 + xa2 * xa2 + xa3 * xa3
+    c1 = xR1 * r1 + xR2 * r2 + xR3 * r3
+    c2 = xa1 * r1 + xa2 * r2 + xa3 * r3
+    idet = 1.0 / (j11 * j22 - j12 * j12)
+    dy[0] = Rd
+    dy[1] = ad
+    dy[2] = (j22 * c1 - j12 * c2) * idet
+    dy[3] = (j11 * c2 - j12 * c1) * idet
+    ie = 4
+    if rot:
+        ie = 12
+        # I domega/dt = (-b n) x f, rotated back to the world frame
+        s = -b / inertia
+        d1 = s * (n2 * f3 - n3 * f2)
+        d2 = s * (n3 * f1 - n1 * f3)
+        dy[4] = d1 * ca - d2 * sa
+        dy[5] = d1 * sa + d2 * ca
+        dy[6] = s * (n1 * f2 - n2 * f1)
+        # dQ/dt = 1/2 (0, omega) * Q, world-frame omega
+        wx = y[4]
+        wy = y[5]
+        wz = y[6]
+        q0 = y[7]
+        q1 = y[8]
+        q2 = y[9]
+        q3 = y[10]
+        dy[7] = -0.5 * (wx * q1 + wy * q2 + wz * q3)
+        dy[8] = 0.5 * (q0 * wx + wy * q3 - wz * q2)
+        dy[9] = 0.5 * (q0 * wy + wz * q1 - wx * q3)
+        dy[10] = 0.5 * (q0 * wz + wx * q2 - wy * q1)
+        dy[11] = math.sqrt(wx * wx + wy * wy + wz * wz)
+    if en:
+        dy[ie] = (N * n1 + f1) * ct1 + (N * n3 + f3) * ct3
+        dy[ie + 1] = -(f1 * vs1 + f2 * vs2 + f3 * vs3)
+    bk = 0.0
+    if diag:
+        # principal curvatures of c from the fundamental forms (n towards the sphere)
+        cR1, cR3 = rho[1], z[1]
+        ca1, ca2, ca3 = rho[2], rho[0], z[2]
+        e11 = cR1 * cR1 + cR3 * cR3
+        e12 = cR1 * ca1 + cR3 * ca3
+        e22 = ca1 * ca1 + ca2 * ca2 + ca3 * ca3
+        h11 = rho[4] * n1 + z[4] * n3
+        h12 = rho[5] * n1 + rho[1] * n2 + z[5] * n3
+        h22 = (rho[7] - rho[0]) * n1 + 2.0 * rho[2] * n2 + z[7] * n3
+        det1 = e11 * e22 - e12 * e12
+        hm = 0.5 * (e11 * h22 + e22 * h11 - 2.0 * e12 * h12) / det1
+        kg = (h11 * h22 - h12 * h12) / det1
+        disc = hm * hm - kg
+        if disc < 0.0:
+            disc = 0.0
+        bk = b * (hm + math.sqrt(disc))
+    return N, math.sqrt(slip2), P[0], Q[0], Z[0], V1, V2, V3, f1, f2, f3, pr, gm, bk
+
+
+@njit(cache=True)
+def _pack(p, lawc):
+    """Parameter and law tuples from the plain arrays (unpacked once, outside the loop)."""
+    pp = (p[0], p[1], p[2], p[3], p[4], p[5], p[6], p[7], p[8], p[9], p[10])
+    lc = (
+        lawc[0, 0], lawc[0, 1], lawc[0, 2], lawc[0, 3], lawc[0, 4], lawc[0, 5],
+        lawc[1, 0], lawc[1, 1], lawc[1, 2], lawc[1, 3], lawc[1, 4], lawc[1, 5],
+        lawc[2, 0], lawc[2, 1], lawc[2, 2], lawc[2, 3], lawc[2, 4], lawc[2, 5],
+    )  # fmt: skip
+    return pp, lc
+
+
+@njit(cache=True)
+def _integrate(p, lawc, y0, n_steps, dt, stride, out, rot, en):
+    """RK4 loop with per-step diagnostics; rows of `out` are the sampled histories.
+
+    Returns (status, steps, rows, rhs_evals, min_N, max_N, max_slip, max_residual,
+    max_tracking, min_clearance, max_b_kappa).
+    """
+    pp, lc = _pack(p, lawc)
+    R0 = p[P_R0]
+    dR = p[P_DR]
+    k = p[P_K]
+    m = p[P_M]
+    b = p[P_B]
+    g = p[P_G]
+    inertia = p[P_I]
+    ncav = p[P_NCAV]
+    ns = y0.size
+    ie = 12 if rot else 4
+    y = y0.copy()
+    k1 = np.empty(ns)
+    k2 = np.empty(ns)
+    k3 = np.empty(ns)
+    k4 = np.empty(ns)
+    yt = np.empty(ns)
+    two_pi = 2.0 * math.pi
+    min_n = math.inf
+    max_n = -math.inf
+    max_slip = 0.0
+    max_res = 0.0 if en else math.nan
+    max_track = 0.0
+    min_clear = math.inf
+    max_bk = -math.inf
+    e0 = 0.0
+    az = 0.0
+    status = 0
+    rows = 0
+    evals = 0
+    step = 0
+    h2 = 0.5 * dt
+    h6 = dt / 6.0
+    for i in range(n_steps + 1):
+        step = i
+        t = i * dt
+        N, slip, X1, X2, X3, V1, V2, V3, f1, f2, f3, pr, gm, bk = _rhs(
+            t, y, k1, pp, lc, rot, en, True
+        )
+        evals += 1
+        R = y[0]
+        a = y[1]
+        # centre's coordinate along the generator e_g (MODEL.md s.1 inverse map); at
+        # gamma = 0 it is rho - R0, so clear = min(rho - b - R0, R1 - rho - b)
+        sx = (math.sqrt(X1 * X1 + X2 * X2) - R0) * math.cos(gm) + X3 * math.sin(gm)
+        clear = min(sx - b, dR - sx - b)
+        rc = (0.5 * math.pi - pr + two_pi * ncav) / k
+        track = abs(R - rc)
+        kin = math.nan
+        pot = math.nan
+        energy = math.nan
+        res = math.nan
+        if en:
+            kin = 0.5 * m * (V1 * V1 + V2 * V2 + V3 * V3)
+            if rot:
+                kin += 0.5 * inertia * (y[4] * y[4] + y[5] * y[5] + y[6] * y[6])
+            pot = m * g * X3
+            energy = kin + pot
+            if i == 0:
+                e0 = energy
+            res = energy - e0 - y[ie] + y[ie + 1]
+            if abs(res) > max_res:
+                max_res = abs(res)
+        raw = a + math.atan2(X2, X1)
+        if i == 0:
+            az = math.atan2(math.sin(raw), math.cos(raw))
+        else:
+            az = raw + two_pi * np.rint((az - raw) / two_pi)
+        if N < min_n:
+            min_n = N
+        if N > max_n:
+            max_n = N
+        if slip > max_slip:
+            max_slip = slip
+        if track > max_track:
+            max_track = track
+        if clear < min_clear:
+            min_clear = clear
+        if bk > max_bk:
+            max_bk = bk
+        total = N + slip + X1 + X2 + X3 + bk
+        for j in range(ns):
+            total += y[j]
+        if not math.isfinite(total):
+            status = 5
+        elif N <= 0.0:
+            status = 1
+        elif R < 0.0 or R > dR:
+            status = 2
+        elif clear < 0.0:
+            status = 3
+        elif bk >= 1.0:
+            status = 4
+        last = status != 0 or i == n_steps
+        if last or i % stride == 0:
+            ca = math.cos(a)
+            sa = math.sin(a)
+            out[rows, COL_T] = t
+            out[rows, COL_X] = X1 * ca - X2 * sa
+            out[rows, COL_X + 1] = X1 * sa + X2 * ca
+            out[rows, COL_X + 2] = X3
+            out[rows, COL_R] = R
+            out[rows, COL_ALPHA] = a
+            out[rows, COL_V] = V1 * ca - V2 * sa
+            out[rows, COL_V + 1] = V1 * sa + V2 * ca
+            out[rows, COL_V + 2] = V3
+            out[rows, COL_SPEED] = math.sqrt(V1 * V1 + V2 * V2 + V3 * V3)
+            out[rows, COL_N] = N
+            out[rows, COL_F] = f1 * ca - f2 * sa
+            out[rows, COL_F + 1] = f1 * sa + f2 * ca
+            out[rows, COL_F + 2] = f3
+            out[rows, COL_SLIP] = slip
+            if rot:
+                wx = y[4]
+                wy = y[5]
+                wz = y[6]
+                qn = 1.0 / math.sqrt(y[7] * y[7] + y[8] * y[8] + y[9] * y[9] + y[10] * y[10])
+                q0 = y[7] * qn
+                q1 = y[8] * qn
+                q2 = y[9] * qn
+                q3 = y[10] * qn
+                spin = y[11]
+            else:
+                wx = 0.0
+                wy = 0.0
+                wz = 0.0
+                q0 = 1.0
+                q1 = 0.0
+                q2 = 0.0
+                q3 = 0.0
+                spin = 0.0
+            out[rows, COL_OMEGA] = wx
+            out[rows, COL_OMEGA + 1] = wy
+            out[rows, COL_OMEGA + 2] = wz
+            out[rows, COL_SPIN_RATE] = math.sqrt(wx * wx + wy * wy + wz * wz)
+            out[rows, COL_SPIN] = spin
+            out[rows, COL_Q] = q0
+            out[rows, COL_Q + 1] = q1
+            out[rows, COL_Q + 2] = q2
+            out[rows, COL_Q + 3] = q3
+            out[rows, COL_MARKER] = 2.0 * (q1 * q3 + q0 * q2)
+            out[rows, COL_MARKER + 1] = 2.0 * (q2 * q3 - q0 * q1)
+            out[rows, COL_MARKER + 2] = q0 * q0 - q1 * q1 - q2 * q2 + q3 * q3
+            out[rows, COL_AZIMUTH] = az
+            out[rows, COL_KINETIC] = kin
+            out[rows, COL_POTENTIAL] = pot
+            out[rows, COL_ENERGY] = energy
+            out[rows, COL_WORK] = y[ie] if en else math.nan
+            out[rows, COL_DISSIPATION] = y[ie + 1] if en else math.nan
+            out[rows, COL_RESIDUAL] = res
+            out[rows, COL_CAVITY_R] = rc
+            rows += 1
+        if last:
+            break
+        for j in range(ns):
+            yt[j] = y[j] + h2 * k1[j]
+        _rhs(t + h2, yt, k2, pp, lc, rot, en, False)
+        for j in range(ns):
+            yt[j] = y[j] + h2 * k2[j]
+        _rhs(t + h2, yt, k3, pp, lc, rot, en, False)
+        for j in range(ns):
+            yt[j] = y[j] + dt * k3[j]
+        _rhs((i + 1) * dt, yt, k4, pp, lc, rot, en, False)
+        for j in range(ns):
+            y[j] += h6 * (k1[j] + 2.0 * (k2[j] + k3[j]) + k4[j])
+        evals += 3
+    return (
+        status,
+        step,
+        rows,
+        evals,
+        min_n,
+        max_n,
+        max_slip,
+        max_res,
+        max_track,
+        min_clear,
+        max_bk,
+    )
+
+
+@njit(cache=True)
+def _run_rot_en(p, lawc, y0, n_steps, dt, stride, out):
+    return _integrate(p, lawc, y0, n_steps, dt, stride, out, True, True)
+
+
+@njit(cache=True)
+def _run_rot(p, lawc, y0, n_steps, dt, stride, out):
+    return _integrate(p, lawc, y0, n_steps, dt, stride, out, True, False)
+
+
+@njit(cache=True)
+def _run_en(p, lawc, y0, n_steps, dt, stride, out):
+    return _integrate(p, lawc, y0, n_steps, dt, stride, out, False, True)
+
+
+@njit(cache=True)
+def _run_bare(p, lawc, y0, n_steps, dt, stride, out):
+    return _integrate(p, lawc, y0, n_steps, dt, stride, out, False, False)
+
+
+SPECIALISATIONS = {
+    (True, True): _run_rot_en,
+    (True, False): _run_rot,
+    (False, True): _run_en,
+    (False, False): _run_bare,
+}
+
+
+def run(
+    p: np.ndarray,
+    lawc: np.ndarray,
+    y0: np.ndarray,
+    n_steps: int,
+    dt: float,
+    stride: int,
+    out: np.ndarray,
+    rot: bool,
+    en: bool,
+) -> tuple:
+    """Call the compiled loop specialised for the (rotation, energy) flags.
+
+    Each specialisation is compiled (and cached) on first use only; see _integrate.
+    """
+    return SPECIALISATIONS[(bool(rot), bool(en))](p, lawc, y0, n_steps, dt, stride, out)
+
+
+@njit(cache=True)
+def evaluate(
+    p: np.ndarray, lawc: np.ndarray, y: np.ndarray, t: float
+) -> tuple[np.ndarray, float, float, float]:
+    """One right-hand-side evaluation of a full (rotation + energy) state at time t.
+
+    Returns (dy/dt, N, |v_s|, b kappa); used for a-priori estimates and tests.
+    """
+    pp, lc = _pack(p, lawc)
+    dy = np.empty(y.size)
+    N, slip, X1, X2, X3, V1, V2, V3, f1, f2, f3, pr, gm, bk = _rhs(
+        t, y, dy, pp, lc, True, True, True
+    )
+    return dy, N, slip, bk
