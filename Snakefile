@@ -4,6 +4,9 @@
 #   snakemake all -c 2 --config 'overrides=["sphere.mu=0.3"]'  -> data/runs/<config hash>/
 #   snakemake all -c 2 --config 'studies=["ct02"]'             a subset of the studies
 #
+#   snakemake sweep -c 2 --config study=en02 'sweep=["sphere.mu=0,0.15,0.3"]'
+#   snakemake sweep_en02_mu -c 2                              the worked sweep (outside all)
+#
 # Overrides are Hydra overrides, applied to every study whose config has the key.
 import sys
 
@@ -11,7 +14,7 @@ from snakemake.exceptions import WorkflowError
 from snakemake.utils import min_version
 
 from creatio.config import STUDIES, ConfigError
-from creatio.workflow import compare_targets, plan
+from creatio.workflow import JobConfigs, SweepRegistry, compare_targets, plan
 
 min_version("9.0")
 
@@ -23,6 +26,9 @@ except ConfigError as e:
 for _p in PLAN.values():
     if _p.overrides:
         print(f"creatio: {_p.study} {list(_p.overrides)} -> {_p.root}", file=sys.stderr)
+JOBS = JobConfigs()
+JOBS.add_plans(PLAN)
+SWEEPS = SweepRegistry(JOBS, workflow.basedir)
 
 wildcard_constraints:
     root=r"data|data/runs/[0-9a-f]{12}",
@@ -31,6 +37,7 @@ wildcard_constraints:
 include: "workflows/kinematics.smk"
 include: "workflows/dynamics.smk"
 include: "workflows/reports.smk"
+include: "workflows/sweeps.smk"
 
 
 rule all:

@@ -8,8 +8,8 @@ rule kinematic_dataset:
         study="ct02|en01",
     params:
         creatio=CREATIO,
-        sha=lambda wc: PLAN[wc.study].sha256[:12],
-        overrides=lambda wc: PLAN[wc.study].cli_overrides,
+        sha=lambda wc: JOBS.sha(wc.root, wc.study),
+        overrides=lambda wc: JOBS.cli_overrides(wc.root, wc.study),
     conda:
         "envs/creatio.yaml"
     log:

@@ -33,6 +33,7 @@ USAGE = """usage: creatio COMMAND [ARGS]
 commands:
   run     run one study and write its datasets and report (Hydra app)
             creatio run study=en02 sphere.mu=0.3      creatio run --help
+            creatio run -m study=en02 sphere.mu=0,0.15,0.3   (a sweep, then its aggregate)
   probe   position, velocity, normal and J at one surface point (Hydra app)
             creatio probe alpha=30 R=0.5 t=1.0 phases.gamma.phi0=45 phases.gamma.unit=deg
   task    one workflow step, as the Snakefile calls it
@@ -96,12 +97,36 @@ def _hydra_app(config_name: str, task) -> None:
 
 
 def _run_task(cfg) -> None:
+    from hydra.core.hydra_config import HydraConfig
+    from hydra.types import RunMode
+
     try:
         resolved = validate(cfg)
     except ConfigError as e:
+        if HydraConfig.get().mode == RunMode.MULTIRUN:  # one refused point: record, go on
+            log.warning("creatio run: point refused: %s", e)
+            return
         print(f"creatio run: {e}", file=sys.stderr)
         sys.exit(2)
     run_resolved(resolved)
+
+
+def _aggregate_multirun(args: Sequence[str]) -> None:
+    """After `creatio run -m`, aggregate the points exactly as `snakemake sweep` does."""
+    from hydra.core.override_parser.overrides_parser import OverridesParser
+
+    from creatio.sweep import plan_sweep, write_sweep
+
+    items = [a for a in args if not a.startswith("-") and not a.startswith("hydra")]
+    parsed = OverridesParser.create().parse_overrides(items)
+    study = next((o.get_value_element_as_str() for o in parsed if o.get_key_element() == "study"),
+                 "ct02")
+    sweep = [a for a, o in zip(items, parsed, strict=True) if o.is_sweep_override()]
+    base = [a for a, o in zip(items, parsed, strict=True)
+            if not o.is_sweep_override() and o.get_key_element() != "study"]
+    if sweep:
+        paths = write_sweep(plan_sweep(study, sweep, base))
+        log.info("sweep aggregate: %s", ", ".join(str(p) for p in paths.values()))
 
 
 def _probe_task(cfg) -> None:
@@ -179,6 +204,10 @@ def _task(argv: Sequence[str]) -> int:
     r.add_argument("study", choices=STUDIES)
     r.add_argument("outdir", type=Path)
     r.add_argument("datasets", type=Path, nargs="+")
+    w = sub.add_parser("sweep", help="aggregate a sweep's point datasets")
+    w.add_argument("--study", required=True, choices=STUDIES)
+    w.add_argument("--sweep", action="append", required=True, metavar="KEY=V1,V2,...")
+    w.add_argument("--override", action="append", default=[], metavar="KEY=VALUE")
     c = sub.add_parser("compare", help="EN-02 vs EN-02R comparison from both datasets")
     c.add_argument("outdir", type=Path)
     c.add_argument("datasets", type=Path, nargs=2)
@@ -191,6 +220,11 @@ def _task(argv: Sequence[str]) -> int:
                       file=sys.stderr)
                 return 2
             compute_dataset(resolved, args.out, args.dt)
+        elif args.step == "sweep":
+            from creatio.sweep import plan_sweep, write_sweep
+
+            paths = write_sweep(plan_sweep(args.study, args.sweep, args.override))
+            log.info("sweep: %s", ", ".join(str(p) for p in paths.values()))
         elif args.step == "report":
             write_report(args.study, args.outdir, args.datasets)
         else:
@@ -217,6 +251,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         _prevalidate(rest, config_name)
         sys.argv = [f"creatio {command}", *rest]
         _hydra_app(config_name, _run_task if command == "run" else _probe_task)
+        if command == "run" and ("-m" in rest or "--multirun" in rest):
+            _aggregate_multirun(rest)
         return 0
     if command == "task":
         return _task(rest)

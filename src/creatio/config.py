@@ -8,6 +8,7 @@ the rule, before anything is computed.
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import math
 import os
@@ -552,7 +553,12 @@ def applicable(study: str, overrides: Sequence[str]) -> list[str]:
 
 
 def resolve(study: str, overrides: Sequence[str] = (), only_applicable: bool = False) -> Resolved:
-    """Compose and validate one study's config with overrides."""
+    """Compose and validate one study's config with overrides (memoised per process)."""
+    return _resolve(study, tuple(str(o) for o in overrides), only_applicable)
+
+
+@functools.lru_cache(maxsize=512)
+def _resolve(study: str, overrides: tuple[str, ...], only_applicable: bool) -> Resolved:
     if study not in SCHEMAS:
         raise ConfigError("study", study, f"must be one of {', '.join(SCHEMAS)}")
     ovs = applicable(study, overrides) if only_applicable else list(overrides)

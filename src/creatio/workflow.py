@@ -11,6 +11,7 @@ import shlex
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 from creatio.config import (
     DYNAMIC,
@@ -22,7 +23,7 @@ from creatio.config import (
     resolve,
 )
 
-__all__ = ["StudyPlan", "compare_targets", "plan"]
+__all__ = ["JobConfigs", "StudyPlan", "SweepRegistry", "compare_targets", "plan"]
 
 KINEMATIC_REPORT = ("json", "md", "png", "csv")
 DYNAMIC_REPORT = ("json", "md", "png", "csv", "trajectory.png", "convergence.png")
@@ -96,3 +97,81 @@ def compare_targets(plans: dict[str, StudyPlan]) -> list[str]:
     if all(p is not None and p.root == "data" for p in pair):
         return ["data/reports/compare_en02_en02r.md", "data/reports/compare_en02_en02r.png"]
     return []
+
+
+class JobConfigs:
+    """Which config each dataset job runs: (output root, study) -> (hash, overrides).
+
+    Study runs and sweep points both register here, so one dataset rule serves both.
+    """
+
+    def __init__(self) -> None:
+        self._by_root: dict[tuple[str, str], tuple[str, tuple[str, ...]]] = {}
+
+    def add(self, root: str, study: str, sha256: str, overrides: Sequence[str]) -> None:
+        """Register the config that produces datasets under root for study."""
+        self._by_root[(str(root), study)] = (sha256, tuple(overrides))
+
+    def add_plans(self, plans: dict[str, StudyPlan]) -> None:
+        """Register every study of a plan."""
+        for p in plans.values():
+            self.add(p.root, p.study, p.sha256, p.overrides)
+
+    def add_sweep(self, sweep) -> None:
+        """Register every valid point of a sweep plan."""
+        for point in sweep.points:
+            if point.valid:
+                root = str(Path(point.dataset).parents[2])
+                self.add(root, sweep.study, point.resolved.sha256,
+                         [*sweep.base, *point.overrides])
+
+    def _get(self, root: str, study: str) -> tuple[str, tuple[str, ...]]:
+        try:
+            return self._by_root[(root, study)]
+        except KeyError:
+            raise ConfigError("output", f"{root}/{study}",
+                              "no configuration of this invocation writes there") from None
+
+    def sha(self, root: str, study: str) -> str:
+        """Short config hash the job must reproduce."""
+        return self._get(root, study)[0][:12]
+
+    def cli_overrides(self, root: str, study: str) -> str:
+        """The job's overrides as shell-quoted `--override` arguments."""
+        return " ".join(f"--override {shlex.quote(o)}" for o in self._get(root, study)[1])
+
+
+class SweepRegistry:
+    """The sweeps of one workflow invocation, planned on demand (only when targeted)."""
+
+    def __init__(self, jobs: JobConfigs, basedir: str | Path) -> None:
+        self.jobs = jobs
+        self.basedir = Path(basedir)
+        self.plans: dict[str, Any] = {}
+
+    def outputs(self, study: str, sweep: Sequence[str], overrides: Sequence[str]) -> list[str]:
+        """Plan a sweep (once), register its points' dataset jobs, return its aggregate."""
+        import sys
+
+        from creatio.sweep import plan_sweep
+
+        if not sweep:
+            raise ConfigError("sweep", list(sweep),
+                              "`snakemake sweep` needs --config study=ID 'sweep=[\"KEY=V1,V2\"]'")
+        s = plan_sweep(study, list(sweep), list(overrides))
+        if s.name not in self.plans:
+            self.plans[s.name] = s
+            self.jobs.add_sweep(s)
+            print(f"creatio: sweep {s.name}: {len(s.points)} points, {len(s.datasets)} valid "
+                  f"-> {s.outdir}", file=sys.stderr)
+        return s.outputs
+
+    def worked(self, name: str) -> list[str]:
+        """The aggregate of a sweep defined in conf/sweeps/<name>.yaml."""
+        import yaml
+
+        spec = yaml.safe_load((self.basedir / "conf" / "sweeps" / f"{name}.yaml").read_text())
+        return self.outputs(spec["study"], spec["sweep"], spec.get("overrides") or [])
+
+    def __getitem__(self, name: str) -> Any:
+        return self.plans[name]
