@@ -6,6 +6,8 @@
 #
 #   snakemake sweep -c 2 --config study=en02 'sweep=["sphere.mu=0,0.15,0.3"]'
 #   snakemake sweep_en02_mu -c 2                              the worked sweep (outside all)
+#   snakemake release -c 2 --config version=0.2.0    freeze data/ in data/releases/0.2.0/
+#   snakemake diff -c 2 --config against=latest      data/reports/diff/<v>_vs_data.{txt,json}
 #
 # Overrides are Hydra overrides, applied to every study whose config has the key.
 import sys
@@ -38,6 +40,7 @@ include: "workflows/kinematics.smk"
 include: "workflows/dynamics.smk"
 include: "workflows/reports.smk"
 include: "workflows/sweeps.smk"
+include: "workflows/release.smk"
 
 
 rule all:

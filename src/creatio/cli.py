@@ -2,7 +2,9 @@
 
     creatio run [study=ID] [KEY=VALUE ...]       run one study (a Hydra app: --help, --cfg job)
     creatio probe [alpha=DEG R=R t=T KEY=VALUE]  surface quantities at one point (Hydra app)
-    creatio task dataset|report ...              one workflow step (used by the Snakefile)
+    creatio release VERSION | verify | list     freeze the default outputs into data/releases/
+    creatio diff A B                             compare datasets, directories or releases
+    creatio task dataset|report|sweep|compare    one workflow step (used by the Snakefile)
 """
 
 from __future__ import annotations
@@ -36,6 +38,10 @@ commands:
             creatio run -m study=en02 sphere.mu=0,0.15,0.3   (a sweep, then its aggregate)
   probe   position, velocity, normal and J at one surface point (Hydra app)
             creatio probe alpha=30 R=0.5 t=1.0 phases.gamma.phi0=45 phases.gamma.unit=deg
+  release make, verify or list versioned releases of the default outputs
+            creatio release 0.2.0    creatio release verify latest    creatio release list
+  diff    compare datasets, data directories or releases (exit 0 same, 1 differs, 2 error)
+            creatio diff latest data    creatio diff 0.1.0 0.2.0 --json    creatio diff --help
   task    one workflow step, as the Snakefile calls it
             creatio task dataset ct02 OUT.nc [--dt DT] [--override K=V ...]
             creatio task report ct02 OUTDIR DATASET.nc [DATASET.nc ...]
@@ -256,6 +262,14 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 0
     if command == "task":
         return _task(rest)
+    if command == "release":
+        from creatio.release import main as release_main
+
+        return release_main(rest)
+    if command == "diff":
+        from creatio.diff import main as diff_main
+
+        return diff_main(rest)
     print(f"creatio: unknown command {command!r}\n", file=sys.stderr)
     print(USAGE.format(studies=", ".join(STUDIES), conf=CONF_DIR), file=sys.stderr)
     return 2
