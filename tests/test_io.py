@@ -33,7 +33,16 @@ def test_round_trip_keeps_values_and_gives_the_config_back(tmp_path, ct02_datase
     assert back.attrs["Conventions"].startswith("CF-")
     assert "CT02" in back.attrs["references"]
     assert back.encoding["source"].endswith("ct02.nc")
-    assert back["fd_error"].encoding.get("zlib") is True
+    assert back["fd_error"].encoding.get("contiguous") is True  # small: stored plainly
+
+
+def test_large_variables_are_compressed(tmp_path):
+    """Variables above the small-size threshold are written with zlib."""
+    ds = xr.Dataset({"big": ("n", np.zeros(10_000)), "small": ("m", np.arange(3.0))})
+    back, _ = read_dataset(write_dataset(ds, tmp_path / "c.nc"))
+    assert back["big"].encoding.get("zlib") is True
+    assert back["small"].encoding.get("contiguous") is True
+    assert (tmp_path / "c.nc").stat().st_size < 10_000 * 8 / 4  # zeros: far below raw
 
 
 def test_write_is_atomic_and_leaves_no_partial_file(tmp_path, ct02_dataset):

@@ -31,6 +31,7 @@ REPO_ROOT = Path(__file__).resolve().parents[2]
 LIBRARIES = ("numpy", "scipy", "xarray", "netCDF4", "numba", "hydra-core", "snakemake")
 # Attributes that change on every run; diffs ignore them unless asked.
 VOLATILE_ATTRS = ("history", "date_created")
+SMALL_BYTES = 4096
 
 
 @functools.cache
@@ -108,8 +109,10 @@ def write_dataset(ds: xr.Dataset, path: str | Path) -> Path:
     ds.attrs = {k: _netcdf_attr(v) for k, v in ds.attrs.items()}
     for var in ds.variables.values():
         var.attrs = {k: _netcdf_attr(v) for k, v in var.attrs.items()}
+    # Compress what is large; store small variables contiguously (chunk indexes and
+    # compression headers would cost more than they save).
     encoding = {
-        name: {"zlib": True, "complevel": 4}
+        name: {"zlib": True, "complevel": 4} if var.nbytes > SMALL_BYTES else {"contiguous": True}
         for name, var in ds.variables.items()
         if var.dtype.kind in "fiub"
     }
