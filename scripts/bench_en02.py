@@ -12,7 +12,6 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
-import math
 import os
 import platform
 import statistics
@@ -24,16 +23,12 @@ import time
 import numba
 import numpy as np
 
+from creatio.config import resolve
 from creatio.dynamics import SphereProblem, core, simulate
+from creatio.studies.en02 import problem as en02_problem
 
-EN02 = SphereProblem(
-    R0=0.68, dR=1.72, A=0.18, Kr=1, Ka=6,
-    law_r=(0.0, 0.0, 0.0, 120.0, 0.0, 0.0),
-    law_a=(0.0, 0.0, 12.0 * math.pi, 120.0, 0.0, 0.0),
-    law_gamma=(0.0, 0.0, 0.0, 1.0, 0.0, 0.0),
-    m=1.0, b=0.12, g=9.81, mu=0.15, eps=0.01,
-    R_init=0.43, alpha_init=math.pi / 6,
-)  # fmt: skip
+# The default EN-02 configuration, exactly as `snakemake all` runs it (conf/study/en02.yaml).
+EN02 = en02_problem(resolve("en02").obj)
 
 VARIANTS = {
     "EN-02 full (rotation + energy)": EN02,
