@@ -12,25 +12,24 @@
 # Overrides are Hydra overrides, applied to every study whose config has the key.
 import sys
 
-from snakemake.exceptions import WorkflowError
 from snakemake.utils import min_version
 
-from creatio.config import STUDIES, ConfigError
-from creatio.workflow import JobConfigs, SweepRegistry, compare_targets, plan
+from creatio.workflow import JobConfigs, StudyRuns, SweepRegistry
 
 min_version("9.0")
 
 CREATIO = f'"{sys.executable}" -m creatio.cli'
-try:
-    PLAN = plan(config.get("overrides", []), config.get("studies", STUDIES))
-except ConfigError as e:
-    raise WorkflowError(str(e)) from None
-for _p in PLAN.values():
-    if _p.overrides:
-        print(f"creatio: {_p.study} {list(_p.overrides)} -> {_p.root}", file=sys.stderr)
 JOBS = JobConfigs()
-JOBS.add_plans(PLAN)
+RUNS = StudyRuns(JOBS, config.get("overrides"), config.get("studies"))
 SWEEPS = SweepRegistry(JOBS, workflow.basedir)
+JOBS.fallbacks += [
+    lambda: RUNS.plans,
+    lambda: SWEEPS.outputs(config.get("study", ""), config["sweep"], config.get("overrides"))
+    if config.get("sweep")
+    else None,
+    lambda: SWEEPS.worked("en02_mu"),
+]
+
 
 wildcard_constraints:
     root=r"data|data/runs/[0-9a-f]{12}",
@@ -43,8 +42,14 @@ include: "workflows/sweeps.smk"
 include: "workflows/release.smk"
 
 
+localrules:
+    all,
+    sweep,
+    sweep_en02_mu,
+    diff,
+
+
 rule all:
     default_target: True
     input:
-        [f for p in PLAN.values() for f in p.reports],
-        compare_targets(PLAN),
+        lambda wc: RUNS.targets(),

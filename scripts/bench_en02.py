@@ -25,10 +25,9 @@ import numpy as np
 
 from creatio.config import resolve
 from creatio.dynamics import SphereProblem, core, simulate
-from creatio.studies.en02 import problem as en02_problem
 
 # The default EN-02 configuration, exactly as `snakemake all` runs it (conf/study/en02.yaml).
-EN02 = en02_problem(resolve("en02").obj)
+EN02 = resolve("en02").obj.sphere_problem()
 
 VARIANTS = {
     "EN-02 full (rotation + energy)": EN02,

@@ -32,7 +32,8 @@ def test_en02_published_figures(en02):
     """-360 deg, 1.110 m, 9.810 N at the published precision; the two bounds are met."""
     _, s = en02
     assert s["status"] == "ok" and s["dt_s"] == [0.002, 0.001]
-    assert round(s["angular_displacement_deg"]) == published.EN02["angular_displacement_deg"]
+    assert s["angular_displacement_deg"] == pytest.approx(
+        published.EN02["angular_displacement_deg"], abs=1e-5)
     assert round(s["final_radius_m"], 3) == published.EN02["final_radius_m"]
     assert round(s["min_normal_reaction_N"], 3) == published.EN02["min_normal_reaction_N"]
     assert s["timestep_difference_m"] < published.EN02["timestep_difference_m"]
@@ -84,7 +85,7 @@ def test_a_stop_is_recorded_not_hidden():
     """A 1 s cycle throws the sphere off: status contact_lost with its time, no NaN."""
     resolved = resolve("en02", ["phases.T=1.0"])
     ds = run_study(resolved)
-    assert ds.attrs["status"] != "ok"
+    assert ds.attrs["status"] == "contact_lost"
     assert 0.0 < ds.attrs["stop_time"] < 1.0
     assert math.isclose(float(ds.time.values[-1]), ds.attrs["stop_time"], abs_tol=1e-12)
     assert not ds.centre.isnull().any()

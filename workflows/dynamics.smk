@@ -1,4 +1,6 @@
-# Sphere studies (EN-02, EN-02R): one job per timestep (dt and dt / refine).
+# Sphere studies (EN-02, EN-02R): one job per timestep (dt and dt / refine); the dt in
+# the file name is Python's exact float repr, so it travels to the job without rounding;
+# the config travels as canonical resolved YAML (see kinematics.smk).
 
 
 rule dynamic_dataset:
@@ -8,12 +10,11 @@ rule dynamic_dataset:
         study="en02|en02r",
     params:
         creatio=CREATIO,
-        sha=lambda wc: JOBS.sha(wc.root, wc.study),
-        overrides=lambda wc: JOBS.cli_overrides(wc.root, wc.study),
+        config=lambda wc: JOBS.yaml(wc.root, wc.study),
     conda:
         "envs/creatio.yaml"
     log:
         "{root}/logs/{study}_dt{dt}.log",
     shell:
         "{params.creatio} task dataset {wildcards.study} {output} --dt {wildcards.dt} "
-        "--expect-sha {params.sha} {params.overrides} 2> {log}"
+        "--config-yaml {params.config:q} 2> {log}"

@@ -1,4 +1,6 @@
-# Kinematic studies (CT-02, EN-01): one dataset job per study.
+# Kinematic studies (CT-02, EN-01): one dataset job per study. A dataset job's only
+# config parameter is its canonical resolved YAML, so it reruns exactly when its resolved
+# config changes, however the overrides that produced it were spelled.
 
 
 rule kinematic_dataset:
@@ -8,12 +10,11 @@ rule kinematic_dataset:
         study="ct02|en01",
     params:
         creatio=CREATIO,
-        sha=lambda wc: JOBS.sha(wc.root, wc.study),
-        overrides=lambda wc: JOBS.cli_overrides(wc.root, wc.study),
+        config=lambda wc: JOBS.yaml(wc.root, wc.study),
     conda:
         "envs/creatio.yaml"
     log:
         "{root}/logs/{study}.log",
     shell:
-        "{params.creatio} task dataset {wildcards.study} {output} --expect-sha {params.sha} "
-        "{params.overrides} 2> {log}"
+        "{params.creatio} task dataset {wildcards.study} {output} "
+        "--config-yaml {params.config:q} 2> {log}"

@@ -13,7 +13,7 @@ from creatio import release as _release
 
 rule release:
     input:
-        lambda wc: _release.workflow_outputs(PLAN, whole=True),
+        lambda wc: _release.workflow_outputs(RUNS.plans, whole=True),
     params:
         creatio=CREATIO,
         version=lambda wc: _release.workflow_version(config),
@@ -37,7 +37,7 @@ rule diff:
 rule diff_report:
     input:
         manifest="data/releases/{version}/MANIFEST.json",
-        data=lambda wc: _release.workflow_outputs(PLAN),
+        data=lambda wc: _release.workflow_outputs(RUNS.plans),
     output:
         txt="data/reports/diff/{version}_vs_data.txt",
         json="data/reports/diff/{version}_vs_data.json",
@@ -45,7 +45,7 @@ rule diff_report:
         version=r"\d+\.\d+\.\d+(?:(?:a|b|rc)\d+)?",
     params:
         creatio=CREATIO,
-        options=_release.workflow_diff_options(config, PLAN),
+        options=lambda wc: _release.workflow_diff_options(config, RUNS.plans),
     conda:
         "envs/creatio.yaml"
     log:

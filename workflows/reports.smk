@@ -3,7 +3,7 @@
 
 rule kinematic_report:
     input:
-        lambda wc: PLAN[wc.study].datasets,
+        lambda wc: JOBS.datasets(wc.root, wc.study),
     output:
         json="{root}/reports/{study}.json",
         md="{root}/reports/{study}.md",
@@ -23,7 +23,7 @@ rule kinematic_report:
 
 rule dynamic_report:
     input:
-        lambda wc: PLAN[wc.study].datasets,
+        lambda wc: JOBS.datasets(wc.root, wc.study),
     output:
         json="{root}/reports/{study}.json",
         md="{root}/reports/{study}.md",
@@ -46,9 +46,10 @@ rule dynamic_report:
 rule compare:
     input:
         json=["{root}/reports/en02.json", "{root}/reports/en02r.json"],
-        datasets=[PLAN["en02"].datasets[0], PLAN["en02r"].datasets[0]]
-        if "en02" in PLAN and "en02r" in PLAN
-        else [],
+        datasets=lambda wc: [
+            JOBS.datasets(wc.root, "en02")[0],
+            JOBS.datasets(wc.root, "en02r")[0],
+        ],
     output:
         md="{root}/reports/compare_en02_en02r.md",
         png="{root}/reports/compare_en02_en02r.png",

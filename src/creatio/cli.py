@@ -179,12 +179,12 @@ def _prevalidate(study_args: Sequence[str], config_name: str) -> None:
     overrides = [a for a in study_args if not a.startswith("hydra")]
     try:
         if config_name == "probe":
-            from creatio.config import ProbeConfig, compose
+            from creatio.config import ProbeConfig, compose, override_error
 
             try:
                 cfg = compose("", overrides, config_name="probe")
-            except Exception as e:  # noqa: BLE001 - Hydra override refusal
-                raise ConfigError("overrides", overrides, str(e).splitlines()[0]) from None
+            except Exception as e:  # noqa: BLE001 - Hydra override refusal: name the key
+                raise override_error("", overrides, e, config_name="probe") from None
             validate(cfg, schema=ProbeConfig)
         else:
             study = next((a.split("=", 1)[1] for a in overrides if a.startswith("study=")),
@@ -204,8 +204,10 @@ def _task(argv: Sequence[str]) -> int:
     d.add_argument("out", type=Path)
     d.add_argument("--dt", type=float, default=None, help="timestep of a dynamic study (s)")
     d.add_argument("--override", action="append", default=[], metavar="KEY=VALUE")
-    d.add_argument("--expect-sha", default=None,
-                   help="refuse if the resolved config hash differs (workflow consistency)")
+    d.add_argument("--config-file", type=Path, default=None,
+                   help="a resolved config (YAML file) to run instead of composing conf/")
+    d.add_argument("--config-yaml", default=None,
+                   help="the same, as YAML text (what the Snakefile passes)")
     r = sub.add_parser("report", help="derive a study's report from its datasets")
     r.add_argument("study", choices=STUDIES)
     r.add_argument("outdir", type=Path)
@@ -220,11 +222,12 @@ def _task(argv: Sequence[str]) -> int:
     args = ap.parse_args(argv)
     try:
         if args.step == "dataset":
-            resolved = resolve(args.study, args.override)
-            if args.expect_sha and not resolved.sha256.startswith(args.expect_sha):
-                print(f"creatio task: config hash {resolved.key} != expected {args.expect_sha}",
-                      file=sys.stderr)
-                return 2
+            resolved = _task_config(args)
+            if args.dt is not None and resolved.study in DYNAMIC:
+                dts = resolved.obj.solver.timesteps()
+                if not any(abs(args.dt - d) <= 1e-12 * d for d in dts):
+                    raise ConfigError("--dt", args.dt, f"must be one of the config's timesteps "
+                                      f"{dts} (solver.dt and solver.dt / solver.refine)")
             compute_dataset(resolved, args.out, args.dt)
         elif args.step == "sweep":
             from creatio.sweep import plan_sweep, write_sweep
@@ -242,6 +245,22 @@ def _task(argv: Sequence[str]) -> int:
         print(f"creatio task: {e}", file=sys.stderr)
         return 2
     return 0
+
+
+def _task_config(args: argparse.Namespace) -> Resolved:
+    """The resolved config of a task: a config file, or conf/ with overrides."""
+    text = args.config_file.read_text() if args.config_file else args.config_yaml
+    if text is None:
+        return resolve(args.study, args.override)
+    import yaml
+
+    if args.override:
+        raise ConfigError("--override", args.override, "cannot be combined with a config")
+    resolved = validate(yaml.safe_load(text))
+    if resolved.study != args.study:
+        raise ConfigError("--config-file", str(args.config_file or "--config-yaml"),
+                          f"holds study {resolved.study}, not {args.study}")
+    return resolved
 
 
 def main(argv: Sequence[str] | None = None) -> int:

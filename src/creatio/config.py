@@ -21,6 +21,7 @@ from typing import Any
 from omegaconf import MISSING, DictConfig, OmegaConf
 from omegaconf.errors import OmegaConfBaseException
 
+from creatio.dynamics import SphereProblem, stability_limit
 from creatio.geometry import Surface
 from creatio.laws import Law, LawKind
 
@@ -101,8 +102,14 @@ class LawConfig:
             kind=self.kind,
         )
 
-    def check(self, path: str, inclination: bool = False) -> None:
-        """Refuse parameters the kind does not use, negative amplitude, out-of-range gamma."""
+    def check(
+        self, path: str, inclination: bool = False, kinds: Sequence[LawKind] | None = None
+    ) -> None:
+        """Refuse parameters the kind does not use, negative amplitude, out-of-range gamma,
+        and kinds the study cannot use (when ``kinds`` is given)."""
+        if kinds is not None:
+            _require(self.kind in kinds, f"{path}.kind", self.kind.value,
+                     f"this study takes only {', '.join(k.value for k in kinds)}")
         for name in ("phi0", "rate", "delta", "amplitude", "omega"):
             v = getattr(self, name)
             _require(math.isfinite(v), f"{path}.{name}", v, "must be a finite number")
@@ -144,6 +151,9 @@ class GeometryConfig:
         return Surface(self.R0, self.dR, self.A, self.Kr, self.Ka)
 
 
+_NO_CYCLE = (LawKind.constant, LawKind.linear, LawKind.sinusoid)  # quintic needs phases.T
+
+
 @dataclass
 class PhasePairConfig:
     """Radial and angular phase laws (the inclination is set by the study)."""
@@ -152,9 +162,10 @@ class PhasePairConfig:
     a: LawConfig = field(default_factory=LawConfig)
 
     def check(self, path: str) -> None:
-        """Each law valid."""
-        self.r.check(f"{path}.r")
-        self.a.check(f"{path}.a")
+        """Each law constant or linear: CT-02's helical pitch is defined for linear phases."""
+        linear = (LawKind.constant, LawKind.linear)
+        self.r.check(f"{path}.r", kinds=linear)
+        self.a.check(f"{path}.a", kinds=linear)
 
 
 @dataclass
@@ -262,7 +273,7 @@ class Ct02Study:
         _check_inclinations(f"{path}.inclinations_deg", self.inclinations_deg)
         _check_grid(path, self.n_radii, self.n_angles)
         _require(len(self.times) >= 1, f"{path}.times", self.times, "needs at least 1 value")
-        self.varying_gamma.check(f"{path}.varying_gamma", inclination=True)
+        self.varying_gamma.check(f"{path}.varying_gamma", inclination=True, kinds=_NO_CYCLE)
         _require(self.feature_h > 0.0, f"{path}.feature_h", self.feature_h, "must be > 0")
 
 
@@ -275,10 +286,10 @@ class LawSetConfig:
     gamma: LawConfig = field(default_factory=LawConfig)
 
     def check(self, path: str) -> None:
-        """Each law valid, inclination within [-pi/2, pi/2]."""
-        self.r.check(f"{path}.r")
-        self.a.check(f"{path}.a")
-        self.gamma.check(f"{path}.gamma", inclination=True)
+        """Each law valid (no quintic: there is no cycle length here), gamma in range."""
+        self.r.check(f"{path}.r", kinds=_NO_CYCLE)
+        self.a.check(f"{path}.a", kinds=_NO_CYCLE)
+        self.gamma.check(f"{path}.gamma", inclination=True, kinds=_NO_CYCLE)
 
 
 @dataclass
@@ -430,9 +441,7 @@ class DynamicConfig:
 
     def _check_stability(self) -> None:
         """Refuse a dt beyond the RK4 limit of the regularised friction (MODEL.md s.6)."""
-        from creatio.studies.en02 import step_limit  # the dynamics core, imported on demand
-
-        limit = step_limit(self)
+        limit = self.step_limit()
         if self.solver.dt > limit and not self.solver.allow_unstable:
             raise ConfigError(
                 "solver.dt",
@@ -441,6 +450,24 @@ class DynamicConfig:
                 f"{self.sphere.mu}, sphere.eps = {self.sphere.eps}): the largest stable dt is "
                 f"{limit:.6g} s; set solver.allow_unstable=true to run anyway (with a warning)",
             )
+
+    def sphere_problem(self, dt: float | None = None) -> SphereProblem:
+        """The numeric-core problem of this config (at timestep dt, default solver.dt)."""
+        g, ph, sp, sv, st = self.geometry, self.phases, self.sphere, self.solver, self.study
+        law_r, law_a, law_g = (tuple(law.coefficients()) for law in ph.laws())
+        return SphereProblem(
+            R0=g.R0, dR=g.dR, A=g.A, Kr=g.Kr, Ka=g.Ka,
+            law_r=law_r, law_a=law_a, law_gamma=law_g,
+            m=sp.m, b=sp.b, g=sp.g, mu=sp.mu, eps=sp.eps,
+            R_init=st.initial.R, alpha_init=math.radians(st.initial.alpha_deg),
+            Rdot_init=st.initial.Rdot, alphadot_init=st.initial.alphadot,
+            t_end=st.duration, dt=sv.dt if dt is None else dt,
+            output_interval=sv.output_interval, allow_unstable=sv.allow_unstable,
+        )
+
+    def step_limit(self) -> float:
+        """Largest stable RK4 step (s) of this configuration (inf without friction)."""
+        return stability_limit(self.sphere_problem())
 
 
 @dataclass
@@ -565,15 +592,17 @@ def _resolve(study: str, overrides: tuple[str, ...], only_applicable: bool) -> R
     try:
         cfg = compose(study, ovs)
     except Exception as e:  # Hydra refused an override: unknown key, bad type, bad syntax
-        raise _override_error(study, ovs, e) from None
+        raise override_error(study, ovs, e) from None
     return validate(cfg)
 
 
-def _override_error(study: str, overrides: Sequence[str], error: Exception) -> ConfigError:
+def override_error(
+    study: str, overrides: Sequence[str], error: Exception, config_name: str = "config"
+) -> ConfigError:
     """Find the first override Hydra refuses on its own and name its key, value and reason."""
     for ov in overrides:
         try:
-            compose(study, [ov])
+            compose(study, [ov], config_name=config_name)
         except Exception as e:  # noqa: BLE001 - any refusal pins the culprit
             key, _, value = ov.partition("=")
             cause = e.__cause__ or e
@@ -606,5 +635,5 @@ def plain(obj: Any) -> Any:
 
 def dataset_path(root: str | Path, study: str, dt: float | None = None) -> Path:
     """Where a study's dataset lives under an output root (dynamic ones keyed by dt)."""
-    name = study if dt is None else f"{study}_dt{dt:g}"
+    name = study if dt is None else f"{study}_dt{float(dt)!r}"
     return Path(root) / "studies" / study / f"{name}.nc"

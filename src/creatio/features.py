@@ -26,8 +26,10 @@ __all__ = ["Cavity", "cavity", "helical_pitch", "pattern_angle"]
 Array = NDArray[np.float64]
 
 
-def pattern_angle(surface: Surface, motion: Motion, t: ArrayLike, alpha0: float = 0.0):
-    """Pattern angle alpha_p = alpha0 - (phi_a(t) - phi_a(0)) / Ka and its rate and acceleration."""
+def pattern_angle(
+    surface: Surface, motion: Motion, t: ArrayLike, alpha0: float = 0.0
+) -> tuple[Array, Array, Array]:
+    """Pattern angle alpha_p = alpha0 - (phi_a(t) - phi_a(0)) / Ka, its rate and acceleration."""
     pa = motion.phi_a(t)
     pa0 = motion.phi_a(0.0).value
     Ka = surface.Ka

@@ -103,7 +103,6 @@ def plan_sweep(
         raise ConfigError("study", study, "a sweep needs the study to sweep (study=en02)")
     axes = parse_axes(sweep)
     base = tuple(str(o) for o in base)
-    resolve(study, base)  # the base itself must be valid: fail fast, once
     spec = json.dumps({"study": study, "axes": axes, "base": base}, sort_keys=True)
     name = f"{study}-{hashlib.sha256(spec.encode()).hexdigest()[:12]}"
     points = []
@@ -117,6 +116,9 @@ def plan_sweep(
         dt = resolved.obj.solver.dt if study in DYNAMIC else None
         path = dataset_path(output_root(resolved, data_dir), study, dt)
         points.append(SweepPoint(index, ovs, resolved, "", str(path)))
+    if not any(p.valid for p in points):
+        raise ConfigError("sweep", list(sweep), f"every point was refused; the first: "
+                          f"{points[0].error}")
     return SweepPlan(study, tuple((k, tuple(v)) for k, v in axes), base, tuple(points), name,
                      f"{data_dir}/sweeps/{name}")
 
@@ -143,8 +145,6 @@ def aggregate(plan: SweepPlan):
     import numpy as np
     import xarray as xr
 
-    from creatio.studies.en02 import step_limit
-
     shape = tuple(len(v) for _, v in plan.axes)
     dims = [k.replace(".", "__") for k, _ in plan.axes]
     summaries = {p.index: _summary(p.dataset) for p in plan.points if p.valid}
@@ -162,12 +162,12 @@ def aggregate(plan: SweepPlan):
     dt = np.full(shape, np.nan)
     for p in plan.points:
         s = summaries.get(p.index)
-        status[p.index] = s["status"] if s else "invalid"
+        status[p.index] = s.get("status", "ok") if s else "invalid"
         message[p.index] = p.error
         if plan.study in DYNAMIC:
             cfg = p.resolved or _unchecked(plan.study, [*plan.base, *p.overrides])
             if cfg is not None:
-                limit[p.index] = step_limit(cfg.obj)
+                limit[p.index] = cfg.obj.step_limit()
                 dt[p.index] = cfg.obj.solver.dt
     data["status"] = (dims, status.astype(str))
     data["message"] = (dims, message.astype(str),

@@ -1,14 +1,16 @@
-"""Planning for the Snakefile: which files each study needs for one set of overrides.
+"""Planning for the Snakefile: which resolved config produces which files.
 
-The Snakefile stays declarative; the decisions live here, where they can be tested:
-each study gets only the overrides that apply to it, its resolved config hash, and an
-output root (``data`` for the default config, ``data/runs/<hash>`` otherwise).
+The Snakefile stays declarative; the decisions live here, where they can be tested. Every
+dataset job gets its resolved config as canonical YAML, its only config parameter: a job
+reruns exactly when its resolved config changes, however the overrides were spelled.
+Output roots: ``data`` for a study's default config, ``data/runs/<hash>`` otherwise.
 """
 
 from __future__ import annotations
 
-import shlex
-from collections.abc import Sequence
+import functools
+import sys
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -17,27 +19,56 @@ from creatio.config import (
     DYNAMIC,
     STUDIES,
     ConfigError,
+    Resolved,
     applicable,
     dataset_path,
     output_root,
     resolve,
 )
 
-__all__ = ["JobConfigs", "StudyPlan", "SweepRegistry", "compare_targets", "plan"]
+__all__ = [
+    "JobConfigs",
+    "StudyPlan",
+    "StudyRuns",
+    "SweepRegistry",
+    "as_list",
+    "compare_targets",
+    "plan",
+]
 
 KINEMATIC_REPORT = ("json", "md", "png", "csv")
 DYNAMIC_REPORT = ("json", "md", "png", "csv", "trajectory.png", "convergence.png")
 
 
+def as_list(value: Any) -> list[str]:
+    """A --config value as a list of strings (a bare string is one item, not characters)."""
+    if value is None:
+        return []
+    if isinstance(value, str):
+        return [value]
+    return [str(v) for v in value]
+
+
 @dataclass(frozen=True)
 class StudyPlan:
-    """One study's resolved config hash, overrides and file layout for this invocation."""
+    """One study's resolved config, applicable overrides and output root."""
 
     study: str
-    sha256: str
+    resolved: Resolved
     overrides: tuple[str, ...]
     root: str
-    dts: tuple[float, ...] | None
+
+    @property
+    def sha256(self) -> str:
+        """The resolved config's hash."""
+        return self.resolved.sha256
+
+    @property
+    def dts(self) -> tuple[float, ...] | None:
+        """Timesteps of a dynamic study (dt, dt / refine); None for a kinematic one."""
+        if self.study not in DYNAMIC:
+            return None
+        return tuple(self.resolved.obj.solver.timesteps())
 
     @property
     def datasets(self) -> list[str]:
@@ -62,17 +93,13 @@ class StudyPlan:
         kinds = KINEMATIC_REPORT if self.dts is None else DYNAMIC_REPORT
         return [self.report(k) for k in kinds]
 
-    @property
-    def cli_overrides(self) -> str:
-        """The overrides as shell-quoted `--override` arguments."""
-        return " ".join(f"--override {shlex.quote(o)}" for o in self.overrides)
-
 
 def plan(
     overrides: Sequence[str] = (), studies: Sequence[str] = STUDIES, data_dir: str = "data"
 ) -> dict[str, StudyPlan]:
     """Resolve every study's config under the overrides; refuse overrides no study uses."""
-    overrides = [str(o) for o in overrides]
+    overrides = as_list(overrides)
+    studies = as_list(studies)
     unknown = [s for s in studies if s not in STUDIES]
     if unknown:
         raise ConfigError("studies", unknown, f"must be among {', '.join(STUDIES)}")
@@ -82,9 +109,8 @@ def plan(
         ovs = applicable(study, overrides)
         used.update(ovs)
         resolved = resolve(study, ovs)
-        dts = tuple(resolved.obj.solver.timesteps()) if study in DYNAMIC else None
-        out[study] = StudyPlan(study, resolved.sha256, tuple(ovs),
-                               str(output_root(resolved, data_dir)), dts)
+        out[study] = StudyPlan(study, resolved, tuple(ovs),
+                               str(output_root(resolved, data_dir)))
     unused = [o for o in overrides if o not in used]
     if unused:
         raise ConfigError("overrides", unused, "no selected study has these keys")
@@ -100,45 +126,71 @@ def compare_targets(plans: dict[str, StudyPlan]) -> list[str]:
 
 
 class JobConfigs:
-    """Which config each dataset job runs: (output root, study) -> (hash, overrides).
+    """Which resolved config writes under (output root, study), for every job of this run.
 
-    Study runs and sweep points both register here, so one dataset rule serves both.
+    Study runs and sweep points register here, so one set of dataset rules serves both.
+    The default config of a study is registered on demand for the ``data`` root.
     """
 
-    def __init__(self) -> None:
-        self._by_root: dict[tuple[str, str], tuple[str, tuple[str, ...]]] = {}
+    def __init__(self, data_dir: str = "data") -> None:
+        self.data_dir = data_dir
+        self._by_root: dict[tuple[str, str], Resolved] = {}
+        # Planners to run on a miss: a job re-invoked in its own Snakemake process (run:
+        # directives, cluster executors) parses the Snakefile anew without the targets.
+        self.fallbacks: list[Callable[[], Any]] = []
 
-    def add(self, root: str, study: str, sha256: str, overrides: Sequence[str]) -> None:
-        """Register the config that produces datasets under root for study."""
-        self._by_root[(str(root), study)] = (sha256, tuple(overrides))
+    def add(self, root: str, resolved: Resolved) -> None:
+        """Register the config that produces datasets under root (first one wins)."""
+        self._by_root.setdefault((str(root), resolved.study), resolved)
 
-    def add_plans(self, plans: dict[str, StudyPlan]) -> None:
-        """Register every study of a plan."""
-        for p in plans.values():
-            self.add(p.root, p.study, p.sha256, p.overrides)
-
-    def add_sweep(self, sweep) -> None:
-        """Register every valid point of a sweep plan."""
-        for point in sweep.points:
-            if point.valid:
-                root = str(Path(point.dataset).parents[2])
-                self.add(root, sweep.study, point.resolved.sha256,
-                         [*sweep.base, *point.overrides])
-
-    def _get(self, root: str, study: str) -> tuple[str, tuple[str, ...]]:
+    def get(self, root: str, study: str) -> Resolved:
+        """The resolved config for (root, study)."""
+        key = (str(root), study)
+        if key not in self._by_root and str(root) == self.data_dir:
+            self._by_root[key] = resolve(study)
+        for fallback in self.fallbacks:
+            if key in self._by_root:
+                break
+            fallback()
         try:
-            return self._by_root[(root, study)]
+            return self._by_root[key]
         except KeyError:
             raise ConfigError("output", f"{root}/{study}",
                               "no configuration of this invocation writes there") from None
 
-    def sha(self, root: str, study: str) -> str:
-        """Short config hash the job must reproduce."""
-        return self._get(root, study)[0][:12]
+    def yaml(self, root: str, study: str) -> str:
+        """The canonical resolved YAML (a dataset job's config parameter)."""
+        return self.get(root, study).yaml
 
-    def cli_overrides(self, root: str, study: str) -> str:
-        """The job's overrides as shell-quoted `--override` arguments."""
-        return " ".join(f"--override {shlex.quote(o)}" for o in self._get(root, study)[1])
+    def datasets(self, root: str, study: str) -> list[str]:
+        """Dataset paths of (root, study): one, or one per timestep of a dynamic study."""
+        resolved = self.get(root, study)
+        if study not in DYNAMIC:
+            return [str(dataset_path(root, study))]
+        return [str(dataset_path(root, study, dt)) for dt in resolved.obj.solver.timesteps()]
+
+
+class StudyRuns:
+    """The studies of `snakemake all`, planned on first use (so a sweep never plans them)."""
+
+    def __init__(self, jobs: JobConfigs, overrides: Any, studies: Any) -> None:
+        self.jobs = jobs
+        self.overrides = as_list(overrides)
+        self.studies = as_list(studies) if studies is not None else list(STUDIES)
+
+    @functools.cached_property
+    def plans(self) -> dict[str, StudyPlan]:
+        """Resolve every selected study and register its jobs."""
+        plans = plan(self.overrides, self.studies, self.jobs.data_dir)
+        for p in plans.values():
+            self.jobs.add(p.root, p.resolved)
+            if p.overrides:
+                print(f"creatio: {p.study} {list(p.overrides)} -> {p.root}", file=sys.stderr)
+        return plans
+
+    def targets(self) -> list[str]:
+        """Every report of every selected study, plus the EN-02 / EN-02R comparison."""
+        return [f for p in self.plans.values() for f in p.reports] + compare_targets(self.plans)
 
 
 class SweepRegistry:
@@ -149,19 +201,20 @@ class SweepRegistry:
         self.basedir = Path(basedir)
         self.plans: dict[str, Any] = {}
 
-    def outputs(self, study: str, sweep: Sequence[str], overrides: Sequence[str]) -> list[str]:
+    def outputs(self, study: str, sweep: Any, overrides: Any) -> list[str]:
         """Plan a sweep (once), register its points' dataset jobs, return its aggregate."""
-        import sys
-
         from creatio.sweep import plan_sweep
 
+        sweep = as_list(sweep)
         if not sweep:
-            raise ConfigError("sweep", list(sweep),
+            raise ConfigError("sweep", sweep,
                               "`snakemake sweep` needs --config study=ID 'sweep=[\"KEY=V1,V2\"]'")
-        s = plan_sweep(study, list(sweep), list(overrides))
+        s = plan_sweep(study, sweep, as_list(overrides), self.jobs.data_dir)
         if s.name not in self.plans:
             self.plans[s.name] = s
-            self.jobs.add_sweep(s)
+            for point in s.points:
+                if point.valid:
+                    self.jobs.add(str(Path(point.dataset).parents[2]), point.resolved)
             print(f"creatio: sweep {s.name}: {len(s.points)} points, {len(s.datasets)} valid "
                   f"-> {s.outdir}", file=sys.stderr)
         return s.outputs
@@ -171,7 +224,7 @@ class SweepRegistry:
         import yaml
 
         spec = yaml.safe_load((self.basedir / "conf" / "sweeps" / f"{name}.yaml").read_text())
-        return self.outputs(spec["study"], spec["sweep"], spec.get("overrides") or [])
+        return self.outputs(spec["study"], spec["sweep"], spec.get("overrides"))
 
     def __getitem__(self, name: str) -> Any:
         return self.plans[name]

@@ -97,7 +97,11 @@ def run(cfg: Ct02Config) -> xr.Dataset:
 
 
 def _pitch(surface, motion: Motion, gamma: float) -> tuple[np.ndarray, np.ndarray]:
-    """Pitch from the formula and from C over the time alpha_c takes to advance +2 pi."""
+    """Pitch from the formula and from C over the time alpha_c takes to advance +2 pi.
+
+    With the CT-02 phases one turn moves R_c by p_R = 6.8 u, far beyond [0, dR]: this is a
+    check of the kinematic formula on the smoothly extended surface, not a followed branch.
+    """
     Wr, Wa = _linear_rate(motion.phi_r), _linear_rate(motion.phi_a)
     formula = np.array(helical_pitch(surface, Wr, Wa, gamma))
     turn = -2.0 * np.pi * surface.Ka / Wa

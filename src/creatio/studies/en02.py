@@ -7,45 +7,25 @@ CF-style units, and every all-step extremum as an attribute.
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 import xarray as xr
 
 from creatio.config import DynamicConfig
-from creatio.dynamics import SphereProblem, simulate, stability_limit
+from creatio.dynamics import simulate
+from creatio.features import pattern_angle
+from creatio.geometry import Motion
 
 COMPONENTS = ["x", "y", "z"]
 
 
-def problem(cfg: DynamicConfig, dt: float | None = None) -> SphereProblem:
-    """The numeric-core problem of a validated dynamic-study config (at timestep dt)."""
-    g, ph, sp, sv, st = cfg.geometry, cfg.phases, cfg.sphere, cfg.solver, cfg.study
-    law_r, law_a, law_g = (law.coefficients() for law in ph.laws())
-    return SphereProblem(
-        R0=g.R0, dR=g.dR, A=g.A, Kr=g.Kr, Ka=g.Ka,
-        law_r=tuple(law_r), law_a=tuple(law_a), law_gamma=tuple(law_g),
-        m=sp.m, b=sp.b, g=sp.g, mu=sp.mu, eps=sp.eps,
-        R_init=st.initial.R, alpha_init=math.radians(st.initial.alpha_deg),
-        Rdot_init=st.initial.Rdot, alphadot_init=st.initial.alphadot,
-        t_end=st.duration, dt=sv.dt if dt is None else dt,
-        output_interval=sv.output_interval, allow_unstable=sv.allow_unstable,
-    )
-
-
-def step_limit(cfg: DynamicConfig) -> float:
-    """Largest stable RK4 step (s) of this configuration (inf without friction)."""
-    return stability_limit(problem(cfg))
-
-
 def run(cfg: DynamicConfig, dt: float) -> xr.Dataset:
     """Simulate at timestep dt and return the time-history dataset."""
-    prob = problem(cfg, dt)
+    prob = cfg.sphere_problem(dt)
     res = simulate(prob)
     t = res.t
-    phi_a = cfg.phases.laws()[1]
     # The pattern angle starts at the initial contact angle and turns at -phi_a' / Ka.
-    pattern = prob.alpha_init - (phi_a(t).value - phi_a(0.0).value) / cfg.geometry.Ka
+    motion = Motion(*cfg.phases.laws())
+    pattern = pattern_angle(cfg.geometry.surface(), motion, t, prob.alpha_init)[0]
     rho = np.hypot(res.X[:, 0], res.X[:, 1])
     vec = ("time", "component")
     coords = {
