@@ -8,6 +8,7 @@
 #   snakemake sweep_en02_mu -c 2                              the worked sweep (outside all)
 #   snakemake release -c 2 --config version=0.2.0    freeze data/ in data/releases/0.2.0/
 #   snakemake diff -c 2 --config against=latest      data/reports/diff/<v>_vs_data.{txt,json}
+#   snakemake all --workflow-profile profiles/slurm    the same on a SLURM cluster
 #
 # Overrides are Hydra overrides, applied to every study whose config has the key.
 import sys
@@ -22,13 +23,17 @@ CREATIO = f'"{sys.executable}" -m creatio.cli'
 JOBS = JobConfigs()
 RUNS = StudyRuns(JOBS, config.get("overrides"), config.get("studies"))
 SWEEPS = SweepRegistry(JOBS, workflow.basedir)
-JOBS.fallbacks += [
+# A job re-invoked on its own (a cluster node, a run: directive) re-parses this file
+# without the targets: these re-plan what the invocation's --config asked for.
+PLANNERS = [
     lambda: RUNS.plans,
     lambda: SWEEPS.outputs(config.get("study", ""), config["sweep"], config.get("overrides"))
     if config.get("sweep")
     else None,
     lambda: SWEEPS.worked("en02_mu"),
 ]
+JOBS.fallbacks += PLANNERS
+SWEEPS.fallbacks += PLANNERS[1:]
 
 
 wildcard_constraints:
@@ -42,11 +47,18 @@ include: "workflows/sweeps.smk"
 include: "workflows/release.smk"
 
 
+# Cheap aggregation, reports and plots run where Snakemake runs, not as cluster jobs.
 localrules:
     all,
+    kinematic_report,
+    dynamic_report,
+    compare,
     sweep,
     sweep_en02_mu,
+    sweep_aggregate,
+    release,
     diff,
+    diff_report,
 
 
 rule all:

@@ -200,6 +200,8 @@ class SweepRegistry:
         self.jobs = jobs
         self.basedir = Path(basedir)
         self.plans: dict[str, Any] = {}
+        # Planners to run on a miss (a job re-invoked alone, e.g. on a cluster node).
+        self.fallbacks: list[Callable[[], Any]] = []
 
     def outputs(self, study: str, sweep: Any, overrides: Any) -> list[str]:
         """Plan a sweep (once), register its points' dataset jobs, return its aggregate."""
@@ -227,4 +229,11 @@ class SweepRegistry:
         return self.outputs(spec["study"], spec["sweep"], spec.get("overrides"))
 
     def __getitem__(self, name: str) -> Any:
-        return self.plans[name]
+        for fallback in self.fallbacks:
+            if name in self.plans:
+                break
+            fallback()
+        try:
+            return self.plans[name]
+        except KeyError:
+            raise ConfigError("sweep", name, "no sweep of this invocation has that name") from None
