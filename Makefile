@@ -18,6 +18,7 @@ lint: $(STAMP)
 
 bench: $(STAMP)
 	$(BIN)/python scripts/bench_en02.py
+	$(BIN)/python scripts/bench_kinematics.py
 
 $(STAMP): pyproject.toml constraints.txt
 	$(PY) -m venv $(VENV)
