@@ -79,21 +79,7 @@ def cold_compile() -> tuple[float, float]:
 
 def core_call(problem: SphereProblem) -> tuple[float, int]:
     """Time one call of the compiled loop alone (arrays prepared beforehand)."""
-    rot = problem.rotation_integrated
-    en = problem.energy
-    n_steps = round(problem.t_end / problem.dt)
-    stride = round(problem.output_interval / problem.dt)
-    args = (
-        problem.parameter_vector(),
-        problem.law_matrix(),
-        problem.initial_state(rot, en),
-        n_steps,
-        problem.dt,
-        stride,
-        np.empty((n_steps // stride + 2, core.NCOL)),
-        rot,
-        en,
-    )
+    args = problem.core_arguments()
     t0 = time.perf_counter()
     result = core.run(*args)
     elapsed = time.perf_counter() - t0

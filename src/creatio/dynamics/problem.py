@@ -159,6 +159,16 @@ class SphereProblem:
         """The three laws (r, alpha, gamma) as a (3, 6) coefficient array."""
         return np.array([self.law_r, self.law_a, self.law_gamma], dtype=float)
 
+    def core_arguments(self) -> tuple:
+        """Arguments of core.run for this problem: parameters, laws, initial state, step
+        counts, a preallocated output table and the rotation/energy specialisation."""
+        rot, en = self.rotation_integrated, bool(self.energy)
+        n_steps = _multiple("t_end", self.t_end, self.dt)
+        stride = _multiple("output_interval", self.output_interval, self.dt)
+        out = np.empty((n_steps // stride + 2, core.NCOL))
+        return (self.parameter_vector(), self.law_matrix(), self.initial_state(rot, en),
+                n_steps, self.dt, stride, out, rot, en)
+
     def initial_state(self, rotation: bool, energy: bool) -> NDArray[np.float64]:
         """Initial state vector for the given specialisation (identity orientation, zero sums)."""
         y = [self.R_init, self.alpha_init, self.Rdot_init, self.alphadot_init]
@@ -268,9 +278,8 @@ def simulate(problem: SphereProblem) -> SimulationResult:
         warnings.append("allow_unstable override: " + message)
     rot = problem.rotation_integrated
     en = bool(problem.energy)
-    n_steps = _multiple("t_end", problem.t_end, problem.dt)
-    stride = _multiple("output_interval", problem.output_interval, problem.dt)
-    out = np.empty((n_steps // stride + 2, core.NCOL))
+    args = problem.core_arguments()
+    out = args[6]
     (
         status,
         steps,
@@ -283,17 +292,7 @@ def simulate(problem: SphereProblem) -> SimulationResult:
         max_track,
         min_clear,
         max_bk,
-    ) = core.run(
-        problem.parameter_vector(),
-        problem.law_matrix(),
-        problem.initial_state(rot, en),
-        n_steps,
-        problem.dt,
-        stride,
-        out,
-        rot,
-        en,
-    )
+    ) = core.run(*args)
     if problem.mu > 0.0 and math.isfinite(max_n):
         observed = RK4_REAL_STABILITY / (_slip_rate_per_newton(problem) * max_n)
         if problem.dt > observed:
