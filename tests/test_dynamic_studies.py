@@ -89,3 +89,22 @@ def test_a_stop_is_recorded_not_hidden():
     assert 0.0 < ds.attrs["stop_time"] < 1.0
     assert math.isclose(float(ds.time.values[-1]), ds.attrs["stop_time"], abs_tol=1e-12)
     assert not ds.centre.isnull().any()
+
+
+def test_trajectory_only_skips_what_it_does_not_need():
+    """mu = 0 and only the trajectory asked: no rotation, no energy; the same path."""
+    short = ["phases.T=10.0", "sphere.mu=0"]
+    full = run_study(resolve("en02", short))
+    lean = run_study(resolve("en02", [*short, "study.outputs=[trajectory]"]))
+    assert full.attrs["rotation_integrated"] == 1 and full.attrs["energy_integrated"] == 1
+    assert lean.attrs["rotation_integrated"] == 0 and lean.attrs["energy_integrated"] == 0
+    assert float(abs(lean.centre - full.centre).max()) < 1e-15
+    assert lean.energy_residual.isnull().all()
+    with_friction = run_study(resolve("en02", ["phases.T=10.0", "study.outputs=[trajectory]"]))
+    assert with_friction.attrs["rotation_integrated"] == 1  # friction couples spin and path
+
+
+def test_outputs_must_include_the_trajectory():
+    """An outputs list without the trajectory is refused, naming the key."""
+    with pytest.raises(ConfigError, match="study.outputs"):
+        resolve("en02", ["study.outputs=[energy]"])

@@ -63,6 +63,14 @@ class Method(StrEnum):
     rk4 = "rk4"
 
 
+class Output(StrEnum):
+    """What a sphere run is asked to report (and so to integrate)."""
+
+    trajectory = "trajectory"
+    rotation = "rotation"
+    energy = "energy"
+
+
 def _require(ok: bool, key: str, value: Any, rule: str) -> None:
     if not ok:
         raise ConfigError(key, value, rule)
@@ -366,16 +374,26 @@ class InitialConfig:
 
 @dataclass
 class DynamicStudy:
-    """EN-02 family: duration and initial state."""
+    """EN-02 family: duration, initial state, and the outputs asked for.
+
+    outputs: ``trajectory`` alone integrates rotation only where friction or an initial spin
+    couples it to the path (mu > 0), and skips the energy bookkeeping; ``rotation`` and
+    ``energy`` ask for spin/orientation and for the energy balance.
+    """
 
     id: str = MISSING
     title: str = ""
     duration: float = MISSING
     initial: InitialConfig = field(default_factory=InitialConfig)
+    outputs: list[Output] = field(
+        default_factory=lambda: [Output.trajectory, Output.rotation, Output.energy]
+    )
 
     def check(self, path: str) -> None:
-        """Duration positive."""
+        """Duration positive; outputs include the trajectory."""
         _require(self.duration > 0.0, f"{path}.duration", self.duration, "must be > 0")
+        _require(Output.trajectory in self.outputs, f"{path}.outputs",
+                 [o.value for o in self.outputs], "must include trajectory")
 
 
 @dataclass
@@ -463,6 +481,8 @@ class DynamicConfig:
             Rdot_init=st.initial.Rdot, alphadot_init=st.initial.alphadot,
             t_end=st.duration, dt=sv.dt if dt is None else dt,
             output_interval=sv.output_interval, allow_unstable=sv.allow_unstable,
+            rotation=True if Output.rotation in st.outputs else None,
+            energy=Output.energy in st.outputs,
         )
 
     def step_limit(self) -> float:

@@ -28,6 +28,20 @@ from creatio.studies._checks import observed_order  # noqa: E402
 __all__ = ["kinematic_summary", "write_kinematic_report", "h_key"]
 
 
+def _json(data: Any) -> str:
+    """Strict JSON: NaN and infinities (a figure not computed) become null."""
+    def clean(x: Any) -> Any:
+        if isinstance(x, float) and not math.isfinite(x):
+            return None
+        if isinstance(x, dict):
+            return {k: clean(v) for k, v in x.items()}
+        if isinstance(x, list | tuple):
+            return [clean(v) for v in x]
+        return x
+
+    return json.dumps(clean(data), indent=2, allow_nan=False) + "\n"
+
+
 def h_key(h: float) -> str:
     """The h label of the report contract: Python's shortest float repr (0.01, 1e-05)."""
     return repr(float(h))
@@ -150,7 +164,7 @@ def write_kinematic_report(dataset: str | Path, outdir: str | Path) -> dict[str,
     summary = kinematic_summary(ds)
     paths = {ext: outdir / f"{study}.{ext}" for ext in ("json", "md", "png")}
     paths["csv"] = outdir / f"{study}_fd_error.csv"
-    paths["json"].write_text(json.dumps(summary, indent=2) + "\n")
+    paths["json"].write_text(_json(summary))
     header, rows = _fd_rows(summary, study)
     with paths["csv"].open("w", newline="") as fh:
         w = csv.writer(fh)
@@ -404,7 +418,7 @@ def write_dynamic_report(datasets: Sequence[Path], outdir: str | Path) -> dict[s
         "trajectory": outdir / f"{study}_trajectory.png",
         "convergence": outdir / f"{study}_convergence.png",
     }
-    paths["json"].write_text(json.dumps(s, indent=2) + "\n")
+    paths["json"].write_text(_json(s))
     _history_figure(ds, paths["png"])
     _trajectory_figure([(study, ds)], config, paths["trajectory"])
     _convergence_figure_dynamic(runs, paths["convergence"])
