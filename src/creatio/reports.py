@@ -221,14 +221,18 @@ def _kinematic_markdown(ds: xr.Dataset, s: dict, header, rows, paths) -> str:
 
 
 # ------------------------------------------------------------------------ dynamic studies
-def timestep_difference(coarse: xr.Dataset, fine: xr.Dataset) -> float:
-    """Max centre-position difference between two runs over their common output times."""
+def centre_difference(coarse: xr.Dataset, fine: xr.Dataset) -> tuple[np.ndarray, np.ndarray]:
+    """Common output times of two runs and |X_coarse - X_fine| at each of them."""
     common = np.intersect1d(np.round(coarse.time.values, 9), np.round(fine.time.values, 9))
-    if common.size == 0:
-        return float("nan")
     a = coarse.centre.sel(time=common, method="nearest").values
     b = fine.centre.sel(time=common, method="nearest").values
-    return float(np.max(np.linalg.norm(a - b, axis=-1)))
+    return common, np.linalg.norm(a - b, axis=-1)
+
+
+def timestep_difference(coarse: xr.Dataset, fine: xr.Dataset) -> float:
+    """Max centre-position difference between two runs over their common output times."""
+    _, d = centre_difference(coarse, fine)
+    return float(np.max(d)) if d.size else float("nan")
 
 
 def dynamic_summary(datasets: Sequence[xr.Dataset]) -> dict[str, Any]:
@@ -346,9 +350,7 @@ def _convergence_figure_dynamic(datasets: Sequence[xr.Dataset], path: Path) -> N
     fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(11, 4))
     if len(datasets) > 1:
         coarse, fine = datasets[0], datasets[1]
-        common = np.intersect1d(np.round(coarse.time.values, 9), np.round(fine.time.values, 9))
-        d = np.linalg.norm(coarse.centre.sel(time=common, method="nearest").values
-                           - fine.centre.sel(time=common, method="nearest").values, axis=-1)
+        common, d = centre_difference(coarse, fine)
         ax1.semilogy(common, np.maximum(d, 1e-18))
         ax1.set_title(f"|X(dt={coarse.attrs['dt']:g}) - X(dt={fine.attrs['dt']:g})|")
     ax1.set_xlabel("time (s)")
