@@ -22,6 +22,7 @@ from omegaconf import MISSING, DictConfig, OmegaConf
 from omegaconf.errors import OmegaConfBaseException
 
 from creatio.dynamics import SphereProblem, stability_limit
+from creatio.dynamics.integrators import ORDERS
 from creatio.geometry import Surface
 from creatio.laws import Law, LawKind
 
@@ -58,9 +59,12 @@ class AngleUnit(StrEnum):
 
 
 class Method(StrEnum):
-    """Integration scheme for the dynamic studies."""
+    """Integration scheme for the dynamic studies (creatio.dynamics.integrators)."""
 
     rk4 = "rk4"
+    dopri5 = "dopri5"
+    dop853 = "dop853"
+    radau5 = "radau5"
 
 
 class Output(StrEnum):
@@ -218,18 +222,40 @@ class SphereConfig:
 
 @dataclass
 class SolverConfig:
-    """Time integration: method, step, refinement for the convergence pair, output sampling."""
+    """Time integration: method, step, refinement for the convergence pair, output sampling.
+
+    rk4 (and any method with fixed_step) takes the constant step dt. The adaptive methods
+    control the local error to rtol/atol; their convergence pair is the run at rtol/atol and
+    the run at the tolerances divided by refine**order (the error ratio a dt / refine pair
+    gives), and their datasets are still named by dt and dt / refine.
+    """
 
     method: Method = Method.rk4
     dt: float = 0.002
     refine: int = 2
     output_interval: float = 0.1
     allow_unstable: bool = False
+    rtol: float = 1e-8
+    atol: float = 1e-10
+    fixed_step: bool = False
+
+    @property
+    def adaptive(self) -> bool:
+        """Whether the step is set by error control rather than by dt."""
+        return self.method != Method.rk4 and not self.fixed_step
 
     def check(self, path: str) -> None:
-        """dt > 0, refine >= 2, output_interval a positive integer multiple of dt."""
+        """dt > 0, refine >= 2, tolerances > 0, output_interval a multiple of a fixed dt."""
         _require(self.dt > 0.0, f"{path}.dt", self.dt, "must be > 0")
         _require(self.refine >= 2, f"{path}.refine", self.refine, "must be an integer >= 2")
+        _require(self.rtol > 0.0, f"{path}.rtol", self.rtol, "must be > 0")
+        _require(self.atol > 0.0, f"{path}.atol", self.atol, "must be > 0")
+        if self.adaptive:
+            _require(
+                self.output_interval > 0.0, f"{path}.output_interval", self.output_interval,
+                "must be > 0",
+            )
+            return
         ratio = self.output_interval / self.dt
         _require(
             self.output_interval > 0.0 and abs(ratio - round(ratio)) <= 1e-9 * ratio,
@@ -237,6 +263,11 @@ class SolverConfig:
             self.output_interval,
             f"must be a positive integer multiple of solver.dt = {self.dt}",
         )
+
+    def tolerances(self, dt: float) -> tuple[float, float]:
+        """(rtol, atol) of the run named by dt: scaled by (dt / solver.dt)**order."""
+        scale = (dt / self.dt) ** ORDERS[str(self.method)]
+        return self.rtol * scale, self.atol * scale
 
     def timesteps(self) -> list[float]:
         """The compared steps: dt and dt / refine."""
@@ -450,7 +481,7 @@ class DynamicConfig:
         )
         steps = self.study.duration / self.solver.dt
         _require(
-            abs(steps - round(steps)) <= 1e-9 * steps,
+            self.solver.adaptive or abs(steps - round(steps)) <= 1e-9 * steps,
             "study.duration",
             self.study.duration,
             f"must be an integer multiple of solver.dt = {self.solver.dt}",
@@ -458,13 +489,15 @@ class DynamicConfig:
         self._check_stability()
 
     def _check_stability(self) -> None:
-        """Refuse a dt beyond the RK4 limit of the regularised friction (MODEL.md s.6)."""
+        """Refuse a fixed dt beyond the explicit scheme's limit for the regularised friction
+        (MODEL.md s.6); adaptive and L-stable methods have no such limit."""
         limit = self.step_limit()
         if self.solver.dt > limit and not self.solver.allow_unstable:
             raise ConfigError(
                 "solver.dt",
                 self.solver.dt,
-                f"beyond the RK4 stability limit of the regularised friction (sphere.mu = "
+                f"beyond the {str(self.solver.method).upper()} stability limit of the "
+                f"regularised friction (sphere.mu = "
                 f"{self.sphere.mu}, sphere.eps = {self.sphere.eps}): the largest stable dt is "
                 f"{limit:.6g} s; set solver.allow_unstable=true to run anyway (with a warning)",
             )
@@ -473,20 +506,24 @@ class DynamicConfig:
         """The numeric-core problem of this config (at timestep dt, default solver.dt)."""
         g, ph, sp, sv, st = self.geometry, self.phases, self.sphere, self.solver, self.study
         law_r, law_a, law_g = (tuple(law.coefficients()) for law in ph.laws())
+        dt = sv.dt if dt is None else dt
+        rtol, atol = sv.tolerances(dt)
         return SphereProblem(
             R0=g.R0, dR=g.dR, A=g.A, Kr=g.Kr, Ka=g.Ka,
             law_r=law_r, law_a=law_a, law_gamma=law_g,
             m=sp.m, b=sp.b, g=sp.g, mu=sp.mu, eps=sp.eps,
             R_init=st.initial.R, alpha_init=math.radians(st.initial.alpha_deg),
             Rdot_init=st.initial.Rdot, alphadot_init=st.initial.alphadot,
-            t_end=st.duration, dt=sv.dt if dt is None else dt,
+            t_end=st.duration, dt=dt,
             output_interval=sv.output_interval, allow_unstable=sv.allow_unstable,
+            method=str(sv.method), rtol=rtol, atol=atol, fixed_step=sv.fixed_step,
             rotation=True if Output.rotation in st.outputs else None,
             energy=Output.energy in st.outputs,
         )
 
     def step_limit(self) -> float:
-        """Largest stable RK4 step (s) of this configuration (inf without friction)."""
+        """Largest stable fixed step (s) of this configuration's explicit scheme (inf without
+        friction, for an adaptive method and for radau5)."""
         return stability_limit(self.sphere_problem())
 
 

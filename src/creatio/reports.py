@@ -427,8 +427,16 @@ def write_dynamic_report(datasets: Sequence[Path], outdir: str | Path) -> dict[s
     _history_csv(ds, paths["csv"])
     pub = published.EN02 if study == "en02" else {}
     rows = [(label, s[key], pub.get(key, "")) for label, key in SUMMARY_ROWS]
+    method = str(ds.attrs.get("method", "rk4"))
+    if "rtol" in ds.attrs:
+        pair = (f"{method} (adaptive) at rtol = {ds.attrs['rtol']:g} compared with rtol = "
+                f"{runs[-1].attrs['rtol']:g} (datasets named dt = {s['dt_s'][0]:g}, "
+                f"{s['dt_s'][-1]:g} s); ")
+    else:
+        pair = (f"{method.upper()} at dt = {s['dt_s'][0]:g} s compared with dt = "
+                f"{s['dt_s'][-1]:g} s; ")
     lines = [f"# {ds.attrs.get('title', study)}", "",
-             f"RK4 at dt = {s['dt_s'][0]:g} s compared with dt = {s['dt_s'][-1]:g} s; "
+             pair +
              f"config sha256 `{s['config_sha256'][:12]}`, creatio "
              f"{ds.attrs.get('creatio_version')}, commit {ds.attrs.get('git_commit', '')[:10]}.",
              "", "## Summary figures", ""]
@@ -439,7 +447,8 @@ def write_dynamic_report(datasets: Sequence[Path], outdir: str | Path) -> dict[s
                   "derivatives."]
     lines += ["", "Extrema are taken over every integration step. Energy residual per dt: "
               + ", ".join(f"{k} s: {_fmt(v)} J" for k, v in s["energy_residual_by_dt_J"].items())
-              + f". RK4 stability limit of the friction: {_fmt(s['stability_limit_dt_s'])} s; "
+              + f". {method.upper()} stability limit of the friction: "
+              f"{_fmt(s['stability_limit_dt_s'])} s; "
               f"max b kappa on the path: {_fmt(s['max_b_kappa'])}.", ""]
     if s["warnings"]:
         lines += ["## Warnings", "", *[f"* {w}" for w in s["warnings"]], ""]

@@ -1,12 +1,15 @@
 """Numeric core of the sphere dynamics on the moving corrugated surface (MODEL.md s.1-6).
 
-Plain numbers in, numpy arrays out: a SphereProblem is integrated by a compiled fixed-step
-RK4 loop (simulate), with the friction stability limit (stability_limit) enforced.
+Plain numbers in, numpy arrays out: a SphereProblem is integrated by a compiled loop
+(simulate): fixed-step RK4 (the notebook's reference), the adaptive pairs dopri5 and
+dop853, or the L-stable radau5; the friction stability limit of a fixed-step explicit
+scheme (stability_limit) is enforced.
 """
 
 from creatio.dynamics.kinematics import centre_kinematics
 from creatio.dynamics.laws import law_eval
 from creatio.dynamics.problem import (
+    METHODS,
     RK4_REAL_STABILITY,
     STABILITY_MARGIN,
     SimulationResult,
@@ -17,6 +20,7 @@ from creatio.dynamics.problem import (
 )
 
 __all__ = [
+    "METHODS",
     "RK4_REAL_STABILITY",
     "STABILITY_MARGIN",
     "SimulationResult",

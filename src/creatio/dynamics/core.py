@@ -28,6 +28,7 @@ STATUS_NAMES = (
     "edge_crossed",
     "offset_singular",
     "non_finite",
+    "step_failed",
 )
 
 # Columns of the history table written by the loop (world frame unless noted).
@@ -210,14 +211,32 @@ def _pack(p, lawc):
     return pp, lc
 
 
-@njit(cache=True)
-def _integrate(p, lawc, y0, n_steps, dt, stride, out, rot, en):
-    """RK4 loop with per-step diagnostics; rows of `out` are the sampled histories.
+# Slots of the running-extrema array shared by the loops (see _observe).
+E_MIN_N, E_MAX_N, E_MAX_SLIP, E_MAX_RES, E_MAX_TRACK, E_MIN_CLEAR, E_MAX_BK, E_E0, E_AZ = range(9)
+NEXT = 9
 
-    Returns (status, steps, rows, rhs_evals, min_N, max_N, max_slip, max_residual,
-    max_tracking, min_clearance, max_b_kappa).
+
+@njit(cache=True)
+def new_extrema(en):
+    """Running extrema before the first step (max residual is NaN without energy)."""
+    ext = np.zeros(NEXT)
+    ext[E_MIN_N] = math.inf
+    ext[E_MAX_N] = -math.inf
+    ext[E_MAX_RES] = 0.0 if en else math.nan
+    ext[E_MIN_CLEAR] = math.inf
+    ext[E_MAX_BK] = -math.inf
+    return ext
+
+
+@njit(cache=True)
+def _observe(first, t, y, d, p, ext, out, row, final, sample, rot, en):
+    """Diagnostics of one step start: update extrema, test the stop conditions, write a row.
+
+    d is the diagnostic tuple of _rhs at (t, y). A row is written when the step is on the
+    output grid (sample), is the last one (final) or stops the run. Returns (status, rows
+    written).
     """
-    pp, lc = _pack(p, lawc)
+    N, slip, X1, X2, X3, V1, V2, V3, f1, f2, f3, pr, gm, bk = d
     R0 = p[P_R0]
     dR = p[P_DR]
     k = p[P_K]
@@ -226,24 +245,139 @@ def _integrate(p, lawc, y0, n_steps, dt, stride, out, rot, en):
     g = p[P_G]
     inertia = p[P_I]
     ncav = p[P_NCAV]
-    ns = y0.size
     ie = 12 if rot else 4
+    two_pi = 2.0 * math.pi
+    R = y[0]
+    a = y[1]
+    # centre's coordinate along the generator e_g (MODEL.md s.1 inverse map); at
+    # gamma = 0 it is rho - R0, so clear = min(rho - b - R0, R1 - rho - b)
+    sx = (math.sqrt(X1 * X1 + X2 * X2) - R0) * math.cos(gm) + X3 * math.sin(gm)
+    clear = min(sx - b, dR - sx - b)
+    rc = (0.5 * math.pi - pr + two_pi * ncav) / k
+    track = abs(R - rc)
+    kin = math.nan
+    pot = math.nan
+    energy = math.nan
+    res = math.nan
+    if en:
+        kin = 0.5 * m * (V1 * V1 + V2 * V2 + V3 * V3)
+        if rot:
+            kin += 0.5 * inertia * (y[4] * y[4] + y[5] * y[5] + y[6] * y[6])
+        pot = m * g * X3
+        energy = kin + pot
+        if first:
+            ext[E_E0] = energy
+        res = energy - ext[E_E0] - y[ie] + y[ie + 1]
+        if abs(res) > ext[E_MAX_RES]:
+            ext[E_MAX_RES] = abs(res)
+    raw = a + math.atan2(X2, X1)
+    if first:
+        az = math.atan2(math.sin(raw), math.cos(raw))
+    else:
+        az = raw + two_pi * np.rint((ext[E_AZ] - raw) / two_pi)
+    ext[E_AZ] = az
+    if N < ext[E_MIN_N]:
+        ext[E_MIN_N] = N
+    if N > ext[E_MAX_N]:
+        ext[E_MAX_N] = N
+    if slip > ext[E_MAX_SLIP]:
+        ext[E_MAX_SLIP] = slip
+    if track > ext[E_MAX_TRACK]:
+        ext[E_MAX_TRACK] = track
+    if clear < ext[E_MIN_CLEAR]:
+        ext[E_MIN_CLEAR] = clear
+    if bk > ext[E_MAX_BK]:
+        ext[E_MAX_BK] = bk
+    total = N + slip + X1 + X2 + X3 + bk
+    for j in range(y.size):
+        total += y[j]
+    status = 0
+    if not math.isfinite(total):
+        status = 5
+    elif N <= 0.0:
+        status = 1
+    elif R < 0.0 or R > dR:
+        status = 2
+    elif clear < 0.0:
+        status = 3
+    elif bk >= 1.0:
+        status = 4
+    if not (status != 0 or final or sample):
+        return status, 0
+    ca = math.cos(a)
+    sa = math.sin(a)
+    out[row, COL_T] = t
+    out[row, COL_X] = X1 * ca - X2 * sa
+    out[row, COL_X + 1] = X1 * sa + X2 * ca
+    out[row, COL_X + 2] = X3
+    out[row, COL_R] = R
+    out[row, COL_ALPHA] = a
+    out[row, COL_V] = V1 * ca - V2 * sa
+    out[row, COL_V + 1] = V1 * sa + V2 * ca
+    out[row, COL_V + 2] = V3
+    out[row, COL_SPEED] = math.sqrt(V1 * V1 + V2 * V2 + V3 * V3)
+    out[row, COL_N] = N
+    out[row, COL_F] = f1 * ca - f2 * sa
+    out[row, COL_F + 1] = f1 * sa + f2 * ca
+    out[row, COL_F + 2] = f3
+    out[row, COL_SLIP] = slip
+    if rot:
+        wx = y[4]
+        wy = y[5]
+        wz = y[6]
+        qn = 1.0 / math.sqrt(y[7] * y[7] + y[8] * y[8] + y[9] * y[9] + y[10] * y[10])
+        q0 = y[7] * qn
+        q1 = y[8] * qn
+        q2 = y[9] * qn
+        q3 = y[10] * qn
+        spin = y[11]
+    else:
+        wx = 0.0
+        wy = 0.0
+        wz = 0.0
+        q0 = 1.0
+        q1 = 0.0
+        q2 = 0.0
+        q3 = 0.0
+        spin = 0.0
+    out[row, COL_OMEGA] = wx
+    out[row, COL_OMEGA + 1] = wy
+    out[row, COL_OMEGA + 2] = wz
+    out[row, COL_SPIN_RATE] = math.sqrt(wx * wx + wy * wy + wz * wz)
+    out[row, COL_SPIN] = spin
+    out[row, COL_Q] = q0
+    out[row, COL_Q + 1] = q1
+    out[row, COL_Q + 2] = q2
+    out[row, COL_Q + 3] = q3
+    out[row, COL_MARKER] = 2.0 * (q1 * q3 + q0 * q2)
+    out[row, COL_MARKER + 1] = 2.0 * (q2 * q3 - q0 * q1)
+    out[row, COL_MARKER + 2] = q0 * q0 - q1 * q1 - q2 * q2 + q3 * q3
+    out[row, COL_AZIMUTH] = az
+    out[row, COL_KINETIC] = kin
+    out[row, COL_POTENTIAL] = pot
+    out[row, COL_ENERGY] = energy
+    out[row, COL_WORK] = y[ie] if en else math.nan
+    out[row, COL_DISSIPATION] = y[ie + 1] if en else math.nan
+    out[row, COL_RESIDUAL] = res
+    out[row, COL_CAVITY_R] = rc
+    return status, 1
+
+
+@njit(cache=True)
+def _integrate(p, lawc, y0, n_steps, dt, stride, out, rot, en):
+    """RK4 loop with per-step diagnostics; rows of `out` are the sampled histories.
+
+    Returns (status, steps, rows, rhs_evals, extrema) with extrema the array of _observe.
+    """
+    pp, lc = _pack(p, lawc)
+    ns = y0.size
     y = y0.copy()
     k1 = np.empty(ns)
     k2 = np.empty(ns)
     k3 = np.empty(ns)
     k4 = np.empty(ns)
     yt = np.empty(ns)
-    two_pi = 2.0 * math.pi
-    min_n = math.inf
-    max_n = -math.inf
-    max_slip = 0.0
-    max_res = 0.0 if en else math.nan
-    max_track = 0.0
-    min_clear = math.inf
-    max_bk = -math.inf
-    e0 = 0.0
-    az = 0.0
+    ext = new_extrema(en)
     status = 0
     rows = 0
     evals = 0
@@ -253,123 +387,13 @@ def _integrate(p, lawc, y0, n_steps, dt, stride, out, rot, en):
     for i in range(n_steps + 1):
         step = i
         t = i * dt
-        N, slip, X1, X2, X3, V1, V2, V3, f1, f2, f3, pr, gm, bk = _rhs(
-            t, y, k1, pp, lc, rot, en, True
-        )
+        d = _rhs(t, y, k1, pp, lc, rot, en, True)
         evals += 1
-        R = y[0]
-        a = y[1]
-        # centre's coordinate along the generator e_g (MODEL.md s.1 inverse map); at
-        # gamma = 0 it is rho - R0, so clear = min(rho - b - R0, R1 - rho - b)
-        sx = (math.sqrt(X1 * X1 + X2 * X2) - R0) * math.cos(gm) + X3 * math.sin(gm)
-        clear = min(sx - b, dR - sx - b)
-        rc = (0.5 * math.pi - pr + two_pi * ncav) / k
-        track = abs(R - rc)
-        kin = math.nan
-        pot = math.nan
-        energy = math.nan
-        res = math.nan
-        if en:
-            kin = 0.5 * m * (V1 * V1 + V2 * V2 + V3 * V3)
-            if rot:
-                kin += 0.5 * inertia * (y[4] * y[4] + y[5] * y[5] + y[6] * y[6])
-            pot = m * g * X3
-            energy = kin + pot
-            if i == 0:
-                e0 = energy
-            res = energy - e0 - y[ie] + y[ie + 1]
-            if abs(res) > max_res:
-                max_res = abs(res)
-        raw = a + math.atan2(X2, X1)
-        if i == 0:
-            az = math.atan2(math.sin(raw), math.cos(raw))
-        else:
-            az = raw + two_pi * np.rint((az - raw) / two_pi)
-        if N < min_n:
-            min_n = N
-        if N > max_n:
-            max_n = N
-        if slip > max_slip:
-            max_slip = slip
-        if track > max_track:
-            max_track = track
-        if clear < min_clear:
-            min_clear = clear
-        if bk > max_bk:
-            max_bk = bk
-        total = N + slip + X1 + X2 + X3 + bk
-        for j in range(ns):
-            total += y[j]
-        if not math.isfinite(total):
-            status = 5
-        elif N <= 0.0:
-            status = 1
-        elif R < 0.0 or R > dR:
-            status = 2
-        elif clear < 0.0:
-            status = 3
-        elif bk >= 1.0:
-            status = 4
-        last = status != 0 or i == n_steps
-        if last or i % stride == 0:
-            ca = math.cos(a)
-            sa = math.sin(a)
-            out[rows, COL_T] = t
-            out[rows, COL_X] = X1 * ca - X2 * sa
-            out[rows, COL_X + 1] = X1 * sa + X2 * ca
-            out[rows, COL_X + 2] = X3
-            out[rows, COL_R] = R
-            out[rows, COL_ALPHA] = a
-            out[rows, COL_V] = V1 * ca - V2 * sa
-            out[rows, COL_V + 1] = V1 * sa + V2 * ca
-            out[rows, COL_V + 2] = V3
-            out[rows, COL_SPEED] = math.sqrt(V1 * V1 + V2 * V2 + V3 * V3)
-            out[rows, COL_N] = N
-            out[rows, COL_F] = f1 * ca - f2 * sa
-            out[rows, COL_F + 1] = f1 * sa + f2 * ca
-            out[rows, COL_F + 2] = f3
-            out[rows, COL_SLIP] = slip
-            if rot:
-                wx = y[4]
-                wy = y[5]
-                wz = y[6]
-                qn = 1.0 / math.sqrt(y[7] * y[7] + y[8] * y[8] + y[9] * y[9] + y[10] * y[10])
-                q0 = y[7] * qn
-                q1 = y[8] * qn
-                q2 = y[9] * qn
-                q3 = y[10] * qn
-                spin = y[11]
-            else:
-                wx = 0.0
-                wy = 0.0
-                wz = 0.0
-                q0 = 1.0
-                q1 = 0.0
-                q2 = 0.0
-                q3 = 0.0
-                spin = 0.0
-            out[rows, COL_OMEGA] = wx
-            out[rows, COL_OMEGA + 1] = wy
-            out[rows, COL_OMEGA + 2] = wz
-            out[rows, COL_SPIN_RATE] = math.sqrt(wx * wx + wy * wy + wz * wz)
-            out[rows, COL_SPIN] = spin
-            out[rows, COL_Q] = q0
-            out[rows, COL_Q + 1] = q1
-            out[rows, COL_Q + 2] = q2
-            out[rows, COL_Q + 3] = q3
-            out[rows, COL_MARKER] = 2.0 * (q1 * q3 + q0 * q2)
-            out[rows, COL_MARKER + 1] = 2.0 * (q2 * q3 - q0 * q1)
-            out[rows, COL_MARKER + 2] = q0 * q0 - q1 * q1 - q2 * q2 + q3 * q3
-            out[rows, COL_AZIMUTH] = az
-            out[rows, COL_KINETIC] = kin
-            out[rows, COL_POTENTIAL] = pot
-            out[rows, COL_ENERGY] = energy
-            out[rows, COL_WORK] = y[ie] if en else math.nan
-            out[rows, COL_DISSIPATION] = y[ie + 1] if en else math.nan
-            out[rows, COL_RESIDUAL] = res
-            out[rows, COL_CAVITY_R] = rc
-            rows += 1
-        if last:
+        status, wrote = _observe(
+            i == 0, t, y, d, p, ext, out, rows, i == n_steps, i % stride == 0, rot, en
+        )
+        rows += wrote
+        if status != 0 or i == n_steps:
             break
         for j in range(ns):
             yt[j] = y[j] + h2 * k1[j]
@@ -383,19 +407,7 @@ def _integrate(p, lawc, y0, n_steps, dt, stride, out, rot, en):
         for j in range(ns):
             y[j] += h6 * (k1[j] + 2.0 * (k2[j] + k3[j]) + k4[j])
         evals += 3
-    return (
-        status,
-        step,
-        rows,
-        evals,
-        min_n,
-        max_n,
-        max_slip,
-        max_res,
-        max_track,
-        min_clear,
-        max_bk,
-    )
+    return status, step, rows, evals, ext
 
 
 @njit(cache=True)

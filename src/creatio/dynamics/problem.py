@@ -2,16 +2,18 @@
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass, field
 
 import numpy as np
 from numpy.typing import NDArray
 
-from creatio.dynamics import core
+from creatio.dynamics import core, integrators
 from creatio.dynamics.laws import law_eval
 
 __all__ = [
+    "METHODS",
     "RK4_REAL_STABILITY",
     "STABILITY_MARGIN",
     "SimulationResult",
@@ -24,6 +26,13 @@ __all__ = [
 #: Classical RK4 is stable for z = lambda dt on the negative real axis down to this value
 #: (the real root of |1 + z + z^2/2 + z^3/6 + z^4/24| = 1, taken with a minus sign).
 RK4_REAL_STABILITY = 2.785293563405282
+
+#: Integration methods: fixed-step RK4 (the notebook's reference) and the compiled
+#: adaptive / stiffness-aware ones of creatio.dynamics.integrators.
+METHODS = ("rk4", "dopri5", "dop853", "radau5")
+
+#: Accepted steps after which an adaptive run gives up (status step_failed).
+MAX_STEPS = 20_000_000
 
 #: Safety factor on the a-priori normal reaction used by :func:`stability_limit`.
 STABILITY_MARGIN = 1.25
@@ -61,6 +70,10 @@ class SphereProblem:
 
     Laws are the 6-coefficient vectors (phi0, rate, delta, T, amplitude, omega) of
     creatio.laws; angles in radians, SI units; gravity is (0, 0, -g).
+
+    method: "rk4" (fixed step dt) or one of the adaptive methods "dopri5", "dop853",
+    "radau5", which control the local error to rtol/atol (dt is then the first step; with
+    fixed_step they take the constant step dt instead, without error control).
     """
 
     R0: float
@@ -87,6 +100,15 @@ class SphereProblem:
     rotation: bool | None = None
     energy: bool = True
     allow_unstable: bool = False
+    method: str = "rk4"
+    rtol: float = 1e-10
+    atol: float = 1e-12
+    fixed_step: bool = False
+
+    @property
+    def adaptive(self) -> bool:
+        """Whether the step is chosen by error control (adaptive method, not fixed_step)."""
+        return self.method != "rk4" and not self.fixed_step
 
     def __post_init__(self) -> None:
         for name in ("R0", "dR", "m", "b", "eps", "dt", "output_interval", "t_end"):
@@ -108,8 +130,15 @@ class SphereProblem:
         if len(omega) != 3:
             raise ValueError(f"omega_init needs 3 components, got {self.omega_init}")
         object.__setattr__(self, "omega_init", omega)
-        _multiple("output_interval", self.output_interval, self.dt)
-        _multiple("t_end", self.t_end, self.dt)
+        if self.method not in METHODS:
+            raise ValueError(f"method must be one of {', '.join(METHODS)}, got {self.method!r}")
+        for name in ("rtol", "atol"):
+            value = getattr(self, name)
+            if not (math.isfinite(value) and value > 0.0):
+                raise ValueError(f"{name} must be finite and > 0, got {value}")
+        if not self.adaptive:
+            _multiple("output_interval", self.output_interval, self.dt)
+            _multiple("t_end", self.t_end, self.dt)
         if self.rotation is False and (self.mu > 0.0 or any(omega)):
             raise ValueError(
                 "rotation=False needs mu = 0 and omega_init = 0: friction or an initial spin "
@@ -161,13 +190,28 @@ class SphereProblem:
 
     def core_arguments(self) -> tuple:
         """Arguments of core.run for this problem: parameters, laws, initial state, step
-        counts, a preallocated output table and the rotation/energy specialisation."""
+        counts, a preallocated output table and the rotation/energy specialisation.
+
+        (The adaptive driver takes the first three and the table; its rows are the output
+        grid, so the table is sized by t_end / output_interval for every method.)"""
         rot, en = self.rotation_integrated, bool(self.energy)
-        n_steps = _multiple("t_end", self.t_end, self.dt)
-        stride = _multiple("output_interval", self.output_interval, self.dt)
-        out = np.empty((n_steps // stride + 2, core.NCOL))
-        return (self.parameter_vector(), self.law_matrix(), self.initial_state(rot, en),
-                n_steps, self.dt, stride, out, rot, en)
+        if self.adaptive:
+            n_steps, stride = math.ceil(self.t_end / self.output_interval * (1 - 1e-12)), 1
+        else:
+            n_steps = _multiple("t_end", self.t_end, self.dt)
+            stride = _multiple("output_interval", self.output_interval, self.dt)
+        out = np.empty((n_steps // stride + 3, core.NCOL))
+        return (
+            self.parameter_vector(),
+            self.law_matrix(),
+            self.initial_state(rot, en),
+            n_steps,
+            self.dt,
+            stride,
+            out,
+            rot,
+            en,
+        )
 
     def initial_state(self, rotation: bool, energy: bool) -> NDArray[np.float64]:
         """Initial state vector for the given specialisation (identity orientation, zero sums)."""
@@ -221,6 +265,10 @@ class SimulationResult:
     dt: float
     stability_limit: float
     warnings: list[str] = field(default_factory=list)
+    method: str = "rk4"
+    rejected_steps: int = 0
+    jacobians: int = 0
+    lu_factorisations: int = 0
 
 
 def _normal_reaction_at_start(problem: SphereProblem) -> float:
@@ -240,38 +288,49 @@ def _normal_estimate(problem: SphereProblem) -> float:
 
 
 def stability_limit(problem: SphereProblem) -> float:
-    """Largest stable RK4 dt (s) for the regularised friction's slip relaxation (MODEL.md s.6).
+    """Largest stable dt (s) of the problem's fixed-step scheme for the friction's slip
+    relaxation (MODEL.md s.6); inf for an error-controlled or A-stable method.
 
     Near zero slip f = -(mu N / eps) v_s, and f feeds the slip through translation (f/m) and
     rotation (-b dw/dt x n = (b^2/I) f), so v_s relaxes at lambda = mu N (1/m + b^2/I) / eps
-    = 3.5 mu N / (m eps); RK4 needs lambda dt <= 2.7853. N is estimated a priori as
+    = 3.5 mu N / (m eps); RK4 needs lambda dt <= 2.7853 (dopri5 3.3066, dop853 6.0722 at a
+    fixed step: integrators.real_stability_bound). Adaptive runs find their stable step
+    themselves and radau5 (L-stable) has none. N is estimated a priori as
     STABILITY_MARGIN (1.25) x max(N at the initial state, m g): on slowly actuated surfaces
     N stays within a few per cent of its start value, and the margin covers surface
     accelerations up to g/4 beyond it (simulate also checks the limit against the run's max N).
     Returns inf for mu = 0 (no friction, no slip stiffness).
     """
-    if problem.mu == 0.0:
+    if problem.mu == 0.0 or problem.adaptive or problem.method == "radau5":
         return math.inf
-    return RK4_REAL_STABILITY / (_slip_rate_per_newton(problem) * _normal_estimate(problem))
+    return _bound(problem.method) / (_slip_rate_per_newton(problem) * _normal_estimate(problem))
+
+
+@functools.cache
+def _bound(method: str) -> float:
+    """Real stability interval of a fixed-step explicit method (RK4's exact constant)."""
+    return RK4_REAL_STABILITY if method == "rk4" else integrators.real_stability_bound(method)
 
 
 def simulate(problem: SphereProblem) -> SimulationResult:
-    """Integrate one sphere run with fixed-step RK4 and return its histories and extrema.
+    """Integrate one sphere run with problem.method; return its histories and extrema.
 
     Raises UnstableStepError when dt exceeds stability_limit(problem) unless allow_unstable
     is set (then the run goes ahead and the result carries a warning).
     """
     warnings: list[str] = []
     limit = stability_limit(problem)
+    name = problem.method.upper()
+    bound = _bound(problem.method) if math.isfinite(limit) else math.inf
     if problem.dt > limit:
         n_est = _normal_estimate(problem)
         rate = _slip_rate_per_newton(problem) * n_est
         message = (
-            f"dt = {problem.dt} s exceeds the RK4 stability limit {limit:.6g} s of the "
+            f"dt = {problem.dt} s exceeds the {name} stability limit {limit:.6g} s of the "
             f"regularised friction (mu = {problem.mu}, eps = {problem.eps} m/s, m = {problem.m} "
             f"kg, b = {problem.b} m): the largest stable dt is {limit:.6g} s "
             f"(slip rate 3.5 mu N / (m eps) = {rate:.4g} 1/s at the a-priori N = {n_est:.4g} N; "
-            f"lambda dt = {rate * problem.dt:.3g}, RK4 needs <= 2.785)"
+            f"lambda dt = {rate * problem.dt:.3g}, {name} needs <= {bound:.4g})"
         )
         if not problem.allow_unstable:
             raise UnstableStepError(message)
@@ -280,24 +339,26 @@ def simulate(problem: SphereProblem) -> SimulationResult:
     en = bool(problem.energy)
     args = problem.core_arguments()
     out = args[6]
-    (
-        status,
-        steps,
-        rows,
-        evals,
-        min_n,
-        max_n,
-        max_slip,
-        max_res,
-        max_track,
-        min_clear,
-        max_bk,
-    ) = core.run(*args)
-    if problem.mu > 0.0 and math.isfinite(max_n):
-        observed = RK4_REAL_STABILITY / (_slip_rate_per_newton(problem) * max_n)
+    rejected = jacobians = factorisations = 0
+    if problem.method == "rk4":
+        status, steps, rows, evals, ext = core.run(*args)
+        stop_time = steps * problem.dt
+    else:
+        p, lawc, y0 = args[0], args[1], args[2]
+        (status, steps, rows, evals, ext, rejected, jacobians, factorisations, stop_time) = (
+            integrators.run(
+                p, lawc, y0, problem.t_end, problem.output_interval, problem.dt, problem.rtol,
+                problem.atol, problem.method, problem.fixed_step, MAX_STEPS, out, rot, en,
+            )
+        )  # fmt: skip
+    min_n, max_n, max_slip, max_res, max_track, min_clear, max_bk = (
+        float(v) for v in ext[: core.E_E0]
+    )
+    if problem.mu > 0.0 and math.isfinite(max_n) and math.isfinite(bound):
+        observed = bound / (_slip_rate_per_newton(problem) * max_n)
         if problem.dt > observed:
             warnings.append(
-                f"max N = {max_n:.6g} N during the run puts the RK4 stability limit at "
+                f"max N = {max_n:.6g} N during the run puts the {name} stability limit at "
                 f"{observed:.6g} s, below dt = {problem.dt} s (mu = {problem.mu}, "
                 f"eps = {problem.eps} m/s): slip may chatter"
             )
@@ -333,7 +394,7 @@ def simulate(problem: SphereProblem) -> SimulationResult:
         min_edge_clearance=float(min_clear),
         max_b_kappa=float(max_bk),
         status=core.STATUS_NAMES[status],
-        stop_time=float(steps * problem.dt),
+        stop_time=float(stop_time),
         steps=int(steps),
         rhs_evals=int(evals),
         rotation_integrated=rot,
@@ -341,4 +402,8 @@ def simulate(problem: SphereProblem) -> SimulationResult:
         dt=problem.dt,
         stability_limit=limit,
         warnings=warnings,
+        method=problem.method,
+        rejected_steps=int(rejected),
+        jacobians=int(jacobians),
+        lu_factorisations=int(factorisations),
     )

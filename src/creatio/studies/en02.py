@@ -74,8 +74,11 @@ def run(cfg: DynamicConfig, dt: float) -> xr.Dataset:
                             {"long_name": "E - E0 - W_surface + D_friction", "units": "J"}),
     }
     ds = xr.Dataset(data, coords=coords)
+    if prob.adaptive:
+        ds.attrs.update({"rtol": prob.rtol, "atol": prob.atol})
     ds.attrs.update({
         "dt": dt,
+        "method": res.method,
         "status": res.status,
         "stop_time": res.stop_time,
         "steps": res.steps,
@@ -90,6 +93,8 @@ def run(cfg: DynamicConfig, dt: float) -> xr.Dataset:
         "max_cavity_tracking_error": res.max_cavity_tracking_error,
         "min_edge_clearance": res.min_edge_clearance,
         "max_b_kappa": res.max_b_kappa,
+        "rejected_steps": res.rejected_steps,
+        "jacobians": res.jacobians,
         "warnings": "\n".join(res.warnings),
         "comment": "extrema (min_*, max_*) are taken over every integration step",
     })
