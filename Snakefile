@@ -9,6 +9,7 @@
 #   snakemake release -c 2 --config version=0.2.0    freeze data/ in data/releases/0.2.0/
 #   snakemake diff -c 2 --config against=latest      data/reports/diff/<v>_vs_data.{txt,json}
 #   snakemake all --workflow-profile profiles/slurm    the same on a SLURM cluster
+#   snakemake benchmarks -c 1        work precision, stability map, physics boundaries
 #
 # Overrides are Hydra overrides, applied to every study whose config has the key.
 import sys
@@ -45,11 +46,13 @@ include: "workflows/dynamics.smk"
 include: "workflows/reports.smk"
 include: "workflows/sweeps.smk"
 include: "workflows/release.smk"
+include: "workflows/benchmarks.smk"
 
 
 # Cheap aggregation, reports and plots run where Snakemake runs, not as cluster jobs.
 localrules:
     all,
+    benchmarks,
     kinematic_report,
     dynamic_report,
     compare,

@@ -5,6 +5,7 @@
     creatio release VERSION | verify | list     freeze the default outputs into data/releases/
     creatio diff A B                             compare datasets, directories or releases
     creatio task dataset|report|sweep|compare    one workflow step (used by the Snakefile)
+    creatio benchmark|stability|boundaries OUT   work-precision, stability map, physics limits
 """
 
 from __future__ import annotations
@@ -30,6 +31,13 @@ from creatio.config import (
 
 log = logging.getLogger("creatio")
 
+#: Commands backed by an analysis module's main(argv).
+ANALYSES = {
+    "benchmark": "creatio.benchmarks",
+    "stability": "creatio.stability",
+    "boundaries": "creatio.boundaries",
+}
+
 USAGE = """usage: creatio COMMAND [ARGS]
 
 commands:
@@ -42,6 +50,12 @@ commands:
             creatio release 0.2.0    creatio release verify latest    creatio release list
   diff    compare datasets, data directories or releases (exit 0 same, 1 differs, 2 error)
             creatio diff latest data    creatio diff 0.1.0 0.2.0 --json    creatio diff --help
+  benchmark   work-precision benchmark of the integrators (EN-02, EN-02R)
+            creatio benchmark data/benchmarks [--studies en02] [--repeats 5] [--quick]
+  stability   where each explicit scheme breaks over (mu, dt) and (eps, dt)
+            creatio stability data/benchmarks
+  boundaries  push EN-02 along T, A, b, gamma, mu until the model's assumptions fail
+            creatio boundaries data/benchmarks [--axes T,A]
   task    one workflow step, as the Snakefile calls it
             creatio task dataset ct02 OUT.nc [--dt DT] [--override K=V ...]
             creatio task report ct02 OUTDIR DATASET.nc [DATASET.nc ...]
@@ -281,6 +295,10 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 0
     if command == "task":
         return _task(rest)
+    if command in ANALYSES:
+        import importlib
+
+        return importlib.import_module(ANALYSES[command]).main(rest)
     if command == "release":
         from creatio.release import main as release_main
 

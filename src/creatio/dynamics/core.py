@@ -470,3 +470,34 @@ def evaluate(
         t, y, dy, pp, lc, True, True, True
     )
     return dy, N, slip, bk
+
+
+@njit(cache=True)
+def derivative(p, lawc, t, y, rot, en):
+    """dy/dt of one state (the right-hand side every integrator uses), as a new array."""
+    pp, lc = _pack(p, lawc)
+    dy = np.empty(y.size)
+    _rhs(t, y, dy, pp, lc, rot, en, False)
+    return dy
+
+
+@njit(cache=True)
+def centre_positions(p, lawc, t, states, rot, en):
+    """World-frame sphere centres X (n, 3) of states (n, size) at times t (n,).
+
+    The same formula the loops write into the histories (rotating-frame X turned by alpha),
+    so an error measured from states equals the one measured from a loop's histories.
+    """
+    pp, lc = _pack(p, lawc)
+    n = t.size
+    X = np.empty((n, 3))
+    dy = np.empty(states.shape[1])
+    for i in range(n):
+        y = states[i]
+        d = _rhs(t[i], y, dy, pp, lc, rot, en, False)
+        ca = math.cos(y[1])
+        sa = math.sin(y[1])
+        X[i, 0] = d[2] * ca - d[3] * sa
+        X[i, 1] = d[2] * sa + d[3] * ca
+        X[i, 2] = d[4]
+    return X

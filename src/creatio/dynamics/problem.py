@@ -293,7 +293,7 @@ def stability_limit(problem: SphereProblem) -> float:
 
     Near zero slip f = -(mu N / eps) v_s, and f feeds the slip through translation (f/m) and
     rotation (-b dw/dt x n = (b^2/I) f), so v_s relaxes at lambda = mu N (1/m + b^2/I) / eps
-    = 3.5 mu N / (m eps); RK4 needs lambda dt <= 2.7853 (dopri5 3.3066, dop853 6.0722 at a
+    = 3.5 mu N / (m eps); RK4 needs lambda dt <= 2.7853 (dopri5 3.3066, dop853 6.3937 at a
     fixed step: integrators.real_stability_bound). Adaptive runs find their stable step
     themselves and radau5 (L-stable) has none. N is estimated a priori as
     STABILITY_MARGIN (1.25) x max(N at the initial state, m g): on slowly actuated surfaces

@@ -1,0 +1,122 @@
+"""The peers a user would reach for: scipy.integrate solvers on a plain NumPy right-hand side.
+
+The right-hand side handed to scipy is `fun(t, y) -> ndarray`, one call of the same compiled
+derivative the native loops use (core.derivative), so a comparison measures the solvers,
+not two implementations of the model. The solver is stepped exactly as solve_ivp does with
+t_eval (its dense output evaluated at the grid times each step passes), so the result is
+what `solve_ivp(fun, (0, t_end), y0, method, t_eval=grid, rtol, atol)` returns, plus the
+number of accepted steps, which solve_ivp does not report.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy.integrate import DOP853, LSODA, RK45, Radau
+
+from creatio.dynamics import core
+from creatio.dynamics.problem import SphereProblem
+
+__all__ = ["PEERS", "PeerResult", "centre_grid", "peer_rhs", "solve_peer"]
+
+#: scipy solver classes by the name solve_ivp gives them.
+PEERS: dict[str, Any] = {"RK45": RK45, "DOP853": DOP853, "Radau": Radau, "LSODA": LSODA}
+
+
+@dataclass(frozen=True)
+class PeerResult:
+    """States on the output grid and the solver's work counters."""
+
+    t: NDArray[np.float64]
+    y: NDArray[np.float64]
+    status: str
+    time_s: float
+    rhs_evals: int
+    steps: int
+    jacobians: int
+    lu_factorisations: int
+
+
+def peer_rhs(problem: SphereProblem, rotation: bool, energy: bool):
+    """fun(t, y) -> dy/dt as a new array: the plain callable scipy is given."""
+    p, lawc = problem.parameter_vector(), problem.law_matrix()
+
+    def fun(t: float, y: NDArray[np.float64]) -> NDArray[np.float64]:
+        return core.derivative(p, lawc, t, y, rotation, energy)
+
+    return fun
+
+
+def output_grid(problem: SphereProblem) -> NDArray[np.float64]:
+    """Output times 0, dt_out, ..., t_end (the native loops' history times)."""
+    n = int(np.floor(problem.t_end / problem.output_interval * (1 + 1e-12)))
+    grid = np.arange(n + 1) * problem.output_interval
+    if grid[-1] < problem.t_end * (1 - 1e-12):
+        grid = np.append(grid, problem.t_end)
+    return grid
+
+
+def solve_peer(
+    problem: SphereProblem, method: str, rtol: float, atol: float, energy: bool = False
+) -> PeerResult:
+    """Integrate problem with scipy's `method` at rtol/atol; states on the output grid.
+
+    Rotation is integrated when the problem needs it (friction or initial spin); the
+    energy accumulators only when asked. time_s covers the stepping loop alone.
+    """
+    rot = problem.rotation_integrated
+    fun = peer_rhs(problem, rot, energy)
+    y0 = problem.initial_state(rot, energy)
+    grid = output_grid(problem)
+    ys = np.full((grid.size, y0.size), np.nan)
+    ys[0] = y0
+    t0 = time.perf_counter()
+    solver = PEERS[method](fun, 0.0, y0, problem.t_end, rtol=rtol, atol=atol)
+    steps = 0
+    nxt = 1
+    status = "ok"
+    while solver.status == "running":
+        message = solver.step()
+        if solver.status == "failed":
+            status = f"failed: {message}"
+            break
+        steps += 1
+        hi = np.searchsorted(grid, solver.t, side="right")
+        if hi > nxt:
+            sol = solver.dense_output()
+            ys[nxt:hi] = sol(grid[nxt:hi]).T
+            nxt = hi
+    elapsed = time.perf_counter() - t0
+    return PeerResult(
+        t=grid,
+        y=ys,
+        status=status,
+        time_s=elapsed,
+        rhs_evals=int(solver.nfev),
+        steps=steps,
+        jacobians=int(getattr(solver, "njev", 0)),
+        lu_factorisations=int(getattr(solver, "nlu", 0)),
+    )
+
+
+def centre_grid(
+    problem: SphereProblem, t: NDArray[np.float64], states: NDArray[np.float64], energy: bool
+) -> NDArray[np.float64]:
+    """Sphere centres (n, 3) of states on times t, by the formula the native loops use."""
+    rot = problem.rotation_integrated
+    good = np.all(np.isfinite(states), axis=1)
+    X = np.full((t.size, 3), np.nan)
+    if good.any():
+        X[good] = core.centre_positions(
+            problem.parameter_vector(),
+            problem.law_matrix(),
+            np.ascontiguousarray(t[good]),
+            np.ascontiguousarray(states[good]),
+            rot,
+            energy,
+        )
+    return X
