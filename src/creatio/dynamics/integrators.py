@@ -296,6 +296,9 @@ def _drive(p, lawc, y0, t_end, interval, h0, rtol, atol, method, fixed, max_step
             if m < 1:
                 m = 1
             h_use = remaining / m
+            if t + h_use <= t:
+                status = 6
+                break
             if method != 3:
                 for j in range(n):
                     K[0, j] = f[j]
