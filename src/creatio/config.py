@@ -12,6 +12,7 @@ import functools
 import hashlib
 import math
 import os
+import sys
 from collections.abc import Sequence
 from dataclasses import dataclass, field, fields, is_dataclass
 from enum import Enum, StrEnum
@@ -226,8 +227,9 @@ class SolverConfig:
 
     rk4 (and any method with fixed_step) takes the constant step dt. The adaptive methods
     control the local error to rtol/atol; their convergence pair is the run at rtol/atol and
-    the run at the tolerances divided by refine**order (the error ratio a dt / refine pair
-    gives), and their datasets are still named by dt and dt / refine.
+    the run at the tolerances divided by refine**order (the error ratio a dt / refine pair of
+    that order gives when the global error is proportional to the tolerance), and their
+    datasets are still named by dt and dt / refine.
     """
 
     method: Method = Method.rk4
@@ -248,8 +250,17 @@ class SolverConfig:
         """dt > 0, refine >= 2, tolerances > 0, output_interval a multiple of a fixed dt."""
         _require(self.dt > 0.0, f"{path}.dt", self.dt, "must be > 0")
         _require(self.refine >= 2, f"{path}.refine", self.refine, "must be an integer >= 2")
-        _require(self.rtol > 0.0, f"{path}.rtol", self.rtol, "must be > 0")
-        _require(self.atol > 0.0, f"{path}.atol", self.atol, "must be > 0")
+        _require(math.isfinite(self.rtol) and self.rtol > 0.0, f"{path}.rtol", self.rtol,
+                 "must be finite and > 0")
+        _require(math.isfinite(self.atol) and self.atol > 0.0, f"{path}.atol", self.atol,
+                 "must be finite and > 0")
+        if self.adaptive:
+            finest = self.tolerances(self.dt / self.refine)[0]
+            _require(finest >= 100 * sys.float_info.epsilon, f"{path}.rtol", self.rtol,
+                     f"divided by refine**order (the convergence partner) gives {finest:.3g}, "
+                     f"below 100 x machine epsilon = 2.2e-14: raise it or lower solver.refine")
+        _require(not (self.method == Method.rk4 and self.fixed_step), f"{path}.fixed_step",
+                 self.fixed_step, "applies to the adaptive methods; rk4 always takes a fixed step")
         if self.adaptive:
             _require(
                 self.output_interval > 0.0, f"{path}.output_interval", self.output_interval,

@@ -61,8 +61,10 @@ _TI_C = tb.RADAU_TI[1] + 1j * tb.RADAU_TI[2]
 
 @njit(cache=True)
 def _lu(a, piv):
-    """In-place LU factorisation with partial pivoting (real or complex square matrix)."""
+    """In-place LU factorisation with partial pivoting (real or complex square matrix);
+    False when a pivot is exactly zero (singular: the factors must not be used)."""
     n = a.shape[0]
+    ok = True
     for k in range(n):
         p = k
         best = abs(a[k, k])
@@ -79,6 +81,7 @@ def _lu(a, piv):
                 a[p, j] = tmp
         d = a[k, k]
         if d == 0.0:
+            ok = False
             continue
         for i in range(k + 1, n):
             a[i, k] /= d
@@ -86,6 +89,7 @@ def _lu(a, piv):
             if lik != 0.0:
                 for j in range(k + 1, n):
                     a[i, j] -= lik * a[k, j]
+    return ok
 
 
 @njit(cache=True)
@@ -402,10 +406,12 @@ def _drive(p, lawc, y0, t_end, interval, h0, rtol, atol, method, fixed, max_step
                             luc[i, j] = -jac[i, j]
                         lur[i, i] += mr
                         luc[i, i] += mc
-                    _lu(lur, pivr)
-                    _lu(luc, pivc)
+                    regular = _lu(lur, pivr) and _lu(luc, pivc)
                     n_lu += 1
                     lu_h = h_use
+                    if not regular:
+                        lu_h = -1.0
+                        break
                 # simplified Newton on the transformed stage increments W = TI Z
                 for i in range(3):
                     for j in range(n):
@@ -491,7 +497,6 @@ def _drive(p, lawc, y0, t_end, interval, h0, rtol, atol, method, fixed, max_step
                     break
                 h = 0.5 * h_use
                 lu_h = -1.0
-                rejected = True
                 n_rej += 1
                 continue
             for j in range(n):

@@ -1,5 +1,11 @@
 """The peers a user would reach for: scipy.integrate solvers on a plain NumPy right-hand side.
 
+(The benchmark uses DOP853, Radau and LSODA; RK45 is here for the harness test against the
+native dopri5, which runs the same pair and controller.) Differences from the native
+methods worth knowing when reading timings: native steps never cross the 0.1 s output
+grid (scipy interpolates with its dense output), and native radau5 differences only the 7
+Jacobian columns the dynamics depend on, where scipy differences all of them.
+
 The right-hand side handed to scipy is `fun(t, y) -> ndarray`, one call of the same compiled
 derivative the native loops use (core.derivative), so a comparison measures the solvers,
 not two implementations of the model. The solver is stepped exactly as solve_ivp does with
