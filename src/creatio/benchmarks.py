@@ -212,11 +212,47 @@ def reference(base: SphereProblem) -> tuple[np.ndarray, dict[str, float]]:
     return ref.X, evidence
 
 
+COLD = """
+import dataclasses, time
+from creatio.benchmarks import problem
+from creatio.dynamics import simulate
+base = dataclasses.replace(problem("en02"), t_end=0.1)
+for method in ("rk4", "radau5"):
+    t0 = time.perf_counter()
+    simulate(dataclasses.replace(base, method=method))
+    print(method, time.perf_counter() - t0)
+"""
+
+
+def jit_times() -> dict[str, float]:
+    """First-call seconds of the compiled loops: in a fresh process with an empty numba
+    cache (cold compile) and in this process (cache load, or compile if none)."""
+    import subprocess
+    import tempfile
+
+    out: dict[str, float] = {}
+    with tempfile.TemporaryDirectory() as cache:
+        env = dict(os.environ, NUMBA_CACHE_DIR=cache)
+        run = subprocess.run([sys.executable, "-c", COLD], env=env, capture_output=True,
+                             text=True, check=True)
+    for line in run.stdout.split("\n"):
+        if line.strip():
+            name, value = line.split()
+            out[f"cold_compile_{name}_s"] = float(value)
+    base = dataclasses.replace(problem("en02"), t_end=0.1)
+    for method in ("rk4", "radau5"):
+        t0 = time.perf_counter()
+        simulate(dataclasses.replace(base, method=method))
+        out[f"this_process_first_{method}_s"] = time.perf_counter() - t0
+    return out
+
+
 def benchmark(studies: Sequence[str] = STUDIES, repeats: int = 5, quick: bool = False,
               log: Callable[[str], None] = print) -> tuple[list[Entry], dict[str, Any]]:
     """Run the whole work-precision sweep; returns the entries and per-study metadata."""
     entries: list[Entry] = []
-    meta: dict[str, Any] = {}
+    meta: dict[str, Any] = {"jit": jit_times()}
+    log("JIT first calls: " + ", ".join(f"{k} {v:.2f} s" for k, v in meta["jit"].items()))
     for study in studies:
         base = problem(study)
         t0 = time.perf_counter()
@@ -308,6 +344,12 @@ def markdown(entries: Sequence[Entry], meta: dict[str, Any]) -> str:
              "JIT excluded. Regenerate: `snakemake benchmarks -c 1`.", "",
              "Machine: " + "; ".join(f"{k} {v}" for k, v in machine().items()), ""]
     peers = list(PEERS)
+    jit = meta.get("jit", {})
+    if jit:
+        lines += ["JIT, excluded from every timing (first call of a compiled loop): "
+                  + ", ".join(f"{k.removesuffix('_s').replace('_', ' ')} {v:.2f} s"
+                              for k, v in jit.items())
+                  + ". The adaptive methods share one compiled driver (rk4 has its own).", ""]
     for study in sorted({e.study for e in entries}):
         m = meta.get(study, {})
         lines += [f"## {study}", "",
