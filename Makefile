@@ -19,6 +19,7 @@ lint: $(STAMP)
 bench: $(STAMP)
 	$(BIN)/python scripts/bench_en02.py
 	$(BIN)/python scripts/bench_kinematics.py
+	$(BIN)/snakemake benchmarks -c 1
 
 $(STAMP): pyproject.toml constraints.txt
 	$(PY) -m venv $(VENV)

@@ -161,3 +161,25 @@ def test_solver_group_selects_a_method() -> None:
         resolve("en02", ["solver=radau5", "solver.rtol=0"])
     with pytest.raises(ConfigError, match="solver.method"):
         resolve("en02", ["solver.method=euler"])
+
+
+def test_radau5_step_is_set_by_the_slow_dynamics_at_large_mu(en02: SphereProblem) -> None:
+    """At mu = 50 the slip relaxes at ~1.7e5 /s (RK4 limit 13 us): radau5's steps stay
+    near the mu = 0.15 count, and it agrees with RK4 run inside its limit."""
+    prob = dataclasses.replace(en02, mu=50.0, t_end=5.0)
+    limit = stability_limit(prob)
+    assert limit < 2e-5
+    rk4 = simulate(dataclasses.replace(prob, dt=1e-5))
+    stiff = simulate(dataclasses.replace(prob, method="radau5", rtol=1e-8, atol=1e-10))
+    assert rk4.status == "ok" and stiff.status == "ok"
+    assert stiff.steps < 400 and 1000 * stiff.steps < 5.0 / limit  # explicit: >= 5 s / limit
+    assert _err(stiff.X, rk4.X) < 1e-8
+
+
+def test_a_step_the_integrator_cannot_take_stops_cleanly(en02: SphereProblem) -> None:
+    """radau5 at a fixed 1 s step cannot solve its stage equations: status step_failed at
+    the start, finite histories, no exception."""
+    res = simulate(dataclasses.replace(en02, method="radau5", fixed_step=True, dt=1.0,
+                                       output_interval=1.0))
+    assert res.status == "step_failed" and res.stop_time == 0.0
+    assert np.all(np.isfinite(res.X)) and res.t.size >= 1
