@@ -242,7 +242,7 @@ def _drive(p, lawc, y0, t_end, interval, h0, rtol, atol, method, fixed, max_step
     Z0 = np.zeros((3, n))
     W = np.zeros((3, n))
     F = np.empty((3, n))
-    Zold = np.zeros((3, n))
+    Qold = np.zeros((n, 3))
     yold = np.empty(n)
     rreal = np.empty(n)
     rcplx = np.empty(n, dtype=np.complex128)
@@ -385,13 +385,9 @@ def _drive(p, lawc, y0, t_end, interval, h0, rtol, atol, method, fixed, max_step
                     x3 = x2 * x
                     for j in range(n):
                         acc = yold[j]
-                        for q in range(3):
-                            pq = x if q == 0 else (x2 if q == 1 else x3)
-                            acc += (
-                                Zold[0, j] * _RP[0, q]
-                                + Zold[1, j] * _RP[1, q]
-                                + Zold[2, j] * _RP[2, q]
-                            ) * pq
+                        acc += Qold[j, 0] * x
+                        acc += Qold[j, 1] * x2
+                        acc += Qold[j, 2] * x3
                         Z0[i, j] = acc - y[j]
             else:
                 Z0[:, :] = 0.0
@@ -568,10 +564,11 @@ def _drive(p, lawc, y0, t_end, interval, h0, rtol, atol, method, fixed, max_step
                     if (m == 1 and h_use < h and factor >= 1.0)
                     else (h_use * factor)
                 )
-            for i in range(3):
-                for j in range(n):
-                    Zold[i, j] = Z[i, j]
+            # the step's collocation polynomial y_old + Q (x, x^2, x^3), Q = Z^T P, formed
+            # once here: it predicts the next step's stages (also after rejections)
             for j in range(n):
+                for q in range(3):
+                    Qold[j, q] = Z[0, j] * _RP[0, q] + Z[1, j] * _RP[1, q] + Z[2, j] * _RP[2, q]
                 yold[j] = y[j]
             t_old = t
             h_prev = h_use
