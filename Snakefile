@@ -6,47 +6,57 @@
 #
 #   snakemake sweep -c 2 --config study=en02 'sweep=["sphere.mu=0,0.15,0.3"]'
 #   snakemake sweep_en02_mu -c 2                              the worked sweep (outside all)
+#   snakemake benchmarks -c 1        work precision, stability map, physics boundaries
 #   snakemake release -c 2 --config version=0.2.0    freeze data/ in data/releases/0.2.0/
 #   snakemake diff -c 2 --config against=latest      data/reports/diff/<v>_vs_data.{txt,json}
 #   snakemake all --workflow-profile profiles/slurm    the same on a SLURM cluster
-#   snakemake benchmarks -c 1        work precision, stability map, physics boundaries
 #
-# Overrides are Hydra overrides, applied to every study whose config has the key.
+# Overrides are Hydra overrides, applied to every study whose config has the key. Study ids,
+# their files and report rules come from the study registry (creatio.studies.registry).
 import sys
 
 from snakemake.utils import min_version
 
-from creatio.workflow import JobConfigs, StudyRuns, SweepRegistry
+from creatio.pipeline.planning import (
+    JobConfigs,
+    StudyRuns,
+    SweepRegistry,
+    analysis_ids,
+    wildcard_pattern,
+)
+from creatio.studies.registry import KINDS
 
 min_version("9.0")
 
 CREATIO = f'"{sys.executable}" -m creatio.cli'
+STUDY_IDS = wildcard_pattern(folder="studies")
+ANALYSIS_IDS = wildcard_pattern(folder="benchmarks")
 JOBS = JobConfigs()
 RUNS = StudyRuns(JOBS, config.get("overrides"), config.get("studies"))
+ANALYSES = StudyRuns(JOBS, None, analysis_ids())
 SWEEPS = SweepRegistry(JOBS, workflow.basedir)
 # A job re-invoked on its own (a cluster node, a run: directive) re-parses this file
 # without the targets: these re-plan what the invocation's --config asked for.
 PLANNERS = [
     lambda: RUNS.plans,
+    lambda: ANALYSES.plans,
     lambda: SWEEPS.outputs(config.get("study", ""), config["sweep"], config.get("overrides"))
     if config.get("sweep")
     else None,
     lambda: SWEEPS.worked("en02_mu"),
 ]
 JOBS.fallbacks += PLANNERS
-SWEEPS.fallbacks += PLANNERS[1:]
+SWEEPS.fallbacks += PLANNERS[2:]
 
 
 wildcard_constraints:
     root=r"data|data/runs/[0-9a-f]{12}",
 
 
-include: "workflows/kinematics.smk"
-include: "workflows/dynamics.smk"
-include: "workflows/reports.smk"
-include: "workflows/sweeps.smk"
-include: "workflows/release.smk"
-include: "workflows/benchmarks.smk"
+include: "workflow/rules/studies.smk"
+include: "workflow/rules/analyses.smk"
+include: "workflow/rules/sweeps.smk"
+include: "workflow/rules/release.smk"
 
 
 # Cheap aggregation, reports and plots run where Snakemake runs, not as cluster jobs.
@@ -54,7 +64,8 @@ localrules:
     all,
     benchmarks,
     kinematic_report,
-    dynamic_report,
+    sphere_report,
+    analysis_report,
     compare,
     sweep,
     sweep_en02_mu,

@@ -23,8 +23,10 @@ import time
 import numba
 import numpy as np
 
-from creatio.config import resolve
-from creatio.dynamics import SphereProblem, core, simulate
+from creatio.dynamics import SphereProblem, simulate
+from creatio.dynamics.solvers import EXPLICIT
+from creatio.dynamics.solvers.driver import SPECIALISATIONS
+from creatio.pipeline.config import resolve
 
 # The default EN-02 configuration, exactly as `snakemake all` runs it (conf/study/en02.yaml).
 EN02 = resolve("en02").obj.sphere_problem()
@@ -79,9 +81,9 @@ def cold_compile() -> tuple[float, float]:
 
 def core_call(problem: SphereProblem) -> tuple[float, int]:
     """Time one call of the compiled loop alone (arrays prepared beforehand)."""
-    args = problem.core_arguments()
+    call = problem.compiled_call()
     t0 = time.perf_counter()
-    result = core.run(*args)
+    result = call()
     elapsed = time.perf_counter() - t0
     return elapsed, int(result[3])
 
@@ -101,7 +103,7 @@ def main() -> None:
     t0 = time.perf_counter()
     simulate(dataclasses.replace(EN02, t_end=0.1))
     first = time.perf_counter() - t0
-    stats = core.SPECIALISATIONS[(True, True)].stats
+    stats = SPECIALISATIONS[(EXPLICIT, True, True)].stats
     hits = sum(stats.cache_hits.values())
     misses = sum(stats.cache_misses.values())
     print(f"this process: first simulate {first:.3f} s (numba cache hits {hits}, misses {misses})")

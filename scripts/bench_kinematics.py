@@ -15,8 +15,8 @@ import time
 
 import numpy as np
 
-from creatio.config import resolve
-from creatio.studies import run_study
+from creatio.pipeline.config import resolve
+from creatio.pipeline.run import run_study
 
 
 def main() -> None:

@@ -1,33 +1,46 @@
-"""Numeric core of the sphere dynamics on the moving corrugated surface (MODEL.md s.1-6).
+"""Numeric core of the sphere dynamics on the moving corrugated surface (docs/model.md s.4-6).
 
-Plain numbers in, numpy arrays out: a SphereProblem is integrated by a compiled loop
-(simulate): fixed-step RK4 (the notebook's reference), the adaptive pairs dopri5 and
-dop853, or the L-stable radau5; the friction stability limit of a fixed-step explicit
-scheme (stability_limit) is enforced.
+Plain numbers in, NumPy arrays out. A SphereProblem is integrated by :func:`simulate`, one
+compiled loop (creatio.dynamics.solvers.driver) running any registered method
+(creatio.dynamics.solvers.METHODS: fixed-step RK4, the notebook's reference; the adaptive
+pairs dopri5 and dop853; the L-stable radau5). The friction stability limit of a
+fixed-step explicit scheme (:func:`stability_limit`) is enforced.
+
+Importing this package compiles nothing: the compiler loads with the first
+:func:`simulate` call, so validation and planning can build problems without it.
 """
 
-from creatio.dynamics.kinematics import centre_kinematics
-from creatio.dynamics.laws import law_eval
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
 from creatio.dynamics.problem import (
-    METHODS,
-    RK4_REAL_STABILITY,
-    STABILITY_MARGIN,
     SimulationResult,
     SphereProblem,
     UnstableStepError,
-    simulate,
+    normal_reaction_at_start,
     stability_limit,
 )
+from creatio.dynamics.solvers import METHODS
+
+if TYPE_CHECKING:
+    from creatio.dynamics.simulation import simulate
 
 __all__ = [
     "METHODS",
-    "RK4_REAL_STABILITY",
-    "STABILITY_MARGIN",
     "SimulationResult",
     "SphereProblem",
     "UnstableStepError",
-    "centre_kinematics",
-    "law_eval",
+    "normal_reaction_at_start",
     "simulate",
     "stability_limit",
 ]
+
+
+def __getattr__(name: str):
+    """Load the compiled half on first use: ``simulate`` imports numba."""
+    if name == "simulate":
+        from creatio.dynamics.simulation import simulate
+
+        return simulate
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

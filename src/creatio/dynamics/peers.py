@@ -7,7 +7,7 @@ grid (scipy interpolates with its dense output), and native radau5 differences o
 Jacobian columns the dynamics depend on, where scipy differences all of them.
 
 The right-hand side handed to scipy is `fun(t, y) -> ndarray`, one call of the same compiled
-derivative the native loops use (core.derivative), so a comparison measures the solvers,
+derivative the native loops use (sphere.derivative), so a comparison measures the solvers,
 not two implementations of the model. The solver is stepped exactly as solve_ivp does with
 t_eval (its dense output evaluated at the grid times each step passes), so the result is
 what `solve_ivp(fun, (0, t_end), y0, method, t_eval=grid, rtol, atol)` returns, plus the
@@ -24,7 +24,7 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.integrate import DOP853, LSODA, RK45, Radau
 
-from creatio.dynamics import core
+from creatio.dynamics import sphere
 from creatio.dynamics.problem import SphereProblem
 
 __all__ = ["PEERS", "PeerResult", "centre_grid", "peer_rhs", "solve_peer"]
@@ -52,7 +52,7 @@ def peer_rhs(problem: SphereProblem, rotation: bool, energy: bool):
     p, lawc = problem.parameter_vector(), problem.law_matrix()
 
     def fun(t: float, y: NDArray[np.float64]) -> NDArray[np.float64]:
-        return core.derivative(p, lawc, t, y, rotation, energy)
+        return sphere.derivative(p, lawc, t, y, rotation, energy)
 
     return fun
 
@@ -117,7 +117,7 @@ def centre_grid(
     good = np.all(np.isfinite(states), axis=1)
     X = np.full((t.size, 3), np.nan)
     if good.any():
-        X[good] = core.centre_positions(
+        X[good] = sphere.centre_positions(
             problem.parameter_vector(),
             problem.law_matrix(),
             np.ascontiguousarray(t[good]),

@@ -11,11 +11,11 @@ from __future__ import annotations
 import numpy as np
 import xarray as xr
 
-from creatio.config import Ct02Config
-from creatio.features import cavity, classify_inclination, helical_pitch
-from creatio.geometry import Motion
-from creatio.laws import Law, LawKind
-from creatio.studies._checks import DERIVATIVES, fd_errors, regularity, sample_grid
+from creatio.model.cavity import cavity, classify_inclination, helical_pitch
+from creatio.model.laws import Law, LawKind
+from creatio.model.surface import Motion
+from creatio.studies.schema import Ct02Config
+from creatio.studies.verification import DERIVATIVES, fd_errors, regularity, sample_grid
 
 REGULARITY_KEYS = ("j_identity_error", "normal_tangent_dot", "normal_length_error",
                    "seam_closure", "j_min_sampled")

@@ -10,11 +10,11 @@ from __future__ import annotations
 import numpy as np
 import xarray as xr
 
-from creatio.config import En01Config
-from creatio.features import pattern_angle
-from creatio.geometry import Motion
-from creatio.laws import Law
-from creatio.studies._checks import DERIVATIVES, fd_errors, regularity, sample_grid
+from creatio.model.cavity import pattern_angle
+from creatio.model.laws import Law
+from creatio.model.surface import Motion
+from creatio.studies.schema import En01Config
+from creatio.studies.verification import DERIVATIVES, fd_errors, regularity, sample_grid
 
 REGULARITY_KEYS = ("normal_length_error", "normal_tangent_dot", "j_identity_error",
                    "j_min_sampled")

@@ -1,0 +1,118 @@
+"""Core time of EN-02 (and other study defaults) here against another git revision, in one run.
+
+The other revision's package is exported (``git archive``) into a temporary directory under
+the name ``creatio_then``, so both versions load in this one process; their compiled cores
+are then called round-robin (then, now, then, now, ...) so that both see the same machine
+state. Printed per case: median and minimum of each, and the median and range of the paired
+ratios now / then. Use it to check that a change keeps the core as fast as before:
+
+    python scripts/bench_against.py                  # against the revision before HEAD
+    python scripts/bench_against.py bdffec5 --repeats 15 --cases en02:rk4,en02:radau5
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import importlib
+import os
+import platform
+import re
+import statistics
+import subprocess
+import sys
+import tarfile
+import tempfile
+import time
+from collections.abc import Callable
+from pathlib import Path
+
+REPO = Path(__file__).resolve().parents[1]
+
+
+def export(revision: str, into: Path) -> Path:
+    """The package of a git revision as ``creatio_then`` under into (imports rewritten)."""
+    archive = subprocess.run(["git", "archive", revision, "src/creatio"], cwd=REPO,
+                             capture_output=True, check=True).stdout
+    tmp = into / "archive.tar"
+    tmp.write_bytes(archive)
+    with tarfile.open(tmp) as tar:
+        tar.extractall(into, filter="data")
+    src = into / "src" / "creatio"
+    dst = into / "creatio_then"
+    src.rename(dst)
+    for path in dst.rglob("*.py"):
+        text = path.read_text()
+        text = re.sub(r"\bcreatio\.", "creatio_then.", text)
+        text = re.sub(r"^from creatio import", "from creatio_then import", text, flags=re.M)
+        text = re.sub(r"^import creatio$", "import creatio_then as creatio", text, flags=re.M)
+        path.write_text(text)
+    return dst
+
+
+def compiled_call(pkg: str, study: str, method: str) -> Callable[[], object]:
+    """A zero-argument call of the compiled core of a study's default problem in package pkg
+    (the API of either side: compiled_call, or the earlier core_arguments + run)."""
+    dyn = importlib.import_module(f"{pkg}.dynamics")
+    try:
+        resolve = importlib.import_module(f"{pkg}.pipeline.config").resolve
+    except ImportError:
+        resolve = importlib.import_module(f"{pkg}.config").resolve
+    problem = dataclasses.replace(resolve(study).obj.sphere_problem(), method=method)
+    if hasattr(problem, "compiled_call"):
+        return problem.compiled_call()
+    problem = dyn.SphereProblem(**dataclasses.asdict(problem))
+    args = problem.core_arguments()
+    if method == "rk4":
+        core = importlib.import_module(f"{pkg}.dynamics.core")
+        return lambda: core.run(*args)
+    integ = importlib.import_module(f"{pkg}.dynamics.integrators")
+    max_steps = importlib.import_module(f"{pkg}.dynamics.problem").MAX_STEPS
+    p = problem
+    return lambda: integ.run(args[0], args[1], args[2], p.t_end, p.output_interval, p.dt,
+                             p.rtol, p.atol, p.method, p.fixed_step, max_steps, args[6],
+                             args[7], args[8])
+
+
+def main() -> None:
+    """Export the other revision, warm both up, time them round-robin, print the table."""
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("revision", nargs="?", default="HEAD~1",
+                        help="git revision to compare with (default HEAD~1)")
+    parser.add_argument("--repeats", type=int, default=12, help="rounds (default 12)")
+    parser.add_argument("--cases", default="en02:rk4,en02:radau5",
+                        help="study:method pairs (default en02:rk4,en02:radau5)")
+    args = parser.parse_args()
+    cases = [tuple(c.split(":")) for c in args.cases.split(",")]
+    rev = subprocess.run(["git", "rev-parse", "--short", args.revision], cwd=REPO,
+                         capture_output=True, text=True, check=True).stdout.strip()
+    with tempfile.TemporaryDirectory() as tmp:
+        export(args.revision, Path(tmp))
+        sys.path.insert(0, tmp)
+        os.environ.setdefault("NUMBA_CACHE_DIR", str(Path(tmp) / "numba-then"))
+        calls = {}
+        for study, method in cases:
+            calls[(study, method, "then")] = compiled_call("creatio_then", study, method)
+            calls[(study, method, "now")] = compiled_call("creatio", study, method)
+        for call in calls.values():
+            call()  # compile or load from cache, outside the timing
+        times: dict[tuple, list[float]] = {k: [] for k in calls}
+        for _ in range(args.repeats):
+            for key, call in calls.items():
+                t0 = time.perf_counter()
+                call()
+                times[key].append(time.perf_counter() - t0)
+    print(f"machine: {platform.platform()}, {os.cpu_count()} cores, python "
+          f"{platform.python_version()}; {args.repeats} rounds, round-robin")
+    print(f"{'case':16s} {'then ' + rev:>24s} {'now':>24s}   now/then (paired)")
+    for study, method in cases:
+        then, now = times[(study, method, "then")], times[(study, method, "now")]
+        ratios = sorted(b / a for a, b in zip(then, now, strict=True))
+        print(f"{study + ':' + method:16s} "
+              f"med {statistics.median(then) * 1e3:7.2f} min {min(then) * 1e3:7.2f} ms "
+              f"med {statistics.median(now) * 1e3:7.2f} min {min(now) * 1e3:7.2f} ms   "
+              f"median {statistics.median(ratios):.3f} (range {ratios[0]:.3f}-{ratios[-1]:.3f})")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,166 @@
+"""The integration methods: one record per method, one registry, no compiler at import.
+
+A method is data, as scipy's RungeKutta classes are their constants: a stepper kind
+(``explicit`` reads any Butcher tableau; ``radau`` is the Radau IIA collocation), its order,
+the order of its error estimate (None without one), its tableau and its real stability
+interval at a fixed step. The compiled loop that runs them all is
+creatio.dynamics.solvers.driver; config validation, the stability estimate, benchmarks and
+the stability map read this registry.
+
+Adding an explicit method is a tableau (creatio.dynamics.solvers.tableaus) and one entry of
+METHODS below.
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+from numpy.typing import NDArray
+
+from creatio.dynamics.solvers import tableaus as tb
+from creatio.model.numerics import real_stability_bound, rk_stability_polynomial
+
+__all__ = ["EXPLICIT", "METHODS", "RADAU", "Method", "Tableau", "get"]
+
+#: Stepper kinds of the compiled driver.
+EXPLICIT = 0
+RADAU = 1
+
+#: Error estimators of an explicit tableau: none, one embedded pair (RMS norm), or Hairer's
+#: combined 5th/3rd-order estimate of DOP853.
+NO_ESTIMATE, EMBEDDED, COMBINED_5_3 = 0, 1, 2
+
+
+@dataclass(frozen=True)
+class Tableau:
+    """An explicit Runge-Kutta tableau in the layout the compiled stepper reads.
+
+    y_new = y + (h / b_divisor) sum_q b[q] k_q, summed in b_order (the order fixes the
+    rounding); e (and e3 for the combined estimate) weigh the stages plus the end-of-step
+    derivative, as in scipy's RungeKutta.E.
+    """
+
+    c: NDArray[np.float64]
+    a: NDArray[np.float64]
+    b: NDArray[np.float64]
+    b_divisor: float = 1.0
+    b_order: tuple[int, ...] | None = None
+    e: NDArray[np.float64] | None = None
+    e3: NDArray[np.float64] | None = None
+    estimator: int = NO_ESTIMATE
+
+    @property
+    def stages(self) -> int:
+        """Number of stages s (the end-of-step derivative is not counted)."""
+        return int(np.asarray(self.b).size)
+
+    def arrays(self) -> tuple[NDArray, ...]:
+        """The compiled stepper's layout: (c, a_ptr, a_idx, a_val, b_idx, b_val, e, e3).
+
+        A and b as their nonzeros (row st of A is a_idx/a_val[a_ptr[st]:a_ptr[st + 1]], in
+        column order; b in b_order), e and e3 padded to s + 1 (zeros when absent).
+        """
+        s = self.stages
+        a = np.asarray(self.a, float)
+        a_ptr, a_idx, a_val = [0], [], []
+        for st in range(s):
+            for q in range(min(st, a.shape[1])):
+                if a[st, q] != 0.0:
+                    a_idx.append(q)
+                    a_val.append(a[st, q])
+            a_ptr.append(len(a_idx))
+        b = np.asarray(self.b, float)
+        order = self.b_order if self.b_order is not None else range(s)
+        b_idx = [q for q in order if b[q] != 0.0]
+        e = np.zeros(s + 1)
+        e3 = np.zeros(s + 1)
+        if self.e is not None:
+            e[:] = self.e
+        if self.e3 is not None:
+            e3[:] = self.e3
+        return (np.ascontiguousarray(self.c, dtype=float), np.array(a_ptr, dtype=np.int64),
+                np.array(a_idx, dtype=np.int64), np.array(a_val, dtype=float),
+                np.array(b_idx, dtype=np.int64), b[b_idx].copy(), e, e3)
+
+    def weights(self) -> NDArray[np.float64]:
+        """The weights b / b_divisor of the stability function."""
+        return np.asarray(self.b, float) / self.b_divisor
+
+
+@dataclass(frozen=True)
+class Method:
+    """One integration method of the driver."""
+
+    name: str
+    stepper: int
+    order: int
+    error_order: int | None
+    description: str
+    tableau: Tableau | None = None
+    exact_stability_bound: float | None = field(default=None, repr=False)
+
+    @property
+    def adaptive(self) -> bool:
+        """Whether the method has an error estimate (so can choose its own step)."""
+        return self.error_order is not None
+
+    @property
+    def l_stable(self) -> bool:
+        """Whether stiff modes are damped at any step (no stability limit on dt)."""
+        return self.stepper == RADAU
+
+    @functools.cached_property
+    def driver_tableau(self) -> tuple:
+        """The tableau argument of the compiled driver (a one-stage stand-in for Radau):
+        (c, a_ptr, a_idx, a_val, b_idx, b_val, b_divisor, e, e3, estimator, error_order)."""
+        error_order = int(self.error_order or 0)
+        if self.tableau is None:
+            one, none = np.zeros(1), np.zeros(1, dtype=np.int64)
+            return (one, np.zeros(2, dtype=np.int64), none, one, none, one, 1.0, np.zeros(2),
+                    np.zeros(2), NO_ESTIMATE, error_order)
+        c, a_ptr, a_idx, a_val, b_idx, b_val, e, e3 = self.tableau.arrays()
+        return (c, a_ptr, a_idx, a_val, b_idx, b_val, float(self.tableau.b_divisor), e, e3,
+                int(self.tableau.estimator), error_order)
+
+    @functools.cached_property
+    def stability_bound(self) -> float:
+        """Length of the negative real axis inside the stability region at a fixed step
+        (inf for an L-stable method): RK4 2.7853, dopri5 3.3066, dop853 6.3937."""
+        if self.l_stable:
+            return math.inf
+        if self.exact_stability_bound is not None:
+            return self.exact_stability_bound
+        assert self.tableau is not None
+        return real_stability_bound(
+            rk_stability_polynomial(self.tableau.a, self.tableau.weights()))
+
+
+#: The registry: every method the driver runs, by config name.
+METHODS: dict[str, Method] = {
+    m.name: m
+    for m in (
+        Method("rk4", EXPLICIT, 4, None,
+               "classical Runge-Kutta 4, fixed step (the notebook's reference scheme)",
+               Tableau(tb.RK4_C, tb.RK4_A, tb.RK4_B, tb.RK4_B_DIVISOR, tb.RK4_B_ORDER),
+               exact_stability_bound=tb.RK4_REAL_STABILITY),
+        Method("dopri5", EXPLICIT, 5, 4, "Dormand-Prince 5(4), adaptive explicit pair",
+               Tableau(tb.DP5_C, tb.DP5_A, tb.DP5_B, e=tb.DP5_E, estimator=EMBEDDED)),
+        Method("dop853", EXPLICIT, 8, 7,
+               "Dormand-Prince 8(5,3), adaptive explicit pair with Hairer's error estimate",
+               Tableau(tb.DOP853_C, tb.DOP853_A, tb.DOP853_B, e=tb.DOP853_E5,
+                       e3=tb.DOP853_E3, estimator=COMBINED_5_3)),
+        Method("radau5", RADAU, 5, 3,
+               "Radau IIA order 5, adaptive, L-stable (simplified Newton, Gustafsson control)"),
+    )
+}
+
+
+def get(name: str) -> Method:
+    """The method registered under name; ValueError naming the choices otherwise."""
+    try:
+        return METHODS[name]
+    except KeyError:
+        raise ValueError(f"method must be one of {', '.join(METHODS)}, got {name!r}") from None

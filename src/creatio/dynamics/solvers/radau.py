@@ -1,0 +1,346 @@
+"""Radau IIA order 5, the implicit stepper, compiled (Hairer & Wanner, Solving ODEs II, IV.8).
+
+3-stage collocation, L-stable: the stage equations damp the friction's stiff slip mode at
+any h, so the step follows the slow dynamics. Simplified Newton on the transformed stage
+increments with the real/complex eigen-split of the Radau matrix, a forward-difference
+Jacobian reused across steps (only the 7 columns the dynamics depend on are differenced),
+LU factors kept while h is steady, and Gustafsson's predictive step control; the pieces
+follow scipy.integrate's Radau (solve_collocation_system, predict_factor), so native and
+scipy runs take comparable steps.
+
+What a step carries to the next lives in a small float array (RS_*) and the work arrays of
+:func:`workspace`; :func:`step` is one try at one step.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from creatio.dynamics.jit import njit
+from creatio.dynamics.solvers import tableaus as tb
+from creatio.dynamics.solvers.explicit import (
+    ACCEPTED,
+    ERROR_REJECTED,
+    MAX_FACTOR,
+    MIN_FACTOR,
+    NEWTON_FAILED,
+)
+from creatio.dynamics.solvers.linalg import lu_factor, lu_solve
+from creatio.dynamics.sphere import rhs, store
+
+__all__ = ["THETA", "jacobian", "step", "workspace"]
+
+NEWTON_MAXITER = 6
+#: Newton contraction rate above which the Jacobian is refreshed (Hairer's THET).
+THETA = 1e-3
+_EPS = np.finfo(float).eps
+
+# Radau IIA constants as plain arrays for the compiled loop.
+_RC = tb.RADAU_C.copy()
+_RE = tb.RADAU_E.copy()
+_RT = tb.RADAU_T.copy()
+_RTI = tb.RADAU_TI.copy()
+_RP = tb.RADAU_P.copy()
+_MU_R = tb.RADAU_MU_REAL
+_MU_C = complex(tb.RADAU_MU_COMPLEX_RE, tb.RADAU_MU_COMPLEX_IM)
+_TI_C = tb.RADAU_TI[1] + 1j * tb.RADAU_TI[2]
+
+# Slots of the carried state: whether a Jacobian exists / is fresh at the current point, the
+# h of the current LU factors (-1: none), whether the previous step's collocation polynomial
+# exists, its start time and step, and the last accepted step and error (controller memory).
+RS_HAVE_JAC, RS_CURRENT_JAC, RS_LU_H, RS_HAVE_OLD, RS_T_OLD, RS_H_PREV, RS_H_OLD, RS_ERR_OLD = (
+    range(8))
+
+
+@njit(cache=True)
+def workspace(n):
+    """Carried state and work arrays of step for a state of size n: nothing computed yet."""
+    rs = np.zeros(8)
+    rs[RS_LU_H] = -1.0
+    rs[RS_H_OLD] = -1.0
+    rs[RS_ERR_OLD] = -1.0
+    return (
+        rs,
+        np.empty((n, n)),                       # jac
+        np.empty((n, n)),                       # real LU
+        np.empty((n, n), dtype=np.complex128),  # complex LU
+        np.empty(n, dtype=np.int64),            # pivots (real)
+        np.empty(n, dtype=np.int64),            # pivots (complex)
+        np.zeros((3, n)),                       # Z: stage increments
+        np.zeros((3, n)),                       # Z0: predicted stage increments
+        np.zeros((3, n)),                       # W = TI Z
+        np.empty((3, n)),                       # F: stage derivatives
+        np.zeros((n, 3)),                       # Qold: previous collocation polynomial
+        np.empty(n),                            # yold
+        np.empty(n),                            # real Newton residual
+        np.empty(n, dtype=np.complex128),       # complex Newton residual
+        np.empty(n),                            # error estimate
+        np.empty(n),                            # work: a trial state
+        np.empty(n),                            # tmp: a trial derivative
+    )
+
+
+@njit(cache=True)
+def jacobian(t, y, f, jac, work, tmp, pp, lc, rot, en):
+    """Jacobian df/dy into jac; returns the right-hand-side evaluations it cost.
+
+    Only (R, alpha, Rdot, alphadot, omega) drive the dynamics: their columns are forward
+    differences. The quaternion block is exact (dQ/dt = Omega(omega) Q / 2 is linear in Q)
+    and the accumulators (cumulative spin, surface work, dissipation) feed nothing back, so
+    their columns are zero.
+    """
+    n = y.size
+    for i in range(n):
+        for j in range(n):
+            jac[i, j] = 0.0
+    for j in range(n):
+        work[j] = y[j]
+    active = 7 if rot else 4
+    for j in range(active):
+        delta = 1.4901161193847656e-08 * max(abs(y[j]), 1.0)
+        work[j] = y[j] + delta
+        delta = work[j] - y[j]
+        rhs(t, work, tmp, pp, lc, rot, en, False)
+        for i in range(n):
+            jac[i, j] = (tmp[i] - f[i]) / delta
+        work[j] = y[j]
+    if rot:
+        wx = 0.5 * y[4]
+        wy = 0.5 * y[5]
+        wz = 0.5 * y[6]
+        # rows dQ/dt (7..10) against columns Q (7..10), from creatio.dynamics.sphere.rhs:
+        # dq0 = -(wx q1 + wy q2 + wz q3)/2, dq1 = (q0 wx + wy q3 - wz q2)/2,
+        # dq2 = (q0 wy + wz q1 - wx q3)/2, dq3 = (q0 wz + wx q2 - wy q1)/2
+        jac[7, 8] = -wx
+        jac[7, 9] = -wy
+        jac[7, 10] = -wz
+        jac[8, 7] = wx
+        jac[8, 9] = -wz
+        jac[8, 10] = wy
+        jac[9, 7] = wy
+        jac[9, 8] = wz
+        jac[9, 10] = -wx
+        jac[10, 7] = wz
+        jac[10, 8] = -wy
+        jac[10, 9] = wx
+    return active
+
+
+@njit(cache=True)
+def _predict(t, h, y, rs, Z0, Qold, yold):
+    """Stage increments predicted from the previous step's collocation polynomial."""
+    n = y.size
+    if rs[RS_HAVE_OLD] > 0.0:
+        for i in range(3):
+            x = (t + h * _RC[i] - rs[RS_T_OLD]) / rs[RS_H_PREV]
+            x2 = x * x
+            x3 = x2 * x
+            for j in range(n):
+                acc = yold[j]
+                acc += Qold[j, 0] * x
+                acc += Qold[j, 1] * x2
+                acc += Qold[j, 2] * x3
+                Z0[i, j] = acc - y[j]
+    else:
+        Z0[:, :] = 0.0
+
+
+@njit(cache=True)
+def _newton(t, h, y, rtol, atol, newton_tol, lur, pivr, luc, pivc, Z0, Z, W, F, rreal, rcplx,
+            work, tmp, pp, lc, rot, en):
+    """Simplified Newton on W = TI Z; returns (converged, iterations, rate, evaluations)."""
+    n = y.size
+    for i in range(3):
+        for j in range(n):
+            W[i, j] = _RTI[i, 0] * Z0[0, j] + _RTI[i, 1] * Z0[1, j] + _RTI[i, 2] * Z0[2, j]
+            Z[i, j] = Z0[i, j]
+    mr = _MU_R / h
+    mc = _MU_C / h
+    dw_old = -1.0
+    rate = -1.0
+    converged = False
+    n_iter = 0
+    evals = 0
+    for it in range(NEWTON_MAXITER):
+        n_iter = it + 1
+        finite = True
+        for i in range(3):
+            for j in range(n):
+                work[j] = y[j] + Z[i, j]
+            rhs(t + _RC[i] * h, work, tmp, pp, lc, rot, en, False)
+            for j in range(n):
+                F[i, j] = tmp[j]
+                if not math.isfinite(tmp[j]):
+                    finite = False
+        evals += 3
+        if not finite:
+            break
+        for j in range(n):
+            rreal[j] = (
+                _RTI[0, 0] * F[0, j] + _RTI[0, 1] * F[1, j] + _RTI[0, 2] * F[2, j]
+                - mr * W[0, j]
+            )
+            rcplx[j] = (
+                _TI_C[0] * F[0, j] + _TI_C[1] * F[1, j] + _TI_C[2] * F[2, j]
+                - mc * (W[1, j] + 1j * W[2, j])
+            )
+        lu_solve(lur, pivr, rreal)
+        lu_solve(luc, pivc, rcplx)
+        s2 = 0.0
+        for j in range(n):
+            sc = atol + abs(y[j]) * rtol
+            s2 += (rreal[j] / sc) ** 2 + (rcplx[j].real / sc) ** 2 + (rcplx[j].imag / sc) ** 2
+        dw = math.sqrt(s2 / (3 * n))
+        if dw_old > 0.0:
+            rate = dw / dw_old
+        if rate >= 0.0 and (
+            rate >= 1.0 or rate ** (NEWTON_MAXITER - it) / (1.0 - rate) * dw > newton_tol
+        ):
+            break
+        for j in range(n):
+            W[0, j] += rreal[j]
+            W[1, j] += rcplx[j].real
+            W[2, j] += rcplx[j].imag
+        for i in range(3):
+            for j in range(n):
+                Z[i, j] = _RT[i, 0] * W[0, j] + _RT[i, 1] * W[1, j] + _RT[i, 2] * W[2, j]
+        if dw == 0.0 or (rate >= 0.0 and rate / (1.0 - rate) * dw < newton_tol):
+            converged = True
+            break
+        dw_old = dw
+    return converged, n_iter, rate, evals
+
+
+@njit(cache=True)
+def _factor(h, n_iter, rate, en_err, rs, fixed):
+    """Gustafsson's predictive controller: (step factor, whether to refresh the Jacobian)."""
+    safety = 0.9 * (2 * NEWTON_MAXITER + 1) / (2 * NEWTON_MAXITER + n_iter)
+    mult = 1.0
+    if rs[RS_H_OLD] > 0.0 and rs[RS_ERR_OLD] > 0.0 and en_err > 0.0:
+        mult = h / rs[RS_H_OLD] * (rs[RS_ERR_OLD] / en_err) ** 0.25
+    recompute = n_iter > 2 and rate > THETA
+    if fixed:
+        return 1.0, recompute
+    if en_err > 1.0:
+        fac = min(1.0, mult) * en_err**-0.25
+        return max(MIN_FACTOR, safety * fac), False
+    factor = MAX_FACTOR if en_err == 0.0 else min(1.0, mult) * en_err**-0.25
+    factor = min(MAX_FACTOR, safety * factor)
+    if not recompute and factor < 1.2:
+        factor = 1.0
+    return factor, recompute
+
+
+@njit(cache=True)
+def step(stepper, t, t_next, h, y, f, ynew, fnew, dbuf, ws, tol, fixed, rejected, pp, lc, rot,
+         en):
+    """One try at the step t -> t_next = t + h (the driver's implicit stepper; `stepper` is
+    its kind, which the driver dispatches on at compile time).
+
+    Returns (outcome, factor, rhs evaluations, jacobians, LU factorisations, whether fnew and
+    dbuf hold the end-of-step evaluation): ACCEPTED (ynew, fnew and the diagnostics dbuf
+    filled; factor proposes the next step), NEWTON_FAILED (halve h) or ERROR_REJECTED
+    (factor shrinks h).
+    """
+    rs, jac, lur, luc, pivr, pivc, Z, Z0, W, F, Qold, yold, rreal, rcplx, err, work, tmp = ws
+    rtol, atol = tol
+    n = y.size
+    evals = 0
+    n_jac = 0
+    n_lu = 0
+    newton_tol = max(10.0 * _EPS / rtol, min(0.03, math.sqrt(rtol))) if rtol > 0 else 0.03
+    if rs[RS_HAVE_JAC] == 0.0:
+        evals += jacobian(t, y, f, jac, work, tmp, pp, lc, rot, en)
+        n_jac += 1
+        rs[RS_HAVE_JAC] = 1.0
+        rs[RS_CURRENT_JAC] = 1.0
+        rs[RS_LU_H] = -1.0
+    _predict(t, h, y, rs, Z0, Qold, yold)
+    converged = False
+    n_iter = 0
+    rate = 0.0
+    while not converged:
+        if abs(h - rs[RS_LU_H]) > 1e-3 * h:
+            mr = _MU_R / h
+            mc = _MU_C / h
+            for i in range(n):
+                for j in range(n):
+                    lur[i, j] = -jac[i, j]
+                    luc[i, j] = -jac[i, j]
+                lur[i, i] += mr
+                luc[i, i] += mc
+            regular = lu_factor(lur, pivr) and lu_factor(luc, pivc)
+            n_lu += 1
+            rs[RS_LU_H] = h
+            if not regular:
+                rs[RS_LU_H] = -1.0
+                break
+        converged, n_iter, rate, ev = _newton(t, h, y, rtol, atol, newton_tol, lur, pivr, luc,
+                                              pivc, Z0, Z, W, F, rreal, rcplx, work, tmp, pp,
+                                              lc, rot, en)
+        evals += ev
+        if not converged:
+            if rs[RS_CURRENT_JAC] > 0.0:
+                break
+            evals += jacobian(t, y, f, jac, work, tmp, pp, lc, rot, en)
+            n_jac += 1
+            rs[RS_CURRENT_JAC] = 1.0
+            rs[RS_LU_H] = -1.0
+    if not converged:
+        rs[RS_LU_H] = -1.0
+        return NEWTON_FAILED, 0.5, evals, n_jac, n_lu, False
+    for j in range(n):
+        ynew[j] = y[j] + Z[2, j]
+    # error estimate: (mu_real/h I - J)^-1 (f + Z^T E / h)
+    for j in range(n):
+        ze = (Z[0, j] * _RE[0] + Z[1, j] * _RE[1] + Z[2, j] * _RE[2]) / h
+        tmp[j] = ze
+        err[j] = f[j] + ze
+    lu_solve(lur, pivr, err)
+    s2 = 0.0
+    for j in range(n):
+        sc = atol + max(abs(y[j]), abs(ynew[j])) * rtol
+        s2 += (err[j] / sc) ** 2
+    en_err = math.sqrt(s2 / n)
+    if rejected and en_err > 1.0 and not fixed:
+        for j in range(n):
+            work[j] = y[j] + err[j]
+        rhs(t, work, rreal, pp, lc, rot, en, False)
+        evals += 1
+        for j in range(n):
+            err[j] = rreal[j] + tmp[j]
+        lu_solve(lur, pivr, err)
+        s2 = 0.0
+        for j in range(n):
+            sc = atol + max(abs(y[j]), abs(ynew[j])) * rtol
+            s2 += (err[j] / sc) ** 2
+        en_err = math.sqrt(s2 / n)
+    if not math.isfinite(en_err):
+        en_err = math.inf
+    factor, recompute = _factor(h, n_iter, rate, en_err, rs, fixed)
+    if en_err > 1.0 and not fixed:
+        rs[RS_LU_H] = -1.0
+        return ERROR_REJECTED, factor, evals, n_jac, n_lu, False
+    store(rhs(t_next, ynew, fnew, pp, lc, rot, en, True), dbuf)
+    evals += 1
+    if recompute:
+        evals += jacobian(t_next, ynew, fnew, jac, work, tmp, pp, lc, rot, en)
+        n_jac += 1
+        rs[RS_CURRENT_JAC] = 1.0
+        rs[RS_LU_H] = -1.0
+    else:
+        rs[RS_CURRENT_JAC] = 0.0
+    rs[RS_H_OLD] = h
+    rs[RS_ERR_OLD] = en_err
+    # the step's collocation polynomial y_old + Q (x, x^2, x^3), Q = Z^T P, formed once
+    # here: it predicts the next step's stages (also after rejections)
+    for j in range(n):
+        for q in range(3):
+            Qold[j, q] = Z[0, j] * _RP[0, q] + Z[1, j] * _RP[1, q] + Z[2, j] * _RP[2, q]
+        yold[j] = y[j]
+    rs[RS_T_OLD] = t
+    rs[RS_H_PREV] = h
+    rs[RS_HAVE_OLD] = 1.0
+    return ACCEPTED, factor, evals, n_jac, n_lu, True

@@ -1,0 +1,407 @@
+"""Compiled right-hand side and per-step diagnostics of the sphere dynamics (docs/model.md s.4-6).
+
+One right-hand side serves every integrator. The first evaluation of a step (``diag``)
+also yields every diagnostic (normal reaction, slip, energy, stop conditions, extrema,
+curvature), so extrema are taken over all integration steps at no extra cost. Rotation and
+energy bookkeeping are compile-time specialisations (literal flags), so switching them off
+removes their work instead of branching around it. The formulas themselves are those of
+creatio.model (offset jets, contact closed forms, cavity radius), compiled here.
+
+State layout: [R, alpha, Rdot, alphadot] + (rotation) [omega_x, omega_y, omega_z, q0, q1, q2,
+q3, cumulative spin] + (energy) [surface work, friction dissipation].
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from creatio.dynamics import status as st
+from creatio.dynamics.jit import njit
+from creatio.dynamics.problem import (
+    COL_ALPHA,
+    COL_AZIMUTH,
+    COL_CAVITY_R,
+    COL_DISSIPATION,
+    COL_ENERGY,
+    COL_F,
+    COL_KINETIC,
+    COL_MARKER,
+    COL_N,
+    COL_OMEGA,
+    COL_POTENTIAL,
+    COL_Q,
+    COL_R,
+    COL_RESIDUAL,
+    COL_SLIP,
+    COL_SPEED,
+    COL_SPIN,
+    COL_SPIN_RATE,
+    COL_T,
+    COL_V,
+    COL_WORK,
+    COL_X,
+    P_B,
+    P_DR,
+    P_G,
+    P_I,
+    P_K,
+    P_M,
+    P_NCAV,
+    P_R0,
+)
+from creatio.model.cavity import cavity_radius
+from creatio.model.laws import law_eval
+from creatio.model.offset import offset_jets
+from creatio.model.sphere import (
+    acceleration_at_fixed_rates,
+    centre_tangents,
+    max_curvature_times_b,
+    normal_reaction,
+)
+
+
+@njit(cache=True)
+def rhs(t, y, dy, pp, lc, rot, en, diag):
+    """Write dy/dt into dy; return (N, |v_s|, X, V, f (rotating frame), phi_r, gamma, b kappa).
+
+    pp = (R0, dR, k, A, Ka, m, b, g, mu, eps, I); lc = the 18 law coefficients (r, a, gamma).
+    b kappa (the largest principal curvature times b) is computed only when diag is True.
+    """
+    R0, dR, k, A, Ka, m, b, g, mu, eps, inertia = pp
+    R = y[0]
+    a = y[1]
+    Rd = y[2]
+    ad = y[3]
+    pr, pr1, pr2 = law_eval(lc[0], lc[1], lc[2], lc[3], lc[4], lc[5], t)
+    pa, pa1, pa2 = law_eval(lc[6], lc[7], lc[8], lc[9], lc[10], lc[11], t)
+    gm, g1, g2 = law_eval(lc[12], lc[13], lc[14], lc[15], lc[16], lc[17], t)
+    rho, z, n1, n2, n3, P, Q, Z = offset_jets(
+        R, a, R0, k, A, Ka, b, pr, pr1, pr2, pa, pa1, pa2, gm, g1, g2
+    )
+    xR1, xR2, xR3, xa1, xa2, xa3, xt1, xt2, xt3 = centre_tangents(P, Q, Z)
+    a01, a02, a03 = acceleration_at_fixed_rates(P, Q, Z, Rd, ad)
+    N = normal_reaction(m, g, n1, n2, n3, a01, a02, a03)
+    V1 = xt1 + xR1 * Rd + xa1 * ad
+    V2 = xt2 + xR2 * Rd + xa2 * ad
+    V3 = xt3 + xR3 * Rd + xa3 * ad
+    ct1 = rho[3]
+    ct3 = z[3]
+    # relative velocity of the sphere's contact point and the membrane, tangential part
+    u1 = V1 - ct1
+    u2 = V2
+    u3 = V3 - ct3
+    ca = 0.0
+    sa = 0.0
+    w1 = 0.0
+    w2 = 0.0
+    w3 = 0.0
+    if rot:
+        ca = math.cos(a)
+        sa = math.sin(a)
+        wx = y[4]
+        wy = y[5]
+        w3 = y[6]
+        w1 = wx * ca + wy * sa
+        w2 = wy * ca - wx * sa
+        u1 -= b * (w2 * n3 - w3 * n2)
+        u2 -= b * (w3 * n1 - w1 * n3)
+        u3 -= b * (w1 * n2 - w2 * n1)
+    un = u1 * n1 + u2 * n2 + u3 * n3
+    vs1 = u1 - un * n1
+    vs2 = u2 - un * n2
+    vs3 = u3 - un * n3
+    slip2 = vs1 * vs1 + vs2 * vs2 + vs3 * vs3
+    fc = 0.0
+    if mu > 0.0:
+        fc = -mu * N / math.sqrt(slip2 + eps * eps)
+    f1 = fc * vs1
+    f2 = fc * vs2
+    f3 = fc * vs3
+    # (J^T J) qddot = J^T (g + f/m - a0)
+    r1 = f1 / m - a01
+    r2 = f2 / m - a02
+    r3 = f3 / m - g - a03
+    j11 = xR1 * xR1 + xR2 * xR2 + xR3 * xR3
+    j12 = xR1 * xa1 + xR2 * xa2 + xR3 * xa3
+    j22 = xa1 * xa1 + xa2 * xa2 + xa3 * xa3
+    c1 = xR1 * r1 + xR2 * r2 + xR3 * r3
+    c2 = xa1 * r1 + xa2 * r2 + xa3 * r3
+    idet = 1.0 / (j11 * j22 - j12 * j12)
+    dy[0] = Rd
+    dy[1] = ad
+    dy[2] = (j22 * c1 - j12 * c2) * idet
+    dy[3] = (j11 * c2 - j12 * c1) * idet
+    ie = 4
+    if rot:
+        ie = 12
+        # I domega/dt = (-b n) x f, rotated back to the world frame
+        s = -b / inertia
+        d1 = s * (n2 * f3 - n3 * f2)
+        d2 = s * (n3 * f1 - n1 * f3)
+        dy[4] = d1 * ca - d2 * sa
+        dy[5] = d1 * sa + d2 * ca
+        dy[6] = s * (n1 * f2 - n2 * f1)
+        # dQ/dt = 1/2 (0, omega) * Q, world-frame omega
+        wx = y[4]
+        wy = y[5]
+        wz = y[6]
+        q0 = y[7]
+        q1 = y[8]
+        q2 = y[9]
+        q3 = y[10]
+        dy[7] = -0.5 * (wx * q1 + wy * q2 + wz * q3)
+        dy[8] = 0.5 * (q0 * wx + wy * q3 - wz * q2)
+        dy[9] = 0.5 * (q0 * wy + wz * q1 - wx * q3)
+        dy[10] = 0.5 * (q0 * wz + wx * q2 - wy * q1)
+        dy[11] = math.sqrt(wx * wx + wy * wy + wz * wz)
+    if en:
+        dy[ie] = (N * n1 + f1) * ct1 + (N * n3 + f3) * ct3
+        dy[ie + 1] = -(f1 * vs1 + f2 * vs2 + f3 * vs3)
+    bk = 0.0
+    if diag:
+        bk = max_curvature_times_b(rho, z, n1, n2, n3, b)
+    return N, math.sqrt(slip2), P[0], Q[0], Z[0], V1, V2, V3, f1, f2, f3, pr, gm, bk
+
+
+#: Length of the diagnostics tuple of rhs.
+NDIAG = 14
+
+
+@njit(cache=True)
+def store(d, buf):
+    """Copy the diagnostics tuple of rhs into buf (an array carries them between steps more
+    cheaply than a tuple held in registers across the loop)."""
+    buf[0] = d[0]
+    buf[1] = d[1]
+    buf[2] = d[2]
+    buf[3] = d[3]
+    buf[4] = d[4]
+    buf[5] = d[5]
+    buf[6] = d[6]
+    buf[7] = d[7]
+    buf[8] = d[8]
+    buf[9] = d[9]
+    buf[10] = d[10]
+    buf[11] = d[11]
+    buf[12] = d[12]
+    buf[13] = d[13]
+
+
+@njit(cache=True)
+def load(buf):
+    """The diagnostics tuple stored by :func:`store`."""
+    return (buf[0], buf[1], buf[2], buf[3], buf[4], buf[5], buf[6], buf[7], buf[8], buf[9],
+            buf[10], buf[11], buf[12], buf[13])
+
+
+@njit(cache=True)
+def pack(p, lawc):
+    """Parameter and law tuples from the plain arrays (unpacked once, outside the loop)."""
+    pp = (p[0], p[1], p[2], p[3], p[4], p[5], p[6], p[7], p[8], p[9], p[10])
+    lc = (
+        lawc[0, 0], lawc[0, 1], lawc[0, 2], lawc[0, 3], lawc[0, 4], lawc[0, 5],
+        lawc[1, 0], lawc[1, 1], lawc[1, 2], lawc[1, 3], lawc[1, 4], lawc[1, 5],
+        lawc[2, 0], lawc[2, 1], lawc[2, 2], lawc[2, 3], lawc[2, 4], lawc[2, 5],
+    )  # fmt: skip
+    return pp, lc
+
+
+# Slots of the running-extrema array shared by the loops (see observe).
+E_MIN_N, E_MAX_N, E_MAX_SLIP, E_MAX_RES, E_MAX_TRACK, E_MIN_CLEAR, E_MAX_BK, E_E0, E_AZ = range(9)
+NEXT = 9
+
+
+@njit(cache=True)
+def new_extrema(en):
+    """Running extrema before the first step (max residual is NaN without energy)."""
+    ext = np.zeros(NEXT)
+    ext[E_MIN_N] = math.inf
+    ext[E_MAX_N] = -math.inf
+    ext[E_MAX_RES] = 0.0 if en else math.nan
+    ext[E_MIN_CLEAR] = math.inf
+    ext[E_MAX_BK] = -math.inf
+    return ext
+
+
+@njit(cache=True)
+def observe(first, t, y, d, p, ext, out, row, final, sample, rot, en):
+    """Diagnostics of one step start: update extrema, test the stop conditions, write a row.
+
+    d is the diagnostic tuple of rhs at (t, y). A row is written when the step is on the
+    output grid (sample), is the last one (final) or stops the run. Returns (status, rows
+    written).
+    """
+    N, slip, X1, X2, X3, V1, V2, V3, f1, f2, f3, pr, gm, bk = d
+    R0 = p[P_R0]
+    dR = p[P_DR]
+    k = p[P_K]
+    m = p[P_M]
+    b = p[P_B]
+    g = p[P_G]
+    inertia = p[P_I]
+    ncav = p[P_NCAV]
+    ie = 12 if rot else 4
+    two_pi = 2.0 * math.pi
+    R = y[0]
+    a = y[1]
+    # centre's coordinate along the generator e_g (MODEL.md s.1 inverse map); at
+    # gamma = 0 it is rho - R0, so clear = min(rho - b - R0, R1 - rho - b)
+    sx = (math.sqrt(X1 * X1 + X2 * X2) - R0) * math.cos(gm) + X3 * math.sin(gm)
+    clear = min(sx - b, dR - sx - b)
+    rc = cavity_radius(pr, k, ncav)
+    track = abs(R - rc)
+    kin = math.nan
+    pot = math.nan
+    energy = math.nan
+    res = math.nan
+    if en:
+        kin = 0.5 * m * (V1 * V1 + V2 * V2 + V3 * V3)
+        if rot:
+            kin += 0.5 * inertia * (y[4] * y[4] + y[5] * y[5] + y[6] * y[6])
+        pot = m * g * X3
+        energy = kin + pot
+        if first:
+            ext[E_E0] = energy
+        res = energy - ext[E_E0] - y[ie] + y[ie + 1]
+        if abs(res) > ext[E_MAX_RES]:
+            ext[E_MAX_RES] = abs(res)
+    raw = a + math.atan2(X2, X1)
+    if first:
+        az = math.atan2(math.sin(raw), math.cos(raw))
+    else:
+        az = raw + two_pi * np.rint((ext[E_AZ] - raw) / two_pi)
+    ext[E_AZ] = az
+    if N < ext[E_MIN_N]:
+        ext[E_MIN_N] = N
+    if N > ext[E_MAX_N]:
+        ext[E_MAX_N] = N
+    if slip > ext[E_MAX_SLIP]:
+        ext[E_MAX_SLIP] = slip
+    if track > ext[E_MAX_TRACK]:
+        ext[E_MAX_TRACK] = track
+    if clear < ext[E_MIN_CLEAR]:
+        ext[E_MIN_CLEAR] = clear
+    if bk > ext[E_MAX_BK]:
+        ext[E_MAX_BK] = bk
+    total = N + slip + X1 + X2 + X3 + bk
+    for j in range(y.size):
+        total += y[j]
+    status = st.OK
+    if not math.isfinite(total):
+        status = st.NON_FINITE
+    elif N <= 0.0:
+        status = st.CONTACT_LOST
+    elif R < 0.0 or R > dR:
+        status = st.LEFT_ANNULUS
+    elif clear < 0.0:
+        status = st.EDGE_CROSSED
+    elif bk >= 1.0:
+        status = st.OFFSET_SINGULAR
+    if not (status != st.OK or final or sample):
+        return status, 0
+    ca = math.cos(a)
+    sa = math.sin(a)
+    out[row, COL_T] = t
+    out[row, COL_X] = X1 * ca - X2 * sa
+    out[row, COL_X + 1] = X1 * sa + X2 * ca
+    out[row, COL_X + 2] = X3
+    out[row, COL_R] = R
+    out[row, COL_ALPHA] = a
+    out[row, COL_V] = V1 * ca - V2 * sa
+    out[row, COL_V + 1] = V1 * sa + V2 * ca
+    out[row, COL_V + 2] = V3
+    out[row, COL_SPEED] = math.sqrt(V1 * V1 + V2 * V2 + V3 * V3)
+    out[row, COL_N] = N
+    out[row, COL_F] = f1 * ca - f2 * sa
+    out[row, COL_F + 1] = f1 * sa + f2 * ca
+    out[row, COL_F + 2] = f3
+    out[row, COL_SLIP] = slip
+    if rot:
+        wx = y[4]
+        wy = y[5]
+        wz = y[6]
+        qn = 1.0 / math.sqrt(y[7] * y[7] + y[8] * y[8] + y[9] * y[9] + y[10] * y[10])
+        q0 = y[7] * qn
+        q1 = y[8] * qn
+        q2 = y[9] * qn
+        q3 = y[10] * qn
+        spin = y[11]
+    else:
+        wx = 0.0
+        wy = 0.0
+        wz = 0.0
+        q0 = 1.0
+        q1 = 0.0
+        q2 = 0.0
+        q3 = 0.0
+        spin = 0.0
+    out[row, COL_OMEGA] = wx
+    out[row, COL_OMEGA + 1] = wy
+    out[row, COL_OMEGA + 2] = wz
+    out[row, COL_SPIN_RATE] = math.sqrt(wx * wx + wy * wy + wz * wz)
+    out[row, COL_SPIN] = spin
+    out[row, COL_Q] = q0
+    out[row, COL_Q + 1] = q1
+    out[row, COL_Q + 2] = q2
+    out[row, COL_Q + 3] = q3
+    out[row, COL_MARKER] = 2.0 * (q1 * q3 + q0 * q2)
+    out[row, COL_MARKER + 1] = 2.0 * (q2 * q3 - q0 * q1)
+    out[row, COL_MARKER + 2] = q0 * q0 - q1 * q1 - q2 * q2 + q3 * q3
+    out[row, COL_AZIMUTH] = az
+    out[row, COL_KINETIC] = kin
+    out[row, COL_POTENTIAL] = pot
+    out[row, COL_ENERGY] = energy
+    out[row, COL_WORK] = y[ie] if en else math.nan
+    out[row, COL_DISSIPATION] = y[ie + 1] if en else math.nan
+    out[row, COL_RESIDUAL] = res
+    out[row, COL_CAVITY_R] = rc
+    return status, 1
+
+
+@njit(cache=True)
+def evaluate(
+    p: np.ndarray, lawc: np.ndarray, y: np.ndarray, t: float
+) -> tuple[np.ndarray, float, float, float]:
+    """One right-hand-side evaluation of a full (rotation + energy) state at time t.
+
+    Returns (dy/dt, N, |v_s|, b kappa); used for a-priori estimates and tests.
+    """
+    pp, lc = pack(p, lawc)
+    dy = np.empty(y.size)
+    N, slip, X1, X2, X3, V1, V2, V3, f1, f2, f3, pr, gm, bk = rhs(
+        t, y, dy, pp, lc, True, True, True
+    )
+    return dy, N, slip, bk
+
+
+@njit(cache=True)
+def derivative(p, lawc, t, y, rot, en):
+    """dy/dt of one state (the right-hand side every integrator uses), as a new array."""
+    pp, lc = pack(p, lawc)
+    dy = np.empty(y.size)
+    rhs(t, y, dy, pp, lc, rot, en, False)
+    return dy
+
+
+@njit(cache=True)
+def centre_positions(p, lawc, t, states, rot, en):
+    """World-frame sphere centres X (n, 3) of states (n, size) at times t (n,).
+
+    The same formula the loops write into the histories (rotating-frame X turned by alpha),
+    so an error measured from states equals the one measured from a loop's histories.
+    """
+    pp, lc = pack(p, lawc)
+    n = t.size
+    X = np.empty((n, 3))
+    dy = np.empty(states.shape[1])
+    for i in range(n):
+        y = states[i]
+        d = rhs(t[i], y, dy, pp, lc, rot, en, False)
+        ca = math.cos(y[1])
+        sa = math.sin(y[1])
+        X[i, 0] = d[2] * ca - d[3] * sa
+        X[i, 1] = d[2] * sa + d[3] * ca
+        X[i, 2] = d[4]
+    return X

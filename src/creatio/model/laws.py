@@ -1,0 +1,163 @@
+"""Phase and inclination laws of time, each with closed-form first and second derivatives.
+
+Every law is one case of the general form (angles in radians, t in seconds)
+
+    phi(t) = phi0 + rate * t + delta * s(clip(t / T, 0, 1)) + amplitude * sin(omega * t)
+
+where s(tau) = 10 tau^3 - 15 tau^4 + 6 tau^5 is the quintic smooth step
+(s(0) = 0, s(1) = 1, s' and s'' vanish at both ends, so clamping keeps the law C2).
+The kinds of MODEL.md section 2 are the special cases:
+
+* constant:  phi0
+* linear:    phi0 + rate t
+* quintic:   phi0 + delta s(t / T)           (starts and stops at zero speed)
+* sinusoid:  phi0 + amplitude sin(omega t)   (the inclination law gamma0 + G sin(Omega t))
+
+The six coefficients (phi0, rate, delta, T, amplitude, omega) are the plain-number
+form that the compiled dynamics core evaluates; ``Law.coefficients`` returns them, and
+:func:`law_eval` evaluates them at one time in scalar code (docs/model.md s.2).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from enum import StrEnum
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+__all__ = ["Law", "LawKind", "LawValue", "law_eval", "quintic_step"]
+
+
+class LawKind(StrEnum):
+    """Which special case of the general law is meant (validation uses it)."""
+
+    constant = "constant"
+    linear = "linear"
+    quintic = "quintic"
+    sinusoid = "sinusoid"
+
+
+@dataclass(frozen=True)
+class LawValue:
+    """A law evaluated at times t: value, first and second time derivatives."""
+
+    value: NDArray[np.float64]
+    d1: NDArray[np.float64]
+    d2: NDArray[np.float64]
+
+
+def quintic_step(tau: ArrayLike) -> tuple[NDArray, NDArray, NDArray]:
+    """Return s, ds/dtau, d2s/dtau2 of the quintic smooth step, clamped outside [0, 1]."""
+    tau = np.asarray(tau, dtype=float)
+    inside = (tau > 0.0) & (tau < 1.0)
+    x = np.clip(tau, 0.0, 1.0)
+    s = x * x * x * (10.0 - 15.0 * x + 6.0 * x * x)
+    ds = np.where(inside, 30.0 * x * x * (1.0 - x) ** 2, 0.0)
+    dds = np.where(inside, 60.0 * x * (1.0 - x) * (1.0 - 2.0 * x), 0.0)
+    return s, ds, dds
+
+
+@dataclass(frozen=True)
+class Law:
+    """A time law phi(t) in radians; see the module docstring for the general form."""
+
+    phi0: float = 0.0
+    rate: float = 0.0
+    delta: float = 0.0
+    T: float = 1.0
+    amplitude: float = 0.0
+    omega: float = 0.0
+    kind: LawKind = LawKind.constant
+
+    def __post_init__(self) -> None:
+        if not self.T > 0.0:
+            raise ValueError(f"law cycle length T must be > 0, got {self.T}")
+
+    @classmethod
+    def constant(cls, phi0: float) -> Law:
+        """phi(t) = phi0."""
+        return cls(phi0=phi0, kind=LawKind.constant)
+
+    @classmethod
+    def linear(cls, phi0: float, rate: float) -> Law:
+        """phi(t) = phi0 + rate t."""
+        return cls(phi0=phi0, rate=rate, kind=LawKind.linear)
+
+    @classmethod
+    def quintic(cls, phi0: float, delta: float, T: float) -> Law:
+        """phi(t) = phi0 + delta s(t / T), the smooth step over one cycle of length T."""
+        return cls(phi0=phi0, delta=delta, T=T, kind=LawKind.quintic)
+
+    @classmethod
+    def sinusoid(cls, phi0: float, amplitude: float, omega: float) -> Law:
+        """phi(t) = phi0 + amplitude sin(omega t)."""
+        return cls(phi0=phi0, amplitude=amplitude, omega=omega, kind=LawKind.sinusoid)
+
+    def coefficients(self) -> NDArray[np.float64]:
+        """The six plain numbers (phi0, rate, delta, T, amplitude, omega) of the general form."""
+        return np.array(
+            [self.phi0, self.rate, self.delta, self.T, self.amplitude, self.omega], dtype=float
+        )
+
+    def __call__(self, t: ArrayLike) -> LawValue:
+        """Evaluate value, first and second derivative at times t (any shape)."""
+        t = np.asarray(t, dtype=float)
+        s, ds, dds = quintic_step(t / self.T)
+        wt = self.omega * t
+        sin_wt, cos_wt = np.sin(wt), np.cos(wt)
+        value = self.phi0 + self.rate * t + self.delta * s + self.amplitude * sin_wt
+        d1 = self.rate + self.delta * ds / self.T + self.amplitude * self.omega * cos_wt
+        d2 = self.delta * dds / self.T**2 - self.amplitude * self.omega**2 * sin_wt
+        return LawValue(value, d1 + 0.0 * t, d2 + 0.0 * t)
+
+    def bounds(self) -> tuple[float, float]:
+        """Lower and upper bound of phi over t >= 0: exact for each special kind, safe else."""
+        lo = hi = self.phi0
+        if self.rate > 0.0:
+            hi = np.inf
+        elif self.rate < 0.0:
+            lo = -np.inf
+        lo, hi = lo + min(0.0, self.delta), hi + max(0.0, self.delta)
+        swing = abs(self.amplitude) if self.omega != 0.0 else 0.0
+        return lo - swing, hi + swing
+
+
+def law_eval(
+    phi0: float, rate: float, delta: float, T: float, amplitude: float, omega: float, t: float
+) -> tuple[float, float, float]:
+    """Value, first and second time derivative of the general law at one time t.
+
+    Scalar code with no NumPy, so the dynamics layer compiles this very function into its
+    loops (creatio.dynamics.kernels); terms with a zero coefficient are skipped (no
+    trigonometry for a law without a sinusoid). Agrees with :class:`Law` to rounding.
+    """
+    value = phi0 + rate * t
+    d1 = rate
+    d2 = 0.0
+    if delta != 0.0:
+        tau = t / T
+        if tau <= 0.0:
+            s = 0.0
+            ds = 0.0
+            dds = 0.0
+        elif tau >= 1.0:
+            s = 1.0
+            ds = 0.0
+            dds = 0.0
+        else:
+            s = tau * tau * tau * (10.0 - 15.0 * tau + 6.0 * tau * tau)
+            om = 1.0 - tau
+            ds = 30.0 * tau * tau * om * om
+            dds = 60.0 * tau * om * (1.0 - 2.0 * tau)
+        value += delta * s
+        d1 += delta * ds / T
+        d2 += delta * dds / (T * T)
+    if amplitude != 0.0:
+        sw = math.sin(omega * t)
+        cw = math.cos(omega * t)
+        value += amplitude * sw
+        d1 += amplitude * omega * cw
+        d2 -= amplitude * omega * omega * sw
+    return value, d1, d2

@@ -1,0 +1,206 @@
+"""Config composition and validation at the boundary: Hydra in, a Resolved config out.
+
+Every study config is composed from ``conf/`` (the primary config of its group +
+``conf/<group>/<id>.yaml`` + the groups it pulls in), merged onto the study's dataclass
+schema (creatio.studies.schema; unknown keys and wrong types are refused by OmegaConf), then
+checked rule by rule. A bad value raises :class:`~creatio.errors.ConfigError` naming the key,
+the value and the rule, before anything is computed. The canonical resolved YAML and its
+sha256 identify a config: outputs are placed by it and jobs rerun when it changes.
+"""
+
+from __future__ import annotations
+
+import functools
+import hashlib
+import os
+from collections.abc import Sequence
+from dataclasses import dataclass, fields, is_dataclass
+from enum import Enum
+from pathlib import Path
+from typing import Any
+
+from omegaconf import DictConfig, OmegaConf
+from omegaconf.errors import OmegaConfBaseException
+
+from creatio.errors import ConfigError
+from creatio.studies import registry
+from creatio.studies.schema import ProbeConfig
+
+__all__ = [
+    "CONF_DIR",
+    "ConfigError",
+    "Resolved",
+    "applicable",
+    "compose",
+    "dataset_path",
+    "output_root",
+    "plain",
+    "resolve",
+    "validate",
+]
+
+CONF_DIR = Path(os.environ.get("CREATIO_CONF_DIR", Path(__file__).resolve().parents[3] / "conf"))
+
+#: The primary config of each config group (conf/<name>.yaml).
+PRIMARY = {"study": "config", "analysis": "analysis"}
+
+
+@dataclass(frozen=True)
+class Resolved:
+    """A validated config: typed object tree, plain dict, canonical YAML and its sha256."""
+
+    study: str
+    obj: Any
+    data: dict
+    yaml: str
+    sha256: str
+
+    @property
+    def key(self) -> str:
+        """Short config hash used to key output directories."""
+        return self.sha256[:12]
+
+    @property
+    def entry(self) -> registry.Study:
+        """The registry entry of this config's study."""
+        return registry.get(self.study)
+
+
+def register_schemas(*extra: str) -> None:
+    """Put the schemas in Hydra's ConfigStore so composition is typed from the start
+    (``conf/<group>/<id>.yaml`` pulls in ``/schema/<id>@_here_``): every study of the
+    ``study`` group (an analysis includes them as its bases), the probe's, and the extra
+    studies named (loading an analysis's schema imports its module, so only on demand)."""
+    from hydra.core.config_store import ConfigStore
+
+    cs = ConfigStore.instance()
+    names = [s.id for s in registry.STUDIES.values() if s.group == "study"] + list(extra)
+    for name in names:
+        cs.store(group="schema", name=name, node=registry.get(name).schema, package="_global_")
+    cs.store(group="schema", name="probe", node=ProbeConfig, package="_global_")
+
+
+def compose(study: str, overrides: Sequence[str] = (), config_name: str | None = None
+            ) -> DictConfig:
+    """Compose conf/ for one study with Hydra overrides (context-manager API, re-entrant).
+
+    ``config_name`` names another primary config (``probe``); by default the primary
+    config of the study's group, with the study selected in that group.
+    """
+    from hydra import compose as hydra_compose
+    from hydra import initialize_config_dir
+    from hydra.core.global_hydra import GlobalHydra
+
+    register_schemas(*([study] if study in registry.STUDIES else []))
+    extra: list[str] = []
+    if config_name is None:
+        group = registry.get(study).group
+        config_name = PRIMARY[group]
+        extra = [f"{group}={study}"]
+    # Inside a running Hydra app the global instance is taken: park it while composing.
+    gh = GlobalHydra.instance()
+    outer, gh.hydra = gh.hydra, None
+    try:
+        with initialize_config_dir(config_dir=str(CONF_DIR), version_base="1.3"):
+            return hydra_compose(config_name=config_name, overrides=[*extra, *overrides])
+    finally:
+        GlobalHydra.instance().hydra = outer
+
+
+def validate(cfg: DictConfig | dict, schema: type | None = None) -> Resolved:
+    """Merge onto the study's schema, check every rule, return the resolved config.
+
+    Raises ConfigError for unknown keys, wrong types, missing values and broken rules.
+    """
+    cfg = OmegaConf.create(cfg) if isinstance(cfg, dict) else cfg
+    cfg = OmegaConf.masked_copy(cfg, [k for k in cfg if k != "hydra"])
+    study = str(OmegaConf.select(cfg, "study.id", default="probe"))
+    if schema is None:
+        if study not in registry.STUDIES:
+            raise ConfigError("study.id", study, f"must be one of {', '.join(registry.STUDIES)}")
+        schema = registry.STUDIES[study].schema
+    try:
+        merged = OmegaConf.merge(OmegaConf.structured(schema), cfg)
+        data = OmegaConf.to_container(merged, resolve=True, enum_to_str=True,
+                                      throw_on_missing=True)
+        obj = OmegaConf.to_object(merged)
+    except OmegaConfBaseException as e:
+        key = getattr(e, "full_key", None) or "?"
+        msg = str(getattr(e, "msg", e)).splitlines()[0]
+        raise ConfigError(key, getattr(e, "value", None), msg) from None
+    obj.check()
+    text = OmegaConf.to_yaml(OmegaConf.create(data), sort_keys=True)
+    return Resolved(study, obj, data, text, hashlib.sha256(text.encode()).hexdigest())
+
+
+def applicable(study: str, overrides: Sequence[str]) -> list[str]:
+    """The overrides whose full key (or group) exists in this study's config."""
+    base = compose(study)
+    missing = object()
+    keep = []
+    for ov in overrides:
+        key = ov.split("=", 1)[0].lstrip("+~").split("@", 1)[0]
+        if OmegaConf.select(base, key, default=missing, throw_on_missing=False) is not missing:
+            keep.append(ov)
+    return keep
+
+
+def resolve(study: str, overrides: Sequence[str] = (), only_applicable: bool = False) -> Resolved:
+    """Compose and validate one study's config with overrides (memoised per process)."""
+    return _resolve(study, tuple(str(o) for o in overrides), only_applicable)
+
+
+@functools.lru_cache(maxsize=512)
+def _resolve(study: str, overrides: tuple[str, ...], only_applicable: bool) -> Resolved:
+    if study not in registry.STUDIES:
+        raise ConfigError("study", study, f"must be one of {', '.join(registry.STUDIES)}")
+    ovs = applicable(study, overrides) if only_applicable else list(overrides)
+    try:
+        cfg = compose(study, ovs)
+    except Exception as e:  # Hydra refused an override: unknown key, bad type, bad syntax
+        raise override_error(study, ovs, e) from None
+    return validate(cfg)
+
+
+def override_error(
+    study: str, overrides: Sequence[str], error: Exception, config_name: str | None = None
+) -> ConfigError:
+    """Find the first override Hydra refuses on its own and name its key, value and reason."""
+    for ov in overrides:
+        try:
+            compose(study, [ov], config_name=config_name)
+        except Exception as e:  # noqa: BLE001 - any refusal pins the culprit
+            key, _, value = ov.partition("=")
+            cause = e.__cause__ or e
+            reason = str(cause).splitlines()[0]
+            if "not in struct" in reason or "Could not override" in reason:
+                reason = "unknown key (not in this study's config)"
+            return ConfigError(key.lstrip("+~"), value, reason)
+    return ConfigError("overrides", list(overrides), str(error).splitlines()[0])
+
+
+def output_root(resolved: Resolved, data_dir: str | Path = "data") -> Path:
+    """Default config -> ``data``; anything else -> ``data/runs/<config hash>``."""
+    default = resolve(resolved.study)
+    data_dir = Path(data_dir)
+    return data_dir if default.sha256 == resolved.sha256 else data_dir / "runs" / resolved.key
+
+
+def plain(obj: Any) -> Any:
+    """Dataclass/enum tree to plain Python values (for attrs and JSON)."""
+    if is_dataclass(obj):
+        return {f.name: plain(getattr(obj, f.name)) for f in fields(obj)}
+    if isinstance(obj, Enum):
+        return obj.value
+    if isinstance(obj, dict):
+        return {k: plain(v) for k, v in obj.items()}
+    if isinstance(obj, list | tuple):
+        return [plain(v) for v in obj]
+    return obj
+
+
+def dataset_path(root: str | Path, study: str, dt: float | None = None) -> Path:
+    """Where a study's dataset lives under an output root (sphere studies keyed by dt)."""
+    entry = registry.get(study)
+    name = study if dt is None else f"{study}_dt{float(dt)!r}"
+    return Path(root) / entry.kind.dataset_dir / study / f"{name}.nc"

@@ -1,0 +1,136 @@
+"""NetCDF dataset I/O: atomic writes, CF-style global attributes, full provenance.
+
+Every dataset carries the resolved config (YAML) and its sha256, the package version, the
+git commit and dirty flag, library versions and the creation time, so that reading it back
+tells exactly how it was made.
+"""
+
+from __future__ import annotations
+
+import datetime as _dt
+import functools
+import json
+import os
+import platform
+import subprocess
+import sys
+from collections.abc import Mapping
+from importlib.metadata import PackageNotFoundError, version
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import xarray as xr
+import yaml
+
+import creatio
+
+__all__ = ["atomic_path", "git_state", "provenance", "read_dataset", "write_dataset"]
+
+REPO_ROOT = Path(__file__).resolve().parents[3]
+LIBRARIES = ("numpy", "scipy", "xarray", "netCDF4", "numba", "hydra-core", "snakemake")
+# Attributes that change on every run; diffs ignore them unless asked.
+VOLATILE_ATTRS = ("history", "date_created")
+SMALL_BYTES = 4096
+
+
+@functools.cache
+def git_state() -> tuple[str, bool]:
+    """(commit, dirty) of the source tree, or ("unknown", True) outside a git checkout."""
+    try:
+        commit = subprocess.run(
+            ["git", "rev-parse", "HEAD"], cwd=REPO_ROOT, capture_output=True, text=True,
+            check=True,
+        ).stdout.strip()
+        status = subprocess.run(
+            ["git", "status", "--porcelain", "--untracked-files=no", "--", "src", "conf",
+             "Snakefile", "workflow", "pyproject.toml", "constraints.txt"],
+            cwd=REPO_ROOT, capture_output=True, text=True, check=True,
+        ).stdout
+        return commit, bool(status.strip())
+    except (OSError, subprocess.CalledProcessError):
+        return "unknown", True
+
+
+def library_versions() -> dict[str, str]:
+    """Versions of Python and the numeric/workflow libraries in use."""
+    out = {"python": platform.python_version()}
+    for lib in LIBRARIES:
+        try:
+            out[lib] = version(lib)
+        except PackageNotFoundError:
+            out[lib] = "absent"
+    return out
+
+
+def provenance(study: str, config_yaml: str, config_sha256: str, title: str) -> dict[str, Any]:
+    """CF-style global attributes plus provenance for one study dataset."""
+    commit, dirty = git_state()
+    now = _dt.datetime.now(_dt.UTC).replace(microsecond=0).isoformat()
+    attrs: dict[str, Any] = {
+        "Conventions": "CF-1.10",
+        "title": title or study,
+        "institution": "creatio",
+        "source": f"creatio {creatio.__version__}",
+        "history": f"{now} created by creatio {creatio.__version__}: {' '.join(sys.argv[:3])}",
+        "references": f"CREATIO technical notebook, study {study.upper()}",
+        "study": study,
+        "creatio_version": creatio.__version__,
+        "git_commit": commit,
+        "git_dirty": int(dirty),
+        "config_yaml": config_yaml,
+        "config_sha256": config_sha256,
+        "date_created": now,
+    }
+    attrs.update({f"version_{k.replace('-', '_')}": v for k, v in library_versions().items()})
+    return attrs
+
+
+def atomic_path(path: Path) -> Path:
+    """A temporary sibling of path, to be renamed over it once complete."""
+    return path.with_name(f".{path.name}.tmp-{os.getpid()}")
+
+
+def _netcdf_attr(value: Any) -> Any:
+    if isinstance(value, bool | np.bool_):
+        return int(value)
+    if isinstance(value, Mapping | list | tuple) and not isinstance(value, str):
+        return json.dumps(value)
+    if value is None:
+        return ""
+    return value
+
+
+def write_dataset(ds: xr.Dataset, path: str | Path) -> Path:
+    """Write ds as compressed NetCDF4 atomically (temp file, then rename)."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    ds = ds.copy()
+    ds.attrs = {k: _netcdf_attr(v) for k, v in ds.attrs.items()}
+    for var in ds.variables.values():
+        var.attrs = {k: _netcdf_attr(v) for k, v in var.attrs.items()}
+    # Compress what is large; store small variables contiguously (chunk indexes and
+    # compression headers would cost more than they save).
+    encoding = {
+        name: {"zlib": True, "complevel": 4} if var.nbytes > SMALL_BYTES else {"contiguous": True}
+        for name, var in ds.variables.items()
+        if var.dtype.kind in "fiub"
+    }
+    tmp = atomic_path(path)
+    try:
+        ds.to_netcdf(tmp, format="NETCDF4", engine="netcdf4", encoding=encoding)
+        os.replace(tmp, path)
+    finally:
+        if tmp.exists():
+            tmp.unlink()
+    return path
+
+
+def read_dataset(path: str | Path) -> tuple[xr.Dataset, dict]:
+    """Load a dataset fully into memory and return it with its resolved config."""
+    path = Path(path)
+    if not path.is_file():
+        raise FileNotFoundError(f"no dataset at {path}")
+    ds = xr.load_dataset(path, engine="netcdf4")
+    config = yaml.safe_load(ds.attrs.get("config_yaml", "")) or {}
+    return ds, config

@@ -1,0 +1,296 @@
+"""Planning for the Snakefile: which resolved config produces which files.
+
+The Snakefile stays declarative; the decisions live here, where they can be tested. Every
+dataset job gets its resolved config as canonical YAML, its only config parameter: a job
+reruns exactly when its resolved config changes, however the overrides were spelled.
+Output roots: ``data`` for a study's default config, ``data/runs/<hash>`` otherwise.
+"""
+
+from __future__ import annotations
+
+import functools
+import shlex
+import sys
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from creatio.errors import ConfigError
+from creatio.pipeline.config import Resolved, applicable, output_root, resolve
+from creatio.studies import registry
+
+__all__ = [
+    "JobConfigs",
+    "analysis_ids",
+    "StudyPlan",
+    "StudyRuns",
+    "SweepRegistry",
+    "as_list",
+    "compare_targets",
+    "plan",
+    "wildcard_pattern",
+    "workflow_against",
+    "workflow_diff_options",
+    "workflow_outputs",
+    "workflow_version",
+]
+
+
+def as_list(value: Any) -> list[str]:
+    """A --config value as a list of strings (a bare string is one item, not characters)."""
+    if value is None:
+        return []
+    if isinstance(value, str):
+        return [value]
+    return [str(v) for v in value]
+
+
+@dataclass(frozen=True)
+class StudyPlan:
+    """One study's resolved config, applicable overrides and output root."""
+
+    study: str
+    resolved: Resolved
+    overrides: tuple[str, ...]
+    root: str
+
+    @property
+    def sha256(self) -> str:
+        """The resolved config's hash."""
+        return self.resolved.sha256
+
+    @property
+    def entry(self) -> registry.Study:
+        """The registry entry of the study."""
+        return registry.get(self.study)
+
+    @property
+    def datasets(self) -> list[str]:
+        """Dataset paths, in the order of the study's parts (configured dt first)."""
+        return self.entry.datasets(self.root, self.resolved.obj)
+
+    @property
+    def reports(self) -> list[str]:
+        """Every report file of this study."""
+        return self.entry.reports(self.root)
+
+
+def default_studies() -> list[str]:
+    """The studies `snakemake all` builds (the registry's, analyses aside)."""
+    return [s.id for s in registry.select(in_all=True)]
+
+
+def analysis_ids() -> list[str]:
+    """The analyses (`snakemake benchmarks`)."""
+    return [s.id for s in registry.select(kind="analysis")]
+
+
+def wildcard_pattern(kind: str | None = None, folder: str | None = None) -> str:
+    """A regex of the registered study ids (of one kind, or whose datasets live in one
+    folder), for Snakemake wildcard constraints; one that matches nothing if there are none."""
+    ids = [s.id for s in registry.select(kind=kind)
+           if folder is None or s.kind.dataset_dir == folder]
+    return "|".join(ids) or "(?!)"
+
+
+def plan(
+    overrides: Sequence[str] = (), studies: Sequence[str] | None = None, data_dir: str = "data"
+) -> dict[str, StudyPlan]:
+    """Resolve every study's config under the overrides; refuse overrides no study uses."""
+    overrides = as_list(overrides)
+    studies = default_studies() if studies is None else as_list(studies)
+    unknown = [s for s in studies if s not in registry.STUDIES]
+    if unknown:
+        raise ConfigError("studies", unknown, f"must be among {', '.join(registry.STUDIES)}")
+    used: set[str] = set()
+    out = {}
+    for study in studies:
+        ovs = applicable(study, overrides)
+        used.update(ovs)
+        resolved = resolve(study, ovs)
+        out[study] = StudyPlan(study, resolved, tuple(ovs),
+                               str(output_root(resolved, data_dir)))
+    unused = [o for o in overrides if o not in used]
+    if unused:
+        raise ConfigError("overrides", unused, "no selected study has these keys")
+    return out
+
+
+def compare_targets(plans: dict[str, StudyPlan]) -> list[str]:
+    """The EN-02 / EN-02R comparison files, when both studies run on default configs."""
+    pair = [plans.get("en02"), plans.get("en02r")]
+    if all(p is not None and p.root == "data" for p in pair):
+        return ["data/reports/compare_en02_en02r.md", "data/reports/compare_en02_en02r.png"]
+    return []
+
+
+class JobConfigs:
+    """Which resolved config writes under (output root, study), for every job of this run.
+
+    Study runs and sweep points register here, so one set of dataset rules serves both.
+    The default config of a study is registered on demand for the ``data`` root.
+    """
+
+    def __init__(self, data_dir: str = "data") -> None:
+        self.data_dir = data_dir
+        self._by_root: dict[tuple[str, str], Resolved] = {}
+        # Planners to run on a miss: a job re-invoked in its own Snakemake process (run:
+        # directives, cluster executors) parses the Snakefile anew without the targets.
+        self.fallbacks: list[Callable[[], Any]] = []
+
+    def add(self, root: str, resolved: Resolved) -> None:
+        """Register the config that produces datasets under root (first one wins)."""
+        self._by_root.setdefault((str(root), resolved.study), resolved)
+
+    def get(self, root: str, study: str) -> Resolved:
+        """The resolved config for (root, study)."""
+        key = (str(root), study)
+        if key not in self._by_root and str(root) == self.data_dir:
+            self._by_root[key] = resolve(study)
+        for fallback in self.fallbacks:
+            if key in self._by_root:
+                break
+            fallback()
+        try:
+            return self._by_root[key]
+        except KeyError:
+            raise ConfigError("output", f"{root}/{study}",
+                              "no configuration of this invocation writes there") from None
+
+    def yaml(self, root: str, study: str) -> str:
+        """The canonical resolved YAML (a dataset job's config parameter)."""
+        return self.get(root, study).yaml
+
+    def datasets(self, root: str, study: str) -> list[str]:
+        """Dataset paths of (root, study), in the order of the study's parts."""
+        return registry.get(study).datasets(root, self.get(root, study).obj)
+
+    def part(self, root: str, study: str, name: str) -> str:
+        """Check that (root, study) has a dataset part called name; return it."""
+        try:
+            registry.get(study).part(self.get(root, study).obj, name)
+        except KeyError as e:
+            raise ConfigError("output", f"{root}/{study}/{name}.nc", str(e.args[0])) from None
+        return name
+
+
+class StudyRuns:
+    """The studies of `snakemake all`, planned on first use (so a sweep never plans them)."""
+
+    def __init__(self, jobs: JobConfigs, overrides: Any, studies: Any) -> None:
+        self.jobs = jobs
+        self.overrides = as_list(overrides)
+        self.studies = as_list(studies) if studies is not None else default_studies()
+
+    @functools.cached_property
+    def plans(self) -> dict[str, StudyPlan]:
+        """Resolve every selected study and register its jobs."""
+        plans = plan(self.overrides, self.studies, self.jobs.data_dir)
+        for p in plans.values():
+            self.jobs.add(p.root, p.resolved)
+            if p.overrides:
+                print(f"creatio: {p.study} {list(p.overrides)} -> {p.root}", file=sys.stderr)
+        return plans
+
+    def targets(self) -> list[str]:
+        """Every report of every selected study, plus the EN-02 / EN-02R comparison."""
+        return [f for p in self.plans.values() for f in p.reports] + compare_targets(self.plans)
+
+
+class SweepRegistry:
+    """The sweeps of one workflow invocation, planned on demand (only when targeted)."""
+
+    def __init__(self, jobs: JobConfigs, basedir: str | Path) -> None:
+        self.jobs = jobs
+        self.basedir = Path(basedir)
+        self.plans: dict[str, Any] = {}
+        # Planners to run on a miss (a job re-invoked alone, e.g. on a cluster node).
+        self.fallbacks: list[Callable[[], Any]] = []
+
+    def outputs(self, study: str, sweep: Any, overrides: Any) -> list[str]:
+        """Plan a sweep (once), register its points' dataset jobs, return its aggregate."""
+        from creatio.pipeline.sweep import plan_sweep
+
+        sweep = as_list(sweep)
+        if not sweep:
+            raise ConfigError("sweep", sweep,
+                              "`snakemake sweep` needs --config study=ID 'sweep=[\"KEY=V1,V2\"]'")
+        s = plan_sweep(study, sweep, as_list(overrides), self.jobs.data_dir)
+        if s.name not in self.plans:
+            self.plans[s.name] = s
+            for point in s.points:
+                if point.valid:
+                    self.jobs.add(str(Path(point.dataset).parents[2]), point.resolved)
+            print(f"creatio: sweep {s.name}: {len(s.points)} points, {len(s.datasets)} valid "
+                  f"-> {s.outdir}", file=sys.stderr)
+        return s.outputs
+
+    def worked(self, name: str) -> list[str]:
+        """The aggregate of a sweep defined in conf/sweeps/<name>.yaml."""
+        import yaml
+
+        spec = yaml.safe_load((self.basedir / "conf" / "sweeps" / f"{name}.yaml").read_text())
+        return self.outputs(spec["study"], spec["sweep"], spec.get("overrides"))
+
+    def __getitem__(self, name: str) -> Any:
+        for fallback in self.fallbacks:
+            if name in self.plans:
+                break
+            fallback()
+        try:
+            return self.plans[name]
+        except KeyError:
+            raise ConfigError("sweep", name, "no sweep of this invocation has that name") from None
+
+
+# ------------------------------------------------------------------- releases and diffs
+def workflow_outputs(plans: Mapping[str, Any], whole: bool = False) -> list[str]:
+    """Every file `snakemake all` makes with the default configs; refuses overrides, and
+    with whole (a release holds every study) a subset of the studies."""
+    from creatio.pipeline.release import ReleaseError
+
+    overridden = [p.study for p in plans.values() if p.root != "data"]
+    if overridden:
+        raise ReleaseError(f"releases and diffs use the default configs, and {overridden} "
+                           "have overrides: run without --config overrides=...")
+    absent = [s for s in default_studies() if s not in plans]
+    if whole and absent:
+        raise ReleaseError(f"a release holds every study and {absent} are not selected: run "
+                           "without --config studies=...")
+    return [f for p in plans.values() for f in (*p.datasets, *p.reports)] + \
+        compare_targets(plans)
+
+
+def workflow_version(config: Mapping[str, Any], data_dir: str | Path = "data") -> str:
+    """The version `snakemake release` makes: given, valid and not released yet."""
+    from creatio.pipeline.release import ReleaseError, parse_version, releases_dir
+
+    version = str(config.get("version", ""))
+    if not version:
+        raise ReleaseError("snakemake release needs --config version=MAJOR.MINOR.PATCH")
+    parse_version(version)
+    if (releases_dir(data_dir) / version).exists():
+        raise ReleaseError(f"release {version} already exists in {releases_dir(data_dir)}: "
+                           "releases are never overwritten; choose a new version")
+    return version
+
+
+def workflow_against(config: Mapping[str, Any], data_dir: str | Path = "data") -> str:
+    """The release `snakemake diff` compares data/ with: a version or latest, which exists."""
+    from creatio.pipeline.release import ReleaseError, find_release
+
+    against = str(config.get("against", ""))
+    if not against:
+        raise ReleaseError("snakemake diff needs --config against=VERSION (or against=latest)")
+    return find_release(against, data_dir).name
+
+
+def workflow_diff_options(config: Mapping[str, Any], plans: Mapping[str, Any]) -> str:
+    """`creatio diff` options from --config atol=, rtol=, tol=[...] and the selected studies."""
+    opts = [f"--{k} {shlex.quote(str(config[k]))}" for k in ("atol", "rtol") if k in config]
+    tols = config.get("tol", [])
+    opts += [f"--tol {shlex.quote(str(t))}" for t in ([tols] if isinstance(tols, str) else tols)]
+    if set(plans) != set(default_studies()):
+        opts.append(f"--studies {','.join(plans)}")
+    return " ".join(opts)

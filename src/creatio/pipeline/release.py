@@ -1,0 +1,485 @@
+"""Versioned releases: freeze the default datasets and reports into data/releases/<version>/.
+
+A release mirrors the data/ layout (``studies/<study>/*.nc``, ``reports/*``) so that
+``creatio diff`` pairs its files with data/ by relative path, and carries a MANIFEST.json
+with each file's sha256, size, study, resolved-config hash and the package version, commit
+and library versions that made it. Releases are committed to the repository, so they hold
+what a regression check and a reader need and nothing that is derived again cheaply:
+
+* each study's dataset at its configured step (the dt/refine convergence partner of a
+  dynamic study is left out: its figures are in the study's JSON report);
+* the JSON reports (the contract) and the markdown reports.
+
+Figures, CSV tables and partner datasets are listed in the manifest under ``omitted`` with
+their sha256, so the whole state of data/ at release time is still fingerprinted.
+"""
+
+from __future__ import annotations
+
+import argparse
+import datetime as _dt
+import functools
+import hashlib
+import json
+import os
+import re
+import shutil
+import sys
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+__all__ = [
+    "MANIFEST",
+    "Layout",
+    "ReleaseError",
+    "StudyFiles",
+    "default_layout",
+    "find_release",
+    "list_releases",
+    "main",
+    "make_release",
+    "parse_version",
+    "verify_release",
+]
+
+MANIFEST = "MANIFEST.json"
+FORMAT = "creatio-release/1"
+VERSION_RE = re.compile(r"(0|[1-9]\d*)\.(0|[1-9]\d*)\.(0|[1-9]\d*)(?:(a|b|rc)(0|[1-9]\d*))?")
+VERSION_HELP = "MAJOR.MINOR.PATCH, optionally with a pre-release suffix a1, b2 or rc1 (0.2.0rc1)"
+RELEASED_REPORTS = (".json", ".md")
+PRE_ORDER = {"a": 0, "b": 1, "rc": 2}
+READ_ONLY = 0o444
+
+
+class ReleaseError(Exception):
+    """A release cannot be made, found or read; the message says why and what to do."""
+
+
+# ------------------------------------------------------------------------------ versions
+def parse_version(text: str) -> tuple[int, int, int, int, int, int]:
+    """Sort key of a release version; ReleaseError if it is not MAJOR.MINOR.PATCH[a|b|rcN]."""
+    m = VERSION_RE.fullmatch(str(text))
+    if m is None:
+        raise ReleaseError(f"invalid release version {text!r}: use {VERSION_HELP}")
+    major, minor, patch, pre, n = m.groups()
+    final = (1, 0, 0) if pre is None else (0, PRE_ORDER[pre], int(n))
+    return (int(major), int(minor), int(patch), *final)
+
+
+def is_version(text: str) -> bool:
+    """Whether text is a valid release version string."""
+    return VERSION_RE.fullmatch(str(text)) is not None
+
+
+def releases_dir(data_dir: str | Path = "data") -> Path:
+    """Where releases live: <data_dir>/releases."""
+    return Path(data_dir) / "releases"
+
+
+def list_releases(data_dir: str | Path = "data") -> list[Path]:
+    """Release directories (those with a MANIFEST.json), oldest to newest by version order."""
+    root = releases_dir(data_dir)
+    if not root.is_dir():
+        return []
+    found = [p for p in root.iterdir()
+             if p.is_dir() and is_version(p.name) and (p / MANIFEST).is_file()]
+    return sorted(found, key=lambda p: parse_version(p.name))
+
+
+def find_release(spec: str, data_dir: str | Path = "data") -> Path:
+    """The release directory of a version string or of ``latest`` (the newest by version)."""
+    known = list_releases(data_dir)
+    names = ", ".join(p.name for p in known) or "none"
+    if spec == "latest":
+        if not known:
+            raise ReleaseError(f"no release in {releases_dir(data_dir)} (make one with "
+                               "`creatio release VERSION`)")
+        return known[-1]
+    parse_version(spec)
+    path = releases_dir(data_dir) / spec
+    if not (path / MANIFEST).is_file():
+        raise ReleaseError(f"no release {spec} in {releases_dir(data_dir)} (available: {names})")
+    return path
+
+
+def read_manifest(release: str | Path) -> dict[str, Any]:
+    """The parsed MANIFEST.json of a release directory."""
+    path = Path(release) / MANIFEST
+    try:
+        manifest = json.loads(path.read_text())
+    except FileNotFoundError:
+        raise ReleaseError(f"{release} is not a release: no {MANIFEST}") from None
+    except (OSError, ValueError) as e:
+        raise ReleaseError(f"cannot read {path}: {e}") from None
+    if not isinstance(manifest, dict) or manifest.get("format") != FORMAT:
+        raise ReleaseError(f"{path}: not a {FORMAT} manifest")
+    return manifest
+
+
+def sha256_file(path: str | Path) -> str:
+    """Hex sha256 of a file's bytes."""
+    h = hashlib.sha256()
+    with open(path, "rb") as fh:
+        for block in iter(lambda: fh.read(1 << 20), b""):
+            h.update(block)
+    return h.hexdigest()
+
+
+# ------------------------------------------------------------------------------ layout
+@dataclass(frozen=True)
+class StudyFiles:
+    """One study's default files, relative to the data directory (primary dataset first)."""
+
+    study: str
+    config_sha256: str
+    datasets: tuple[str, ...]
+    reports: tuple[str, ...]
+
+
+@dataclass(frozen=True)
+class Layout:
+    """Every study's default files plus the cross-study reports (EN-02/EN-02R comparison)."""
+
+    studies: tuple[StudyFiles, ...]
+    shared: tuple[str, ...] = ()
+
+
+@functools.cache
+def default_layout() -> Layout:
+    """The default-config files of every study, as `snakemake all` writes them."""
+    from creatio.pipeline.planning import compare_targets, plan
+
+    plans = plan()
+
+    def rel(path: str) -> str:
+        return Path(path).relative_to("data").as_posix()
+
+    studies = tuple(
+        StudyFiles(p.study, p.sha256, tuple(rel(d) for d in p.datasets),
+                   tuple(rel(r) for r in p.reports))
+        for p in plans.values()
+    )
+    return Layout(studies, tuple(rel(p) for p in compare_targets(plans)))
+
+
+def _attrs(path: Path) -> dict[str, Any]:
+    """Global attributes of a NetCDF file, without loading its data."""
+    import xarray as xr
+
+    try:
+        with xr.open_dataset(path, engine="netcdf4") as ds:
+            return dict(ds.attrs)
+    except Exception as e:  # noqa: BLE001 - any unreadable file is refused the same way
+        raise ReleaseError(f"cannot read {path}: {e}") from None
+
+
+def _plain(value: Any) -> Any:
+    """A NetCDF attribute as a JSON value."""
+    return value.item() if hasattr(value, "item") else value
+
+
+def _provenance(attrs: dict[str, Any]) -> dict[str, Any]:
+    """Package version, commit and library versions recorded in a dataset's attributes."""
+    return {
+        "creatio_version": str(attrs.get("creatio_version", "")),
+        "git_commit": str(attrs.get("git_commit", "")),
+        "git_dirty": int(_plain(attrs.get("git_dirty", 1))),
+        "libraries": {k.removeprefix("version_"): str(v) for k, v in attrs.items()
+                      if k.startswith("version_")},
+    }
+
+
+def _stale(path: str, found: str, expected: str) -> str:
+    return (f"{path} was made from config {found[:12] or '?'} but the default config is now "
+            f"{expected[:12]}")
+
+
+def _omission(rel: str, study: str, primary: str) -> str:
+    if rel.endswith(".nc"):
+        return (f"dt/refine convergence partner of {primary}: its figures are in "
+                f"reports/{study}.json (creatio release --with-partners keeps it)")
+    if rel.endswith(".png"):
+        return "figure, drawn again from the datasets by `snakemake all`"
+    return "table derived from the dataset and the JSON report"
+
+
+def make_release(
+    version: str,
+    data_dir: str | Path = "data",
+    *,
+    layout: Layout | None = None,
+    with_partners: bool = False,
+) -> tuple[Path, dict[str, Any], list[str]]:
+    """Freeze the default datasets and reports into <data_dir>/releases/<version>/.
+
+    Returns (directory, manifest, warnings); ReleaseError, before writing, if it cannot."""
+    from creatio import __version__
+    from creatio.pipeline.io import git_state, library_versions
+
+    parse_version(version)
+    data_dir = Path(data_dir)
+    dest = releases_dir(data_dir) / version
+    if dest.exists():
+        newest = list_releases(data_dir)
+        hint = f" (the newest is {newest[-1].name})" if newest else ""
+        raise ReleaseError(f"release {version} already exists at {dest}: releases are never "
+                           f"overwritten; choose a new version{hint}")
+    layout = default_layout() if layout is None else layout
+
+    kept: list[tuple[str, StudyFiles | None]] = []
+    omitted: list[tuple[str, StudyFiles]] = []
+    for sf in layout.studies:
+        datasets = sf.datasets if with_partners else sf.datasets[:1]
+        kept += [(d, sf) for d in datasets]
+        omitted += [(d, sf) for d in sf.datasets if d not in datasets]
+        for r in sf.reports:
+            (kept if Path(r).suffix in RELEASED_REPORTS else omitted).append((r, sf))
+    kept += [(r, None) for r in layout.shared if Path(r).suffix in RELEASED_REPORTS]
+
+    missing = [(rel, sf) for rel, sf in kept if not (data_dir / rel).is_file()]
+    if missing:
+        raise ReleaseError(
+            f"cannot release {version}: missing default outputs in {data_dir}:\n"
+            + "".join(f"  {data_dir / rel} ({sf.study if sf else 'comparison'} "
+                      f"{'dataset' if rel.endswith('.nc') else 'report'})\n"
+                      for rel, sf in missing)
+            + "`snakemake all -c 2` makes them (default configs, no overrides)")
+
+    studies: dict[str, dict[str, Any]] = {}
+    stale: list[str] = []
+    file_attrs: dict[str, dict[str, Any]] = {}
+    for sf in layout.studies:
+        for rel in sf.datasets if with_partners else sf.datasets[:1]:
+            attrs = _attrs(data_dir / rel)
+            file_attrs[rel] = attrs
+            found = str(attrs.get("config_sha256", ""))
+            if found != sf.config_sha256 or attrs.get("study") != sf.study:
+                stale.append(_stale(str(data_dir / rel), found, sf.config_sha256))
+        report = next((r for r in sf.reports if r.endswith(".json")), None)
+        if report is not None:
+            try:
+                found = str(json.loads((data_dir / report).read_text()).get("config_sha256"))
+            except (OSError, ValueError, AttributeError) as e:
+                raise ReleaseError(f"cannot read {data_dir / report}: {e}") from None
+            if found != sf.config_sha256:
+                stale.append(_stale(str(data_dir / report), found, sf.config_sha256))
+        primary = file_attrs[sf.datasets[0]]
+        studies[sf.study] = {"config_sha256": sf.config_sha256,
+                             "datasets": list(sf.datasets[:1] if not with_partners
+                                              else sf.datasets),
+                             **_provenance(primary)}
+    if stale:
+        raise ReleaseError(f"cannot release {version}: out of date with the configs:\n"
+                           + "".join(f"  {s}\n" for s in stale)
+                           + "bring data/ up to date with `snakemake all -c 2`")
+
+    warnings = []
+    dirty = sorted(s for s, info in studies.items() if info["git_dirty"])
+    if dirty:
+        warnings.append(f"datasets of {', '.join(dirty)} were made from a source tree with "
+                        "uncommitted changes (git_dirty = 1)")
+    commits = sorted({info["git_commit"] for info in studies.values()})
+    if len(commits) > 1:
+        warnings.append(f"datasets were made at {len(commits)} different commits: "
+                        + ", ".join(c[:10] for c in commits))
+
+    commit, tree_dirty = git_state()
+    now = _dt.datetime.now(_dt.UTC).replace(microsecond=0).isoformat()
+    files = []
+    for rel, sf in kept:
+        src = data_dir / rel
+        entry: dict[str, Any] = {
+            "path": rel,
+            "kind": "dataset" if rel.endswith(".nc") else "report",
+            "study": sf.study if sf else None,
+            "sha256": sha256_file(src),
+            "size": src.stat().st_size,
+        }
+        if sf is not None:
+            attrs = file_attrs.get(rel)
+            entry["config_sha256"] = sf.config_sha256
+            entry.update(_provenance(attrs) if attrs else
+                         {k: v for k, v in studies[sf.study].items()
+                          if k not in ("config_sha256", "datasets")})
+        files.append(entry)
+    manifest: dict[str, Any] = {
+        "format": FORMAT,
+        "version": version,
+        "created": now,
+        "source": str(data_dir),
+        "made_by": {"creatio_version": __version__, "git_commit": commit,
+                    "git_dirty": int(tree_dirty), "libraries": library_versions()},
+        "total_size": sum(f["size"] for f in files),
+        "studies": studies,
+        "files": files,
+        "omitted": [
+            {"path": rel, "study": sf.study,
+             "sha256": sha256_file(data_dir / rel) if (data_dir / rel).is_file() else None,
+             "size": (data_dir / rel).stat().st_size if (data_dir / rel).is_file() else None,
+             "reason": _omission(rel, sf.study, sf.datasets[0])}
+            for rel, sf in omitted
+        ],
+        "warnings": warnings,
+    }
+
+    tmp = dest.with_name(f".{version}.tmp-{os.getpid()}")
+    try:
+        for entry in files:
+            out = tmp / entry["path"]
+            out.parent.mkdir(parents=True, exist_ok=True)
+            shutil.copyfile(data_dir / entry["path"], out)
+            if sha256_file(out) != entry["sha256"]:
+                raise ReleaseError(f"{data_dir / entry['path']} changed while it was copied")
+            out.chmod(READ_ONLY)
+        (tmp / MANIFEST).write_text(json.dumps(manifest, indent=2) + "\n")
+        (tmp / MANIFEST).chmod(READ_ONLY)
+        try:
+            tmp.rename(dest)
+        except OSError:
+            raise ReleaseError(f"release {version} already exists at {dest}: releases are "
+                               "never overwritten") from None
+    finally:
+        if tmp.exists():
+            shutil.rmtree(tmp)
+    return dest, manifest, warnings
+
+
+# ------------------------------------------------------------------------------ verify
+def verify_release(release: str | Path) -> list[str]:
+    """Problems found checking a release against its manifest (empty when it is intact)."""
+    release = Path(release)
+    manifest = read_manifest(release)
+    problems = []
+    listed = set()
+    for entry in manifest.get("files", []):
+        rel = entry["path"]
+        listed.add(rel)
+        path = release / rel
+        if not path.is_file():
+            problems.append(f"{rel}: missing")
+            continue
+        size, digest = path.stat().st_size, sha256_file(path)
+        if digest != entry["sha256"]:
+            problems.append(f"{rel}: sha256 {digest[:12]} != manifest {entry['sha256'][:12]}"
+                            f" (size {size}, manifest {entry.get('size')})")
+    for path in sorted(release.rglob("*")):
+        rel = path.relative_to(release).as_posix()
+        if path.is_file() and rel != MANIFEST and rel not in listed:
+            problems.append(f"{rel}: not in the manifest")
+    return problems
+
+
+# ------------------------------------------------------------------------------ CLI
+DESCRIPTION = """\
+Freeze the default datasets and reports of every study into data/releases/VERSION/,
+with a MANIFEST.json (per file: sha256, size, study, config hash, creatio version, git
+commit, library versions). Releases are committed to the repository and never overwritten.
+
+  creatio release VERSION [--data-dir DIR] [--with-partners]   make a release
+  creatio release verify VERSION|latest|DIR                    check files against MANIFEST
+  creatio release list                                         known releases, oldest first
+"""
+
+EPILOG = f"""\
+VERSION is {VERSION_HELP}.
+A release keeps each study's dataset at its configured dt, the JSON and markdown reports
+(~0.9 MB for the four studies); figures, CSV tables and the dt/refine partner datasets are
+listed in the manifest with their sha256 but not copied (--with-partners copies the
+partners too). The files are written read-only.
+
+exit status: 0 done (verify: intact); 1 verify found a missing, changed or unexpected file;
+2 error (invalid version, release exists, missing or out-of-date data, unreadable manifest).
+
+Compare releases with `creatio diff 0.1.0 0.2.0` or with the current data: `creatio diff
+latest data`."""
+
+
+def _create_parser() -> argparse.ArgumentParser:
+    ap = argparse.ArgumentParser(prog="creatio release", description=DESCRIPTION,
+                                 epilog=EPILOG,
+                                 formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("version", metavar="VERSION", help="release version, e.g. 0.2.0")
+    ap.add_argument("--data-dir", type=Path, default=Path("data"),
+                    help="data directory holding studies/ and reports/ (default: data); the "
+                         "release goes to DATA_DIR/releases/VERSION")
+    ap.add_argument("--with-partners", action="store_true",
+                    help="also copy the dt/refine convergence-partner datasets (~0.7 MB)")
+    return ap
+
+
+def _verify_parser() -> argparse.ArgumentParser:
+    ap = argparse.ArgumentParser(
+        prog="creatio release verify",
+        description="Check every file of a release against the sha256 in its MANIFEST.json.",
+        epilog="exit status: 0 intact, 1 a file is missing, changed or not in the manifest, "
+               "2 no such release or unreadable manifest.")
+    ap.add_argument("release", metavar="VERSION|latest|DIR",
+                    help="a release version, 'latest', or a release directory")
+    ap.add_argument("--data-dir", type=Path, default=Path("data"),
+                    help="where releases/ is looked up for a version (default: data)")
+    return ap
+
+
+def _list_parser() -> argparse.ArgumentParser:
+    ap = argparse.ArgumentParser(prog="creatio release list",
+                                 description="List the releases, oldest to newest.")
+    ap.add_argument("--data-dir", type=Path, default=Path("data"),
+                    help="where releases/ is looked up (default: data)")
+    return ap
+
+
+def _kb(n: int) -> str:
+    return f"{n / 1000:.0f} kB" if n < 1_000_000 else f"{n / 1e6:.2f} MB"
+
+
+def _release_path(spec: str, data_dir: Path) -> Path:
+    path = Path(spec)
+    if path.is_dir():
+        return path
+    return find_release(spec, data_dir)
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """`creatio release`: make, verify or list releases; returns the exit status."""
+    argv = list(sys.argv[1:] if argv is None else argv)
+    command = argv[0] if argv and argv[0] in ("create", "verify", "list") else "create"
+    if argv and argv[0] == command:
+        argv = argv[1:]
+    try:
+        if command == "verify":
+            args = _verify_parser().parse_args(argv)
+            path = _release_path(args.release, args.data_dir)
+            problems = verify_release(path)
+            for p in problems:
+                print(f"creatio release verify: {path}: {p}", file=sys.stderr)
+            if problems:
+                print(f"{path}: {len(problems)} problem(s); restore the release from git "
+                      "(git checkout -- PATH)", file=sys.stderr)
+                return 1
+            n = len(read_manifest(path)["files"])
+            print(f"{path}: {n} files match {MANIFEST}")
+            return 0
+        if command == "list":
+            args = _list_parser().parse_args(argv)
+            for path in list_releases(args.data_dir):
+                m = read_manifest(path)
+                commits = sorted({s.get("git_commit", "")[:10]
+                                  for s in m.get("studies", {}).values()})
+                print(f"{m['version']:<10} {m.get('created', '?'):<26} "
+                      f"{len(m.get('files', [])):>3} files {_kb(m.get('total_size', 0)):>8}"
+                      f"  commit {', '.join(commits)}")
+            return 0
+        args = _create_parser().parse_args(argv)
+        dest, manifest, warnings = make_release(args.version, args.data_dir,
+                                                with_partners=args.with_partners)
+    except ReleaseError as e:
+        print(f"creatio release: {e}", file=sys.stderr)
+        return 2
+    for w in warnings:
+        print(f"creatio release: warning: {w}", file=sys.stderr)
+    print(f"release {args.version}: {len(manifest['files'])} files, "
+          f"{_kb(manifest['total_size'])}, in {dest} ({len(manifest['omitted'])} derived files "
+          f"fingerprinted in {MANIFEST}, not copied)\ncommit it: git add {dest}")
+    return 0

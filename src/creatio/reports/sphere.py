@@ -1,0 +1,279 @@
+"""Reports of the sphere studies (EN-02 family) and the EN-02 / EN-02R comparison: JSON
+contract, markdown with the published figures, time histories, trajectory, convergence and
+energy-residual figures, CSV histories (docs/studies.md).
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import xarray as xr
+
+from creatio.reports.common import fmt, plt, strict_json, table
+from creatio.studies import registry
+
+__all__ = ["dynamic_summary", "timestep_difference", "write_comparison", "write_report"]
+
+
+def centre_difference(coarse: xr.Dataset, fine: xr.Dataset) -> tuple[np.ndarray, np.ndarray]:
+    """Common output times of two runs and |X_coarse - X_fine| at each of them."""
+    common = np.intersect1d(np.round(coarse.time.values, 9), np.round(fine.time.values, 9))
+    a = coarse.centre.sel(time=common, method="nearest").values
+    b = fine.centre.sel(time=common, method="nearest").values
+    return common, np.linalg.norm(a - b, axis=-1)
+
+
+def timestep_difference(coarse: xr.Dataset, fine: xr.Dataset) -> float:
+    """Max centre-position difference between two runs over their common output times."""
+    _, d = centre_difference(coarse, fine)
+    return float(np.max(d)) if d.size else float("nan")
+
+
+def dynamic_summary(datasets: Sequence[xr.Dataset]) -> dict[str, Any]:
+    """The JSON report of an EN-02-family study from its runs (configured dt first)."""
+    ds = datasets[0]
+    a = ds.attrs
+    azimuth = ds.centre_azimuth.values
+    out: dict[str, Any] = {
+        "study": a["study"],
+        "angular_displacement_deg": float(azimuth[-1] - azimuth[0]),
+        "initial_radius_m": float(ds.centre_radius.values[0]),
+        "final_radius_m": float(ds.centre_radius.values[-1]),
+        "min_normal_reaction_N": float(a["min_normal_reaction"]),
+        "max_slip_speed_m_s": float(a["max_slip_speed"]),
+        "cumulative_spin_deg": float(ds.cumulative_spin.values[-1]),
+        "cavity_tracking_error_m": float(a["max_cavity_tracking_error"]),
+        "min_edge_clearance_m": float(a["min_edge_clearance"]),
+        "timestep_difference_m": (timestep_difference(ds, datasets[1])
+                                  if len(datasets) > 1 else float("nan")),
+        "energy_residual_J": float(a["max_energy_residual"]),
+        "dt_s": [float(d.attrs["dt"]) for d in datasets],
+        "status": str(a["status"]),
+        "stop_time_s": float(a["stop_time"]),
+        "status_by_dt": {repr(float(d.attrs["dt"])): str(d.attrs["status"]) for d in datasets},
+        "energy_residual_by_dt_J": {
+            repr(float(d.attrs["dt"])): float(d.attrs["max_energy_residual"]) for d in datasets
+        },
+        "max_b_kappa": float(a["max_b_kappa"]),
+        "stability_limit_dt_s": float(a["stability_limit_dt"]),
+        "warnings": [w for d in datasets for w in str(d.attrs.get("warnings", "")).split("\n")
+                     if w],
+        "config_sha256": a.get("config_sha256", ""),
+    }
+    return out
+
+
+def _surface_top_view(ax, config: dict, t: float = 0.0) -> None:
+    """Filled contour of the surface height c_z in top view at time t."""
+    from omegaconf import OmegaConf
+
+    from creatio.model.surface import Frame, Motion, Surface
+    from creatio.studies.schema import PhasesConfig
+
+    g = config["geometry"]
+    surface = Surface(g["R0"], g["dR"], g["A"], g["Kr"], g["Ka"])
+    phases = OmegaConf.to_object(OmegaConf.merge(OmegaConf.structured(PhasesConfig),
+                                                 config["phases"]))
+    fr = Frame(surface, Motion(*phases.laws()),
+               np.linspace(0, 2 * np.pi, 241)[:, None], np.linspace(0, g["dR"], 61)[None, :], t)
+    p = fr.position
+    mesh = ax.pcolormesh(p[..., 0], p[..., 1], p[..., 2], shading="gouraud", cmap="Greys",
+                         alpha=0.55)
+    ax.set_aspect("equal")
+    ax.set_xlabel("x (m)")
+    ax.set_ylabel("y (m)")
+    return mesh
+
+
+def _history_figure(ds: xr.Dataset, path: Path) -> None:
+    t = ds.time.values
+    fric = np.linalg.norm(ds.friction.values, axis=-1)
+    panels = [
+        ("centre radius (m)", ds.centre_radius.values, "centre azimuth (deg)",
+         ds.centre_azimuth.values),
+        ("speed (m/s)", ds.speed.values, None, None),
+        ("normal reaction N (N)", ds.normal_reaction.values, None, None),
+        ("slip speed (m/s)", ds.slip_speed.values, None, None),
+        ("|friction| (N)", fric, None, None),
+        ("spin rate (rad/s)", ds.spin_rate.values, None, None),
+        ("cumulative spin (deg)", ds.cumulative_spin.values, None, None),
+        ("angular lag (deg)", ds.angular_lag.values, None, None),
+        ("E - E(0) (J)", ds.energy.values - ds.energy.values[0], None, None),
+    ]
+    fig, axes = plt.subplots(3, 3, figsize=(13, 9), sharex=True)
+    for ax, (label, y, label2, y2) in zip(axes.flat, panels, strict=True):
+        ax.plot(t, y, lw=1.2)
+        ax.set_ylabel(label)
+        ax.grid(alpha=0.3)
+        if y2 is not None:
+            ax2 = ax.twinx()
+            ax2.plot(t, y2, color="tab:orange", lw=1.0)
+            ax2.set_ylabel(label2, color="tab:orange")
+    for ax in axes[-1]:
+        ax.set_xlabel("time (s)")
+    fig.suptitle(f"{ds.attrs.get('title', '')}: time histories (dt = {ds.attrs['dt']:g} s, "
+                 f"status {ds.attrs['status']})")
+    fig.tight_layout()
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
+
+
+def _trajectory_figure(runs: Sequence[tuple[str, xr.Dataset]], config: dict, path: Path) -> None:
+    fig, ax = plt.subplots(figsize=(7, 6.4))
+    _surface_top_view(ax, config)
+    tmax = max(float(ds.time.values[-1]) for _, ds in runs)
+    norm = plt.Normalize(0.0, tmax)
+    markers = ["o", "s", "^", "D"]
+    for (label, ds), mk in zip(runs, markers, strict=False):
+        x, y = ds.centre.values[:, 0], ds.centre.values[:, 1]
+        ax.plot(x, y, lw=0.8, color="k", alpha=0.4)
+        sc = ax.scatter(x[::10], y[::10], c=ds.time.values[::10], cmap="viridis", norm=norm,
+                        s=10, marker=mk, label=label)
+        ax.plot(x[0], y[0], "g*", ms=12)
+        ax.plot(x[-1], y[-1], "r*", ms=12)
+    fig.colorbar(sc, ax=ax, label="time (s) (shared)")
+    ax.legend(loc="upper right", fontsize=8)
+    ax.set_title("centre path in top view over the surface height at t = 0 "
+                 "(green start, red end)", fontsize=9)
+    fig.tight_layout()
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
+
+
+def _convergence_figure_dynamic(datasets: Sequence[xr.Dataset], path: Path) -> None:
+    fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(11, 4))
+    if len(datasets) > 1:
+        coarse, fine = datasets[0], datasets[1]
+        common, d = centre_difference(coarse, fine)
+        ax1.semilogy(common, np.maximum(d, 1e-18))
+        ax1.set_title(f"|X(dt={coarse.attrs['dt']:g}) - X(dt={fine.attrs['dt']:g})|")
+    ax1.set_xlabel("time (s)")
+    ax1.set_ylabel("centre-position difference (m)")
+    for ds in datasets:
+        ax2.semilogy(ds.time.values, np.maximum(np.abs(ds.energy_residual.values), 1e-20),
+                     label=f"dt = {ds.attrs['dt']:g} s")
+    ax2.set_xlabel("time (s)")
+    ax2.set_ylabel("|E - E0 - W + D| (J)")
+    ax2.set_title("energy residual")
+    ax2.legend()
+    for ax in (ax1, ax2):
+        ax.grid(alpha=0.3, which="both")
+    fig.tight_layout()
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
+
+
+def _history_csv(ds: xr.Dataset, path: Path) -> None:
+    cols: dict[str, np.ndarray] = {"time_s": ds.time.values}
+    for name, var in ds.data_vars.items():
+        unit = var.attrs.get("units", "")
+        suffix = f" ({unit})" if unit else ""
+        if var.dims == ("time",):
+            cols[f"{name}{suffix}"] = var.values
+        elif var.dims[0] == "time" and var.ndim == 2:
+            for j, c in enumerate(var[var.dims[1]].values):
+                cols[f"{name}_{c}{suffix}"] = var.values[:, j]
+    with path.open("w", newline="") as fh:
+        w = csv.writer(fh)
+        w.writerow(list(cols))
+        w.writerows(zip(*(np.asarray(v).tolist() for v in cols.values()), strict=True))
+
+
+SUMMARY_ROWS = [
+    ("angular displacement (deg)", "angular_displacement_deg"),
+    ("initial centre radius (m)", "initial_radius_m"),
+    ("final centre radius (m)", "final_radius_m"),
+    ("minimum normal reaction (N)", "min_normal_reaction_N"),
+    ("maximum slip speed (m/s)", "max_slip_speed_m_s"),
+    ("cumulative spin (deg)", "cumulative_spin_deg"),
+    ("radial cavity-tracking error (m)", "cavity_tracking_error_m"),
+    ("minimum edge clearance (m)", "min_edge_clearance_m"),
+    ("timestep difference (m)", "timestep_difference_m"),
+    ("energy residual (J)", "energy_residual_J"),
+    ("status", "status"),
+]
+
+
+def write_report(datasets: Sequence[Path], outdir: str | Path) -> dict[str, Path]:
+    """Write <study>.json/.md/.png, _history.csv, _trajectory.png, _convergence.png."""
+    from creatio.pipeline.io import read_dataset
+
+    loaded = [read_dataset(p) for p in datasets]
+    runs = [ds for ds, _ in loaded]
+    config = loaded[0][1]
+    ds = runs[0]
+    study = ds.attrs["study"]
+    outdir = Path(outdir)
+    outdir.mkdir(parents=True, exist_ok=True)
+    s = dynamic_summary(runs)
+    paths = {
+        "json": outdir / f"{study}.json",
+        "md": outdir / f"{study}.md",
+        "png": outdir / f"{study}.png",
+        "csv": outdir / f"{study}_history.csv",
+        "trajectory": outdir / f"{study}_trajectory.png",
+        "convergence": outdir / f"{study}_convergence.png",
+    }
+    paths["json"].write_text(strict_json(s))
+    _history_figure(ds, paths["png"])
+    _trajectory_figure([(study, ds)], config, paths["trajectory"])
+    _convergence_figure_dynamic(runs, paths["convergence"])
+    _history_csv(ds, paths["csv"])
+    pub = dict(registry.get(study).published)
+    rows = [(label, s[key], pub.get(key, "")) for label, key in SUMMARY_ROWS]
+    method = str(ds.attrs.get("method", "rk4"))
+    if "rtol" in ds.attrs:
+        pair = (f"{method} (adaptive) at rtol = {ds.attrs['rtol']:g} compared with rtol = "
+                f"{runs[-1].attrs['rtol']:g} (datasets named dt = {s['dt_s'][0]:g}, "
+                f"{s['dt_s'][-1]:g} s); ")
+    else:
+        pair = (f"{method.upper()} at dt = {s['dt_s'][0]:g} s compared with dt = "
+                f"{s['dt_s'][-1]:g} s; ")
+    lines = [f"# {ds.attrs.get('title', study)}", "",
+             pair +
+             f"config sha256 `{s['config_sha256'][:12]}`, creatio "
+             f"{ds.attrs.get('creatio_version')}, commit {ds.attrs.get('git_commit', '')[:10]}.",
+             "", "## Summary figures", ""]
+    lines += table(["figure", "computed", "published" if pub else ""], rows)
+    if pub:
+        lines += ["", "Published timestep difference and energy residual are upper bounds "
+                  "(the notebook's code used approximate derivatives); these runs use exact "
+                  "derivatives."]
+    lines += ["", "Extrema are taken over every integration step. Energy residual per dt: "
+              + ", ".join(f"{k} s: {fmt(v)} J" for k, v in s["energy_residual_by_dt_J"].items())
+              + f". {method.upper()} stability limit of the friction: "
+              f"{fmt(s['stability_limit_dt_s'])} s; "
+              f"max b kappa on the path: {fmt(s['max_b_kappa'])}.", ""]
+    if s["warnings"]:
+        lines += ["## Warnings", "", *[f"* {w}" for w in s["warnings"]], ""]
+    lines += [f"![time histories]({paths['png'].name})", "",
+              f"![trajectory]({paths['trajectory'].name})", "",
+              f"![convergence]({paths['convergence'].name})", ""]
+    paths["md"].write_text("\n".join(lines))
+    return paths
+
+
+def write_comparison(datasets: Sequence[Path], outdir: str | Path) -> dict[str, Path]:
+    """EN-02 vs EN-02R: both centre paths on shared time over the surface, and a table."""
+    from creatio.pipeline.io import read_dataset
+
+    loaded = [read_dataset(p) for p in datasets]
+    outdir = Path(outdir)
+    summaries = [json.loads((outdir / f"{ds.attrs['study']}.json").read_text())
+                 for ds, _ in loaded]
+    names = [s["study"] for s in summaries]
+    paths = {"md": outdir / "compare_en02_en02r.md", "png": outdir / "compare_en02_en02r.png"}
+    _trajectory_figure([(n, ds) for n, (ds, _) in zip(names, loaded, strict=True)],
+                       loaded[0][1], paths["png"])
+    rows = [(label, *[s[key] for s in summaries]) for label, key in SUMMARY_ROWS]
+    lines = ["# EN-02 / EN-02R comparison", "",
+             "Both centre paths in top view on shared time (colour), over the surface height "
+             "at t = 0.", "", f"![paths]({paths['png'].name})", ""]
+    lines += table(["figure", *names], rows)
+    paths["md"].write_text("\n".join(lines) + "\n")
+    return paths

@@ -1,0 +1,167 @@
+"""The study registry: one entry per study, read by validation, dispatch, planning and reports.
+
+A study is a config (``conf/<group>/<id>.yaml`` on its schema), a function ``config ->
+xarray.Dataset`` per dataset part, and a report writer ``datasets -> files``. Its *kind*
+says where its datasets and reports live and which files a report writes. Everything
+here is plain data: the run and report functions are named by import path and loaded on
+first use, so planning a workflow imports neither xarray nor the compiler.
+
+Adding a study of an existing kind is a ``conf/study/<id>.yaml`` (its time laws under
+``conf/phases/`` if new) and one entry of STUDIES below.
+"""
+
+from __future__ import annotations
+
+import importlib
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
+from typing import Any
+
+from creatio.studies import published
+from creatio.studies.schema import Ct02Config, DynamicConfig, En01Config
+
+__all__ = ["KINDS", "STUDIES", "Kind", "Part", "Study", "get", "select"]
+
+
+@dataclass(frozen=True)
+class Part:
+    """One dataset of a study: its file stem and the keyword arguments of the run function."""
+
+    name: str
+    args: Mapping[str, Any] = field(default_factory=dict)
+
+
+@dataclass(frozen=True)
+class Kind:
+    """How a family of studies is laid out on disk and reported.
+
+    Datasets go to ``<root>/<dataset_dir>/<id>/<part>.nc``; reports to
+    ``<root>/<report_dir>/<id><suffix>`` for each suffix of ``reports``.
+    """
+
+    name: str
+    dataset_dir: str
+    report_dir: str
+    reports: tuple[str, ...]
+
+
+KINEMATIC = Kind("kinematic", "studies", "reports", (".json", ".md", ".png", "_fd_error.csv"))
+SPHERE = Kind("sphere", "studies", "reports", (".json", ".md", ".png", "_history.csv",
+                                                "_trajectory.png", "_convergence.png"))
+ANALYSIS = Kind("analysis", "benchmarks", "benchmarks", (".json", ".md", ".png"))
+
+#: Every kind, by name.
+KINDS = {k.name: k for k in (KINEMATIC, SPHERE, ANALYSIS)}
+
+
+def _one_part(study_id: str) -> Callable[[Any], list[Part]]:
+    return lambda cfg: [Part(study_id)]
+
+
+def _timestep_parts(study_id: str) -> Callable[[Any], list[Part]]:
+    """A sphere study's datasets: one per timestep (dt and dt / refine), named by dt."""
+    return lambda cfg: [Part(f"{study_id}_dt{float(dt)!r}", {"dt": float(dt)})
+                        for dt in cfg.solver.timesteps()]
+
+
+@dataclass(frozen=True)
+class Study:
+    """One study: its id, kind, config schema and group, and what it runs and reports.
+
+    ``schema`` and ``parts`` may be given as "module:name" paths (an analysis keeps them in
+    its own module), loaded on first use like ``run`` and ``report``.
+    """
+
+    id: str
+    kind: Kind
+    schema_ref: type | str
+    run: str
+    report: str
+    parts_ref: Callable[[Any], list[Part]] | str
+    group: str = "study"
+    published: Mapping[str, Any] = field(default_factory=dict)
+    in_all: bool = True
+
+    @property
+    def schema(self) -> type:
+        """The root dataclass of this study's config."""
+        ref = self.schema_ref
+        return _load(ref) if isinstance(ref, str) else ref
+
+    def parts(self, cfg: Any) -> list[Part]:
+        """The dataset parts of a validated config of this study."""
+        ref = self.parts_ref
+        return (_load(ref) if isinstance(ref, str) else ref)(cfg)
+
+    def run_function(self) -> Callable[..., Any]:
+        """The function config -> Dataset (imported on first use)."""
+        return _load(self.run)
+
+    def report_function(self) -> Callable[..., Any]:
+        """The function (datasets, outdir) -> {name: path} (imported on first use)."""
+        return _load(self.report)
+
+    def dataset_dir(self, root: str) -> str:
+        """Where the datasets of this study live under an output root."""
+        return f"{root}/{self.kind.dataset_dir}/{self.id}"
+
+    def datasets(self, root: str, cfg: Any) -> list[str]:
+        """Dataset paths of a validated config of this study, in part order."""
+        return [f"{self.dataset_dir(root)}/{p.name}.nc" for p in self.parts(cfg)]
+
+    def part(self, cfg: Any, name: str) -> Part:
+        """The part of this config whose file stem is name."""
+        for p in self.parts(cfg):
+            if p.name == name:
+                return p
+        choices = ", ".join(p.name for p in self.parts(cfg))
+        raise KeyError(f"{self.id} has no dataset {name!r} for this config (it has {choices})")
+
+    def reports(self, root: str) -> list[str]:
+        """Report files of this study under an output root."""
+        return [f"{root}/{self.kind.report_dir}/{self.id}{s}" for s in self.kind.reports]
+
+
+def _load(path: str) -> Callable[..., Any]:
+    module, _, name = path.partition(":")
+    return getattr(importlib.import_module(module), name)
+
+
+#: The registry, in the order `snakemake all` builds and reports list them.
+STUDIES: dict[str, Study] = {
+    s.id: s
+    for s in (
+        Study("ct02", KINEMATIC, Ct02Config, "creatio.studies.ct02:run",
+              "creatio.reports.kinematic:write_report", _one_part("ct02")),
+        Study("en01", KINEMATIC, En01Config, "creatio.studies.en01:run",
+              "creatio.reports.kinematic:write_report", _one_part("en01"),
+              published={"fd_error": published.EN01_FD_ERROR,
+                         "regularity": published.EN01_REGULARITY,
+                         "pattern": published.EN01_PATTERN}),
+        Study("en02", SPHERE, DynamicConfig, "creatio.studies.sphere:run",
+              "creatio.reports.sphere:write_report", _timestep_parts("en02"),
+              published=published.EN02),
+        Study("en02r", SPHERE, DynamicConfig, "creatio.studies.sphere:run",
+              "creatio.reports.sphere:write_report", _timestep_parts("en02r")),
+        *(Study(name, ANALYSIS, f"creatio.studies.{name}:{schema}", f"creatio.studies.{name}:run",
+                f"creatio.reports.{name}:write_report", f"creatio.studies.{name}:parts",
+                group="analysis", in_all=False)
+          for name, schema in (("work_precision", "WorkPrecisionConfig"),
+                               ("stability_map", "StabilityMapConfig"),
+                               ("boundaries", "BoundariesConfig"))),
+    )
+}
+
+
+def get(study_id: str) -> Study:
+    """The registered study; KeyError naming the choices otherwise."""
+    try:
+        return STUDIES[study_id]
+    except KeyError:
+        raise KeyError(f"unknown study {study_id!r}: one of {', '.join(STUDIES)}") from None
+
+
+def select(kind: str | None = None, in_all: bool | None = None) -> list[Study]:
+    """Registered studies, optionally of one kind or only those `snakemake all` builds."""
+    return [s for s in STUDIES.values()
+            if (kind is None or s.kind.name == kind) and (in_all is None or s.in_all == in_all)]

@@ -1,0 +1,596 @@
+"""The config schema of every study: typed dataclasses and the rules their values obey.
+
+A study's config is a tree of these dataclasses (Hydra composes it from ``conf/``; the
+pipeline merges it onto the schema and calls ``check``). Each ``check`` raises
+:class:`~creatio.errors.ConfigError` naming the key, the value and the rule, before anything
+is computed. Nothing here composes configs or imports Hydra: the schemas are plain data.
+"""
+
+from __future__ import annotations
+
+import copy
+import math
+import sys
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field, fields, is_dataclass
+from enum import Enum, StrEnum
+from typing import Any
+
+from creatio.dynamics import SphereProblem, stability_limit
+from creatio.dynamics.solvers import METHODS
+from creatio.errors import ConfigError
+from creatio.model.laws import Law, LawKind
+from creatio.model.numerics import steps_in
+from creatio.model.surface import Surface
+
+__all__ = [
+    "AngleUnit",
+    "Ct02Config",
+    "DynamicConfig",
+    "En01Config",
+    "GeometryConfig",
+    "LawConfig",
+    "MISSING",
+    "Method",
+    "Output",
+    "PhasesConfig",
+    "ProbeConfig",
+    "SolverConfig",
+    "SphereConfig",
+    "require",
+    "vary",
+]
+
+#: A mandatory value (OmegaConf's marker for "must be set"), without importing OmegaConf.
+MISSING: Any = "???"
+
+
+def vary(cfg: Any, changes: Mapping[str, Any]) -> Any:
+    """A copy of a validated config tree with dotted keys set (``{"sphere.mu": 0.3}``),
+    checked again: how an analysis or a sweep varies a base config without composing it.
+
+    Values are converted to the field's type (int, float, bool, str or an Enum); a key the
+    schema does not have, or a value its type refuses, raises ConfigError like validation.
+    Interpolations were resolved at validation, so a key that others follow must be varied
+    with them (``phases.T`` with ``study.duration``).
+    """
+    out = copy.deepcopy(cfg)
+    for key, value in changes.items():
+        *path, name = key.split(".")
+        node = out
+        for part in path:
+            if not (is_dataclass(node) and hasattr(node, part)):
+                raise ConfigError(key, value, "unknown key (not in this study's config)")
+            node = getattr(node, part)
+        types = {f.name: f.type for f in fields(node)} if is_dataclass(node) else {}
+        if name not in types:
+            raise ConfigError(key, value, "unknown key (not in this study's config)")
+        setattr(node, name, _coerce(key, value, getattr(node, name)))
+    out.check()
+    return out
+
+
+def _coerce(key: str, value: Any, current: Any) -> Any:
+    """value converted to the type of the field's current value."""
+    try:
+        if isinstance(current, Enum):
+            return type(current)(value)
+        if isinstance(current, bool):
+            if not isinstance(value, bool):
+                raise TypeError("not a bool")
+            return value
+        if isinstance(current, int):
+            if isinstance(value, bool) or float(value) != int(value):
+                raise TypeError("not an integer")
+            return int(value)
+        if isinstance(current, float):
+            if isinstance(value, bool):
+                raise TypeError("not a number")
+            return float(value)
+        if isinstance(current, list):
+            return list(value)
+        return value
+    except (TypeError, ValueError) as e:
+        raise ConfigError(key, value, f"has the wrong type ({e})") from None
+
+
+class AngleUnit(StrEnum):
+    """Unit of the angle-valued parameters of a law (converted to radians once)."""
+
+    rad = "rad"
+    deg = "deg"
+
+
+#: Integration scheme of the sphere studies: one member per method of the registry
+#: (creatio.dynamics.solvers.METHODS), so a registered method is a valid config value.
+Method = StrEnum("Method", {name: name for name in METHODS})
+Method.__doc__ = "Integration scheme of the sphere studies (creatio.dynamics.solvers.METHODS)."
+
+
+class Output(StrEnum):
+    """What a sphere run is asked to report (and so to integrate)."""
+
+    trajectory = "trajectory"
+    rotation = "rotation"
+    energy = "energy"
+
+
+def require(ok: bool, key: str, value: Any, rule: str) -> None:
+    """Raise ConfigError(key, value, rule) unless ok."""
+    if not ok:
+        raise ConfigError(key, value, rule)
+
+
+# --------------------------------------------------------------------------------- schemas
+_USED = {
+    LawKind.constant: {"phi0"},
+    LawKind.linear: {"phi0", "rate"},
+    LawKind.quintic: {"phi0", "delta"},
+    LawKind.sinusoid: {"phi0", "amplitude", "omega"},
+}
+
+
+@dataclass
+class LawConfig:
+    """A time law: phi0 + rate t + delta s(t/T) + amplitude sin(omega t), by kind."""
+
+    kind: LawKind = LawKind.constant
+    phi0: float = 0.0
+    rate: float = 0.0
+    delta: float = 0.0
+    amplitude: float = 0.0
+    omega: float = 0.0
+    unit: AngleUnit = AngleUnit.rad
+
+    def to_law(self, T: float = 1.0) -> Law:
+        """Convert to a :class:`Law` in radians (T is the quintic cycle length)."""
+        f = math.pi / 180.0 if self.unit is AngleUnit.deg else 1.0
+        return Law(
+            phi0=self.phi0 * f,
+            rate=self.rate * f,
+            delta=self.delta * f,
+            T=T,
+            amplitude=self.amplitude * f,
+            omega=self.omega,
+            kind=self.kind,
+        )
+
+    def check(
+        self, path: str, inclination: bool = False, kinds: Sequence[LawKind] | None = None
+    ) -> None:
+        """Refuse parameters the kind does not use, negative amplitude, out-of-range gamma,
+        and kinds the study cannot use (when ``kinds`` is given)."""
+        if kinds is not None:
+            require(self.kind in kinds, f"{path}.kind", self.kind.value,
+                     f"this study takes only {', '.join(k.value for k in kinds)}")
+        for name in ("phi0", "rate", "delta", "amplitude", "omega"):
+            v = getattr(self, name)
+            require(math.isfinite(v), f"{path}.{name}", v, "must be a finite number")
+            if name not in _USED[self.kind]:
+                require(v == 0.0, f"{path}.{name}", v, f"is not used by kind={self.kind.value}")
+        require(self.amplitude >= 0.0, f"{path}.amplitude", self.amplitude, "must be >= 0")
+        if inclination:
+            lo, hi = self.to_law().bounds()
+            require(
+                -math.pi / 2 - 1e-12 <= lo and hi <= math.pi / 2 + 1e-12,
+                f"{path}",
+                f"range [{lo:.6g}, {hi:.6g}] rad",
+                "an inclination must stay in [-pi/2, pi/2] (|gamma0| + G <= pi/2)",
+            )
+
+
+@dataclass
+class GeometryConfig:
+    """Surface shape: inner radius, width, amplitude, radial and angular cycle counts."""
+
+    R0: float = MISSING
+    dR: float = MISSING
+    A: float = MISSING
+    Kr: int = MISSING
+    Ka: int = MISSING
+
+    def check(self, path: str) -> None:
+        """R0 > 0, dR > 0, 0 <= A < R0, Kr and Ka positive integers."""
+        require(self.R0 > 0.0, f"{path}.R0", self.R0, "must be > 0")
+        require(self.dR > 0.0, f"{path}.dR", self.dR, "must be > 0")
+        require(
+            0.0 <= self.A < self.R0, f"{path}.A", self.A, f"must satisfy 0 <= A < R0 = {self.R0}"
+        )
+        require(self.Kr >= 1, f"{path}.Kr", self.Kr, "must be a positive integer")
+        require(self.Ka >= 1, f"{path}.Ka", self.Ka, "must be a positive integer")
+
+    def surface(self) -> Surface:
+        """The numeric-core surface."""
+        return Surface(self.R0, self.dR, self.A, self.Kr, self.Ka)
+
+
+_NO_CYCLE = (LawKind.constant, LawKind.linear, LawKind.sinusoid)  # quintic needs phases.T
+
+
+@dataclass
+class PhasePairConfig:
+    """Radial and angular phase laws (the inclination is set by the study)."""
+
+    r: LawConfig = field(default_factory=LawConfig)
+    a: LawConfig = field(default_factory=LawConfig)
+
+    def check(self, path: str) -> None:
+        """Each law constant or linear: CT-02's helical pitch is defined for linear phases."""
+        linear = (LawKind.constant, LawKind.linear)
+        self.r.check(f"{path}.r", kinds=linear)
+        self.a.check(f"{path}.a", kinds=linear)
+
+
+@dataclass
+class PhasesConfig:
+    """Radial phase, angular phase and inclination laws; T is every quintic law's cycle."""
+
+    T: float = 1.0
+    r: LawConfig = field(default_factory=LawConfig)
+    a: LawConfig = field(default_factory=LawConfig)
+    gamma: LawConfig = field(default_factory=LawConfig)
+
+    def check(self, path: str) -> None:
+        """T > 0, each law valid, inclination within [-pi/2, pi/2]."""
+        require(self.T > 0.0, f"{path}.T", self.T, "must be > 0")
+        self.r.check(f"{path}.r")
+        self.a.check(f"{path}.a")
+        self.gamma.check(f"{path}.gamma", inclination=True)
+
+    def laws(self) -> tuple[Law, Law, Law]:
+        """(phi_r, phi_a, gamma) as numeric-core laws."""
+        return self.r.to_law(self.T), self.a.to_law(self.T), self.gamma.to_law(self.T)
+
+
+@dataclass
+class SphereConfig:
+    """The rigid sphere and its contact: mass, radius, gravity, friction, regularisation."""
+
+    m: float = MISSING
+    b: float = MISSING
+    g: float = 9.81
+    mu: float = MISSING
+    eps: float = 0.01
+
+    def check(self, path: str) -> None:
+        """m > 0, b > 0, g >= 0, mu >= 0, eps > 0."""
+        require(self.m > 0.0, f"{path}.m", self.m, "must be > 0")
+        require(self.b > 0.0, f"{path}.b", self.b, "must be > 0")
+        require(self.g >= 0.0, f"{path}.g", self.g, "must be >= 0")
+        require(self.mu >= 0.0, f"{path}.mu", self.mu, "must be >= 0")
+        require(self.eps > 0.0, f"{path}.eps", self.eps, "must be > 0")
+
+
+@dataclass
+class SolverConfig:
+    """Time integration: method, step, refinement for the convergence pair, output sampling.
+
+    rk4 (and any method with fixed_step) takes the constant step dt. The adaptive methods
+    control the local error to rtol/atol; their convergence pair is the run at rtol/atol and
+    the run at the tolerances divided by refine**order (the error ratio a dt / refine pair of
+    that order gives when the global error is proportional to the tolerance), and their
+    datasets are still named by dt and dt / refine.
+    """
+
+    method: Method = Method.rk4
+    dt: float = 0.002
+    refine: int = 2
+    output_interval: float = 0.1
+    allow_unstable: bool = False
+    rtol: float = 1e-8
+    atol: float = 1e-10
+    fixed_step: bool = False
+
+    @property
+    def adaptive(self) -> bool:
+        """Whether the step is set by error control rather than by dt."""
+        return METHODS[str(self.method)].adaptive and not self.fixed_step
+
+    def check(self, path: str) -> None:
+        """dt > 0, refine >= 2, tolerances > 0, output_interval a multiple of a fixed dt."""
+        require(self.dt > 0.0, f"{path}.dt", self.dt, "must be > 0")
+        require(self.refine >= 2, f"{path}.refine", self.refine, "must be an integer >= 2")
+        require(math.isfinite(self.rtol) and self.rtol > 0.0, f"{path}.rtol", self.rtol,
+                 "must be finite and > 0")
+        require(math.isfinite(self.atol) and self.atol > 0.0, f"{path}.atol", self.atol,
+                 "must be finite and > 0")
+        if self.adaptive:
+            finest = self.tolerances(self.dt / self.refine)[0]
+            require(finest >= 100 * sys.float_info.epsilon, f"{path}.rtol", self.rtol,
+                     f"divided by refine**order (the convergence partner) gives {finest:.3g}, "
+                     f"below 100 x machine epsilon = 2.2e-14: raise it or lower solver.refine")
+        require(not (self.fixed_step and not METHODS[str(self.method)].adaptive),
+                f"{path}.fixed_step", self.fixed_step,
+                f"applies to the adaptive methods; {self.method} always takes a fixed step")
+        if self.adaptive:
+            require(
+                self.output_interval > 0.0, f"{path}.output_interval", self.output_interval,
+                "must be > 0",
+            )
+            return
+        require(
+            steps_in(self.output_interval, self.dt) is not None,
+            f"{path}.output_interval",
+            self.output_interval,
+            f"must be a positive integer multiple of solver.dt = {self.dt}",
+        )
+
+    def tolerances(self, dt: float) -> tuple[float, float]:
+        """(rtol, atol) of the run named by dt: scaled by (dt / solver.dt)**order."""
+        scale = (dt / self.dt) ** METHODS[str(self.method)].order
+        return self.rtol * scale, self.atol * scale
+
+    def timesteps(self) -> list[float]:
+        """The compared steps: dt and dt / refine."""
+        return [self.dt, self.dt / self.refine]
+
+
+def _check_positive_list(path: str, values: Sequence[float], minimum: int = 1) -> None:
+    require(len(values) >= minimum, path, list(values), f"needs at least {minimum} value(s)")
+    for i, v in enumerate(values):
+        require(v > 0.0 and math.isfinite(v), f"{path}[{i}]", v, "must be > 0")
+
+
+def _check_inclinations(path: str, values: Sequence[float]) -> None:
+    require(len(values) >= 1, path, list(values), "needs at least 1 value")
+    for i, v in enumerate(values):
+        require(-90.0 <= v <= 90.0, f"{path}[{i}]", v, "must lie in [-90, 90] degrees")
+
+
+def _check_grid(path: str, n_radii: int, n_angles: int) -> None:
+    require(n_radii >= 2, f"{path}.n_radii", n_radii, "must be >= 2 (both ends are sampled)")
+    require(n_angles >= 1, f"{path}.n_angles", n_angles, "must be >= 1")
+
+
+@dataclass
+class Ct02Study:
+    """CT-02 sampling: FD steps, inclinations, grid, times, gamma(t) case, feature times."""
+
+    id: str = "ct02"
+    title: str = ""
+    h: list[float] = MISSING
+    inclinations_deg: list[float] = MISSING
+    n_radii: int = 9
+    n_angles: int = 24
+    times: list[float] = MISSING
+    varying_gamma: LawConfig = field(default_factory=LawConfig)
+    feature_times: list[float] = MISSING
+    feature_h: float = 1e-4
+
+    def check(self, path: str) -> None:
+        """Steps positive, inclinations in range, grid sizes sane, gamma(t) in range."""
+        _check_positive_list(f"{path}.h", self.h)
+        _check_inclinations(f"{path}.inclinations_deg", self.inclinations_deg)
+        _check_grid(path, self.n_radii, self.n_angles)
+        require(len(self.times) >= 1, f"{path}.times", self.times, "needs at least 1 value")
+        self.varying_gamma.check(f"{path}.varying_gamma", inclination=True, kinds=_NO_CYCLE)
+        require(self.feature_h > 0.0, f"{path}.feature_h", self.feature_h, "must be > 0")
+
+
+@dataclass
+class LawSetConfig:
+    """One EN-01 time-law case: radial phase, angular phase, inclination (no quintic T)."""
+
+    r: LawConfig = field(default_factory=LawConfig)
+    a: LawConfig = field(default_factory=LawConfig)
+    gamma: LawConfig = field(default_factory=LawConfig)
+
+    def check(self, path: str) -> None:
+        """Each law valid (no quintic: there is no cycle length here), gamma in range."""
+        self.r.check(f"{path}.r", kinds=_NO_CYCLE)
+        self.a.check(f"{path}.a", kinds=_NO_CYCLE)
+        self.gamma.check(f"{path}.gamma", inclination=True, kinds=_NO_CYCLE)
+
+
+@dataclass
+class RegularityConfig:
+    """Regularity grid: inclinations and a radius x angle grid per inclination."""
+
+    inclinations_deg: list[float] = MISSING
+    n_radii: int = 168
+    n_angles: int = 168
+
+    def check(self, path: str) -> None:
+        """Inclinations in range, grid sizes sane."""
+        _check_inclinations(f"{path}.inclinations_deg", self.inclinations_deg)
+        _check_grid(path, self.n_radii, self.n_angles)
+
+
+@dataclass
+class PatternConfig:
+    """Pattern velocity check over one quintic cycle of the angular phase."""
+
+    T: float = 120.0
+    a: LawConfig = field(default_factory=LawConfig)
+    sample_interval: float = 0.1
+    fd_step: float = 1e-3
+
+    def check(self, path: str) -> None:
+        """T, sample interval and difference step positive."""
+        require(self.T > 0.0, f"{path}.T", self.T, "must be > 0")
+        self.a.check(f"{path}.a")
+        require(
+            0.0 < self.sample_interval <= self.T,
+            f"{path}.sample_interval",
+            self.sample_interval,
+            f"must lie in (0, T = {self.T}]",
+        )
+        require(self.fd_step > 0.0, f"{path}.fd_step", self.fd_step, "must be > 0")
+
+
+@dataclass
+class En01Study:
+    """EN-01 sampling: FD steps, grid, times, three law cases, regularity, pattern."""
+
+    id: str = "en01"
+    title: str = ""
+    h: list[float] = MISSING
+    n_radii: int = 17
+    n_angles: int = 36
+    times: list[float] = MISSING
+    laws: dict[str, LawSetConfig] = field(default_factory=dict)
+    regularity: RegularityConfig = field(default_factory=RegularityConfig)
+    pattern: PatternConfig = field(default_factory=PatternConfig)
+
+    def check(self, path: str) -> None:
+        """Every sub-config valid; at least one law case."""
+        _check_positive_list(f"{path}.h", self.h)
+        _check_grid(path, self.n_radii, self.n_angles)
+        require(len(self.times) >= 1, f"{path}.times", self.times, "needs at least 1 value")
+        require(len(self.laws) >= 1, f"{path}.laws", dict(self.laws), "needs at least 1 case")
+        for name, case in self.laws.items():
+            case.check(f"{path}.laws.{name}")
+        self.regularity.check(f"{path}.regularity")
+        self.pattern.check(f"{path}.pattern")
+
+
+@dataclass
+class InitialConfig:
+    """Initial contact point and its rates (the sphere starts with zero spin)."""
+
+    R: float = MISSING
+    alpha_deg: float = MISSING
+    Rdot: float = 0.0
+    alphadot: float = 0.0
+
+
+@dataclass
+class DynamicStudy:
+    """EN-02 family: duration, initial state, and the outputs asked for.
+
+    outputs: ``trajectory`` alone integrates rotation only where friction or an initial spin
+    couples it to the path (mu > 0), and skips the energy bookkeeping; ``rotation`` and
+    ``energy`` ask for spin/orientation and for the energy balance.
+    """
+
+    id: str = MISSING
+    title: str = ""
+    duration: float = MISSING
+    initial: InitialConfig = field(default_factory=InitialConfig)
+    outputs: list[Output] = field(
+        default_factory=lambda: [Output.trajectory, Output.rotation, Output.energy]
+    )
+
+    def check(self, path: str) -> None:
+        """Duration positive; outputs include the trajectory."""
+        require(self.duration > 0.0, f"{path}.duration", self.duration, "must be > 0")
+        require(Output.trajectory in self.outputs, f"{path}.outputs",
+                 [o.value for o in self.outputs], "must include trajectory")
+
+
+@dataclass
+class Ct02Config:
+    """Root schema of CT-02."""
+
+    study: Ct02Study = field(default_factory=Ct02Study)
+    geometry: GeometryConfig = field(default_factory=GeometryConfig)
+    phases: PhasePairConfig = field(default_factory=PhasePairConfig)
+
+    def check(self) -> None:
+        """Validate every group."""
+        self.geometry.check("geometry")
+        self.phases.check("phases")
+        self.study.check("study")
+
+
+@dataclass
+class En01Config:
+    """Root schema of EN-01."""
+
+    study: En01Study = field(default_factory=En01Study)
+    geometry: GeometryConfig = field(default_factory=GeometryConfig)
+
+    def check(self) -> None:
+        """Validate every group."""
+        self.geometry.check("geometry")
+        self.study.check("study")
+
+
+@dataclass
+class DynamicConfig:
+    """Root schema of the sphere studies (EN-02, EN-02R)."""
+
+    study: DynamicStudy = field(default_factory=DynamicStudy)
+    geometry: GeometryConfig = field(default_factory=GeometryConfig)
+    phases: PhasesConfig = field(default_factory=PhasesConfig)
+    sphere: SphereConfig = field(default_factory=SphereConfig)
+    solver: SolverConfig = field(default_factory=SolverConfig)
+
+    def check(self) -> None:
+        """Validate every group, then the cross-group rules (start inside the annulus)."""
+        self.geometry.check("geometry")
+        self.phases.check("phases")
+        self.sphere.check("sphere")
+        self.solver.check("solver")
+        self.study.check("study")
+        R = self.study.initial.R
+        require(
+            0.0 <= R <= self.geometry.dR,
+            "study.initial.R",
+            R,
+            f"must lie in [0, geometry.dR = {self.geometry.dR}]",
+        )
+        require(
+            self.solver.adaptive or steps_in(self.study.duration, self.solver.dt) is not None,
+            "study.duration",
+            self.study.duration,
+            f"must be an integer multiple of solver.dt = {self.solver.dt}",
+        )
+        self._check_stability()
+
+    def _check_stability(self) -> None:
+        """Refuse a fixed dt beyond the explicit scheme's limit for the regularised friction
+        (docs/model.md s.6); adaptive and L-stable methods have no such limit."""
+        limit = self.step_limit()
+        if self.solver.dt > limit and not self.solver.allow_unstable:
+            raise ConfigError(
+                "solver.dt",
+                self.solver.dt,
+                f"beyond the {str(self.solver.method).upper()} stability limit of the "
+                f"regularised friction (sphere.mu = "
+                f"{self.sphere.mu}, sphere.eps = {self.sphere.eps}): the largest stable dt is "
+                f"{limit:.6g} s; set solver.allow_unstable=true to run anyway (with a warning)",
+            )
+
+    def sphere_problem(self, dt: float | None = None) -> SphereProblem:
+        """The numeric-core problem of this config (at timestep dt, default solver.dt)."""
+        g, ph, sp, sv, st = self.geometry, self.phases, self.sphere, self.solver, self.study
+        law_r, law_a, law_g = (tuple(law.coefficients()) for law in ph.laws())
+        dt = sv.dt if dt is None else dt
+        rtol, atol = sv.tolerances(dt)
+        return SphereProblem(
+            R0=g.R0, dR=g.dR, A=g.A, Kr=g.Kr, Ka=g.Ka,
+            law_r=law_r, law_a=law_a, law_gamma=law_g,
+            m=sp.m, b=sp.b, g=sp.g, mu=sp.mu, eps=sp.eps,
+            R_init=st.initial.R, alpha_init=math.radians(st.initial.alpha_deg),
+            Rdot_init=st.initial.Rdot, alphadot_init=st.initial.alphadot,
+            t_end=st.duration, dt=dt,
+            output_interval=sv.output_interval, allow_unstable=sv.allow_unstable,
+            method=str(sv.method), rtol=rtol, atol=atol, fixed_step=sv.fixed_step,
+            rotation=True if Output.rotation in st.outputs else None,
+            energy=Output.energy in st.outputs,
+        )
+
+    def step_limit(self) -> float:
+        """Largest stable fixed step (s) of this configuration's explicit scheme (inf without
+        friction, for an adaptive method and for radau5)."""
+        return stability_limit(self.sphere_problem())
+
+
+@dataclass
+class ProbeConfig:
+    """`creatio probe`: one point (alpha in degrees, R, t) of a configured surface."""
+
+    geometry: GeometryConfig = field(default_factory=GeometryConfig)
+    phases: PhasesConfig = field(default_factory=PhasesConfig)
+    alpha: float = 0.0
+    R: float = 0.0
+    t: float = 0.0
+
+    def check(self) -> None:
+        """Geometry and phases valid; the point finite."""
+        self.geometry.check("geometry")
+        self.phases.check("phases")
+        for name in ("alpha", "R", "t"):
+            v = getattr(self, name)
+            require(math.isfinite(v), name, v, "must be a finite number")

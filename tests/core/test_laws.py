@@ -1,0 +1,224 @@
+"""Time laws (MODEL.md section 2): values and derivatives against closed forms and differences."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from numpy.polynomial import Polynomial
+
+from creatio.model.cavity import pattern_angle
+from creatio.model.laws import Law, LawKind, quintic_step
+from creatio.model.surface import Motion, Surface
+
+# Quintic smooth step s(tau) = 10 tau^3 - 15 tau^4 + 6 tau^5, built as a polynomial object so
+# that its derivatives come from numpy's polynomial algebra, not from the code under test.
+S_POLY = Polynomial([0.0, 0.0, 0.0, 10.0, -15.0, 6.0])
+
+# Laws used throughout: one of each kind, with non-trivial coefficients.
+LAWS = {
+    "constant": Law.constant(0.7),
+    "linear": Law.linear(0.23, 0.31),
+    "quintic": Law.quintic(0.5, 3.0, 2.0),
+    "sinusoid": Law.sinusoid(np.pi / 4, 0.3, 0.7),
+}
+
+
+def closed_form(name: str, t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Value, d1, d2 of LAWS[name] written out from MODEL.md section 2."""
+    z = np.zeros_like(t)
+    if name == "constant":
+        return 0.7 + z, z, z
+    if name == "linear":
+        return 0.23 + 0.31 * t, 0.31 + z, z
+    if name == "quintic":
+        T, D = 2.0, 3.0
+        tau = t / T
+        return (
+            0.5 + D * S_POLY(tau),
+            D * 30.0 * tau**2 * (1.0 - tau) ** 2 / T,
+            D * 60.0 * tau * (1.0 - tau) * (1.0 - 2.0 * tau) / T**2,
+        )
+    G, Om = 0.3, 0.7
+    return np.pi / 4 + G * np.sin(Om * t), G * Om * np.cos(Om * t), -G * Om**2 * np.sin(Om * t)
+
+
+def d5(f, x: np.ndarray, h: float) -> np.ndarray:
+    """Fourth-order 5-point central difference of f at x."""
+    return (f(x - 2 * h) - 8 * f(x - h) + 8 * f(x + h) - f(x + 2 * h)) / (12 * h)
+
+
+# Times strictly inside the quintic cycle [0, 2] with room for the 5-point stencil (the clamped
+# law is only C2 at 0 and T, so a stencil straddling them would lose its 4th order).
+T_IN = np.linspace(0.01, 1.99, 67)
+
+
+@pytest.mark.parametrize("name", list(LAWS))
+def test_law_matches_closed_form(name: str) -> None:
+    """Each kind's value, d1, d2 equal the MODEL.md formulas (rounding-level agreement)."""
+    lv = LAWS[name](T_IN)
+    v, d1, d2 = closed_form(name, T_IN)
+    for got, want in ((lv.value, v), (lv.d1, d1), (lv.d2, d2)):
+        np.testing.assert_allclose(got, want, rtol=1e-14, atol=1e-14)
+
+
+@pytest.mark.parametrize("name", list(LAWS))
+def test_law_derivatives_match_central_differences(name: str) -> None:
+    """d1 from 5-point differences of value, d2 from 5-point differences of d1.
+
+    Error of the 5-point formula: h^4/30 max|f^(5)| + ~1.5 eps max|f| / h. With h = 1e-3 the
+    largest fifth derivative here is the quintic's delta 720 / T^5 = 67.5, giving 2.3e-12,
+    and rounding (|f| <= 4) adds ~1.3e-12; atol 1e-10 is a safe margin over both.
+    """
+    law, h = LAWS[name], 1e-3
+    lv = law(T_IN)
+    np.testing.assert_allclose(d5(lambda s: law(s).value, T_IN, h), lv.d1, rtol=0, atol=1e-10)
+    np.testing.assert_allclose(d5(lambda s: law(s).d1, T_IN, h), lv.d2, rtol=0, atol=1e-10)
+
+
+@pytest.mark.parametrize("name", list(LAWS))
+def test_law_output_shape_follows_t(name: str) -> None:
+    """Value and derivatives broadcast to the shape of t, even for constant parts."""
+    t = np.zeros((3, 4))
+    lv = LAWS[name](t)
+    assert lv.value.shape == lv.d1.shape == lv.d2.shape == (3, 4)
+
+
+def test_quintic_step_endpoints_and_midpoint() -> None:
+    """s, s', s'' at tau = 0 and 1 are (0, 0, 0) and (1, 0, 0); at 1/2: (1/2, 15/8, 0)."""
+    s, ds, dds = quintic_step(np.array([0.0, 0.5, 1.0]))
+    np.testing.assert_array_equal(s[[0, 2]], [0.0, 1.0])
+    np.testing.assert_array_equal(ds[[0, 2]], [0.0, 0.0])
+    np.testing.assert_array_equal(dds[[0, 2]], [0.0, 0.0])
+    np.testing.assert_allclose([s[1], ds[1], dds[1]], [0.5, 1.875, 0.0], atol=1e-15)
+
+
+def test_quintic_step_against_polynomial_derivatives() -> None:
+    """Inside (0, 1) s, ds/dtau, d2s/dtau2 equal the polynomial and its exact derivatives."""
+    tau = np.linspace(0.0, 1.0, 101)
+    s, ds, dds = quintic_step(tau)
+    np.testing.assert_allclose(s, S_POLY(tau), atol=1e-15)
+    np.testing.assert_allclose(ds, S_POLY.deriv(1)(tau), atol=1e-14)
+    np.testing.assert_allclose(dds, S_POLY.deriv(2)(tau), atol=1e-13)
+
+
+def test_quintic_step_clamped_outside_unit_interval() -> None:
+    """Outside [0, 1] the step holds its end value with zero slope and curvature."""
+    s, ds, dds = quintic_step(np.array([-5.0, -1e-3, 1.0 + 1e-3, 7.0]))
+    np.testing.assert_array_equal(s, [0.0, 0.0, 1.0, 1.0])
+    np.testing.assert_array_equal(ds, 0.0)
+    np.testing.assert_array_equal(dds, 0.0)
+
+
+@pytest.mark.parametrize("edge", [0.0, 2.0])
+def test_quintic_law_is_c2_across_cycle_ends(edge: float) -> None:
+    """Value, d1, d2 of the clamped quintic law are continuous across t = 0 and t = T.
+
+    Near an end, d2 = delta 60 tau (1 - tau)(1 - 2 tau) / T^2 is Lipschitz with constant
+    60 delta / T^3 = 22.5, d1 and value vanish even faster; so the jump over [edge - e,
+    edge + e] must be below 22.5 * e (plus rounding), while a C1-only law would jump by O(1).
+    """
+    law = Law.quintic(0.5, 3.0, 2.0)
+    for e in (1e-4, 1e-6, 1e-8):
+        lo, hi = law(edge - e), law(edge + e)
+        for a, b in ((lo.value, hi.value), (lo.d1, hi.d1), (lo.d2, hi.d2)):
+            assert abs(float(b) - float(a)) <= 22.5 * 2 * e + 1e-15
+    before, after = law(-3.0), law(5.0)
+    assert float(before.value) == 0.5 and float(after.value) == 3.5
+    for lv in (before, after):
+        assert float(lv.d1) == 0.0 and float(lv.d2) == 0.0
+
+
+def test_constructors_set_kind_and_coefficients() -> None:
+    """coefficients() returns (phi0, rate, delta, T, amplitude, omega) for each constructor."""
+    cases = [
+        (Law.constant(0.7), LawKind.constant, [0.7, 0, 0, 1, 0, 0]),
+        (Law.linear(0.23, 0.31), LawKind.linear, [0.23, 0.31, 0, 1, 0, 0]),
+        (Law.quintic(0.5, 3.0, 2.0), LawKind.quintic, [0.5, 0, 3.0, 2.0, 0, 0]),
+        (Law.sinusoid(0.1, 0.3, 0.7), LawKind.sinusoid, [0.1, 0, 0, 1, 0.3, 0.7]),
+    ]
+    for law, kind, coeffs in cases:
+        assert law.kind is kind
+        np.testing.assert_array_equal(law.coefficients(), coeffs)
+        assert law.coefficients().dtype == np.float64
+
+
+@pytest.mark.parametrize("T", [0.0, -1.0])
+def test_nonpositive_cycle_length_raises(T: float) -> None:
+    """A quintic cycle length T <= 0 is refused."""
+    with pytest.raises(ValueError):
+        Law.quintic(0.0, 1.0, T)
+
+
+def test_bounds_exact_for_bounded_kinds() -> None:
+    """bounds() is the exact range over t >= 0 for constant, quintic, sinusoid kinds."""
+    assert Law.constant(0.7).bounds() == (0.7, 0.7)
+    assert Law.linear(0.3, 0.0).bounds() == (0.3, 0.3)
+    assert Law.quintic(0.5, 3.0, 2.0).bounds() == (0.5, 3.5)
+    assert Law.quintic(0.5, -3.0, 2.0).bounds() == (-2.5, 0.5)
+    lo, hi = Law.sinusoid(np.pi / 4, 0.3, 0.7).bounds()
+    assert lo == pytest.approx(np.pi / 4 - 0.3, abs=1e-15)
+    assert hi == pytest.approx(np.pi / 4 + 0.3, abs=1e-15)
+    # The range is attained: sample densely and compare extremes.
+    for law in (Law.quintic(0.5, -3.0, 2.0), Law.sinusoid(np.pi / 4, 0.3, 0.7)):
+        v = law(np.linspace(0.0, 20.0, 200001)).value
+        lo, hi = law.bounds()
+        assert v.min() >= lo - 1e-15 and v.max() <= hi + 1e-15
+        assert v.min() == pytest.approx(lo, abs=1e-9) and v.max() == pytest.approx(hi, abs=1e-9)
+
+
+@pytest.mark.parametrize("rate", [0.31, -0.31])
+def test_bounds_unbounded_for_moving_linear_law(rate: float) -> None:
+    """A linear law with rate != 0 is unbounded in the direction it moves."""
+    lo, hi = Law.linear(0.23, rate).bounds()
+    if rate > 0:
+        assert hi == np.inf and lo <= 0.23
+    else:
+        assert lo == -np.inf and hi >= 0.23
+
+
+# EN-01 pattern velocity over the EN-02 cycle: phi_a = 12 pi s(t / 120), Ka = 6.
+EN01_SURFACE = Surface(R0=0.68, dR=1.72, A=0.18, Kr=1, Ka=6)
+EN01_MOTION = Motion(
+    phi_r=Law.constant(0.0), phi_a=Law.quintic(0.0, 12 * np.pi, 120.0), gamma=Law.constant(0.0)
+)
+
+
+def test_en01_pattern_rate_figures() -> None:
+    """alpha_p' = -phi_a'/6 peaks at t = 60 s with |alpha_p'| = pi/32 = 0.09817477 rad/s.
+
+    Closed form: -(12 pi / 6) 30 tau^2 (1 - tau)^2 / 120 with tau = t / 120; at tau = 1/2 this
+    is pi/32 = 5.625 deg/s. The published 0.09817477 is rounded to 8 decimals (<= 5e-9).
+    """
+    t = np.linspace(0.0, 120.0, 120001)  # 1 ms grid, includes t = 60 exactly
+    ang, rate, _ = pattern_angle(EN01_SURFACE, EN01_MOTION, t)
+    tau = t / 120.0
+    np.testing.assert_allclose(rate, -2 * np.pi * 30 * tau**2 * (1 - tau) ** 2 / 120, atol=1e-17)
+    i = int(np.argmax(np.abs(rate)))
+    assert t[i] == 60.0
+    assert abs(rate[i]) == pytest.approx(np.pi / 32, rel=1e-15)
+    assert abs(abs(rate[i]) - 0.09817477) < 5e-9
+    assert np.rad2deg(abs(rate[i])) == pytest.approx(5.625, rel=1e-15)
+    assert rate[0] == 0.0 and rate[-1] == 0.0
+    assert np.rad2deg(ang[-1] - ang[0]) == pytest.approx(-360.0, rel=1e-14)
+    assert np.all(rate <= 0.0)  # the pattern turns one way only (clockwise seen from +z)
+
+
+def test_en01_pattern_rate_against_central_differences() -> None:
+    """Central differences with step 0.001 s agree with alpha_p' to better than 7.95e-11 rad/s.
+
+    The 2-point error is h^2/6 max|alpha_p'''| = 1e-6/6 * 2 pi 60 / 120^3 = 3.6e-11 plus
+    rounding ~ eps * 2 pi / h = 1.4e-12, inside the published bound 7.95e-11.
+    """
+    h = 1e-3
+    t = np.linspace(0.0, 120.0, 2401)
+
+    def ang(s):
+        return pattern_angle(EN01_SURFACE, EN01_MOTION, s)[0]
+
+    _, rate, acc = pattern_angle(EN01_SURFACE, EN01_MOTION, t)
+    fd = (ang(t + h) - ang(t - h)) / (2 * h)
+    assert np.max(np.abs(fd - rate)) < 7.95e-11
+    # and the pattern acceleration is -phi_a''/6 (5-point differences of the rate; the rate's
+    # fifth derivative is <= 2 pi 720 / 120^5 ~ 2e-7, so the error is rounding ~ 1e-14)
+    fd2 = d5(lambda s: pattern_angle(EN01_SURFACE, EN01_MOTION, s)[1], t[1:-1], h)
+    np.testing.assert_allclose(fd2, acc[1:-1], rtol=0, atol=1e-12)
