@@ -31,8 +31,9 @@ REPO = Path(__file__).resolve().parents[1]
 
 
 def export(revision: str, into: Path) -> Path:
-    """The package of a git revision as ``creatio_then`` under into (imports rewritten)."""
-    archive = subprocess.run(["git", "archive", revision, "src/creatio"], cwd=REPO,
+    """The package of a git revision as ``creatio_then`` under into (imports rewritten), and
+    its conf/ beside it."""
+    archive = subprocess.run(["git", "archive", revision, "src/creatio", "conf"], cwd=REPO,
                              capture_output=True, check=True).stdout
     tmp = into / "archive.tar"
     tmp.write_bytes(archive)
@@ -89,6 +90,8 @@ def main() -> None:
     with tempfile.TemporaryDirectory() as tmp:
         export(args.revision, Path(tmp))
         sys.path.insert(0, tmp)
+        importlib.import_module("creatio.pipeline.config")  # reads conf/ of this tree first
+        os.environ["CREATIO_CONF_DIR"] = str(Path(tmp) / "conf")
         os.environ.setdefault("NUMBA_CACHE_DIR", str(Path(tmp) / "numba-then"))
         calls = {}
         for study, method in cases:

@@ -10,7 +10,7 @@ import pytest
 from creatio.dynamics.kinematics import centre_kinematics
 from creatio.model.laws import Law, law_eval
 
-# Notebook geometry (MODEL.md / STUDIES.md): R0 = 0.68, dR = 1.72, A = 0.18, Kr = 1, Ka = 6.
+# Notebook geometry (docs/studies.md): R0 = 0.68, dR = 1.72, A = 0.18, Kr = 1, Ka = 6.
 GEOM = {"R0": 0.68, "dR": 1.72, "A": 0.18, "Kr": 1, "Ka": 6}
 B = 0.12
 
@@ -40,7 +40,7 @@ def _law_value(coeffs: tuple[float, ...], t: float) -> float:
 
 
 def centre_reference(case: dict, R: float, alpha: float, t: float) -> np.ndarray:
-    """X = c + b n written directly from MODEL.md s.1 formulas (independent of the jets)."""
+    """X = c + b n written directly from docs/model.md s.1 formulas (independent of the jets)."""
     R0, dR, A, Kr, Ka = (GEOM[k] for k in ("R0", "dR", "A", "Kr", "Ka"))
     k = 2.0 * math.pi * Kr / dR
     u = k * R + _law_value(case["law_r"], t)

@@ -1,4 +1,4 @@
-"""Cavity trajectories, helical pitch, pattern angle, inclination classes (MODEL.md section 3)."""
+"""Cavity trajectories, helical pitch, pattern angle, inclination classes (docs/model.md s.3)."""
 
 from __future__ import annotations
 
@@ -9,7 +9,7 @@ from creatio.model.cavity import cavity, classify_inclination, helical_pitch, pa
 from creatio.model.laws import Law
 from creatio.model.surface import Frame, Motion, Surface, Wave
 
-# Notebook geometry (STUDIES.md): R0 = 0.68, dR = 1.72, A = 0.18, Kr = 1, Ka = 6.
+# Notebook geometry (docs/studies.md): R0 = 0.68, dR = 1.72, A = 0.18, Kr = 1, Ka = 6.
 R0, DR, A, KR, KA = 0.68, 1.72, 0.18, 1, 6
 SURF = Surface(R0=R0, dR=DR, A=A, Kr=KR, Ka=KA)
 K = 2 * np.pi * KR / DR
@@ -65,7 +65,7 @@ def test_cavity_lies_on_surface_at_minimum_of_w(mname: str, n: int, m: int) -> N
     np.testing.assert_allclose(w.W_RR, A * K**2, rtol=1e-14)
     np.testing.assert_allclose(w.W_aa, A * KA**2, rtol=1e-14)
     np.testing.assert_allclose(w.W_Ra, 0.0, atol=1e-13)
-    # the coordinates themselves, from MODEL.md section 3
+    # the coordinates themselves, from docs/model.md s.3
     pr, pa = motion.phi_r(T_S), motion.phi_a(T_S)
     np.testing.assert_allclose(cav.R, (np.pi / 2 - pr.value + 2 * np.pi * n) / K, atol=1e-15)
     np.testing.assert_allclose(cav.alpha, (np.pi - pa.value + 2 * np.pi * m) / KA, atol=1e-15)
@@ -128,7 +128,7 @@ def test_ct02_cavity_differences_at_published_times(gamma: float) -> None:
 @pytest.mark.parametrize("mname", list(ALL))
 def test_cavity_motion_obeys_surface_chain_rule(mname: str) -> None:
     """C' = c_t + c_R R_c' + c_a alpha_c' and C'' = c_tt + 2 c_tR R' + 2 c_ta a' + c_RR R'^2
-    + 2 c_Ra R' a' + c_aa a'^2 + c_R R'' + c_a a'' (MODEL.md section 1; exact, rounding only)."""
+    + 2 c_Ra R' a' + c_aa a'^2 + c_R R'' + c_a a'' (docs/model.md s.1; exact, rounding only)."""
     motion = ALL[mname]
     cav = cavity(SURF, motion, T_S)
     f = Frame(SURF, motion, cav.alpha, cav.R, T_S)
@@ -147,7 +147,7 @@ def test_cavity_motion_obeys_surface_chain_rule(mname: str) -> None:
 @pytest.mark.parametrize("gamma", [0.0, CONE, np.pi / 2, -0.4])
 def test_constant_gamma_closed_forms(gamma: float) -> None:
     """Constant gamma: |C'|^2 = R_c'^2 + rho_c^2 alpha_c'^2, and C', C'' in the (e_rho, e_alpha,
-    e_z) basis as written in MODEL.md section 3 (quintic phases exercise R_c'', alpha_c'')."""
+    e_z) basis as written in docs/model.md s.3 (quintic phases exercise R_c'', alpha_c'')."""
     motion = Motion(Law.quintic(0.2, -2.0, 2.0), Law.quintic(0.5, 3.0, 2.0), Law.constant(gamma))
     cav = cavity(SURF, motion, T_S)
     r1, a1 = -motion.phi_r(T_S).d1 / K, -motion.phi_a(T_S).d1 / KA

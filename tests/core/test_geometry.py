@@ -1,4 +1,4 @@
-"""Surface c(alpha, R, t) (MODEL.md section 1): derivatives, metric, normal, inverse, validation."""
+"""Surface c(alpha, R, t) (docs/model.md s.1): derivatives, metric, normal, inverse, validation."""
 
 from __future__ import annotations
 
@@ -8,7 +8,7 @@ import pytest
 from creatio.model.laws import Law
 from creatio.model.surface import Frame, Motion, Surface, Wave, inverse
 
-# Notebook geometry (STUDIES.md): R0 = 0.68, dR = 1.72, A = 0.18, Kr = 1, Ka = 6.
+# Notebook geometry (docs/studies.md): R0 = 0.68, dR = 1.72, A = 0.18, Kr = 1, Ka = 6.
 R0, DR, A, KR, KA = 0.68, 1.72, 0.18, 1, 6
 SURF = Surface(R0=R0, dR=DR, A=A, Kr=KR, Ka=KA)
 K = 2 * np.pi * KR / DR

@@ -55,7 +55,7 @@ def test_en01_c_alpha_and_c_t_within_two_percent(en01, name, h):
                                                   ("c_t", 0.985, 0.995)])
 @pytest.mark.parametrize("h", published.EN01_TRUNCATION_ROWS)
 def test_en01_c_alpha_and_c_t_sit_below_as_documented(en01, name, h, low, high):
-    """STUDIES.md: with angles from 0, c_alpha comes out ~0.4 % and c_t ~1 % below."""
+    """docs/studies.md: with angles from 0, c_alpha comes out ~0.4 % and c_t ~1 % below."""
     _, s = en01
     ratio = s["fd_error"][name][h] / published.EN01_FD_ERROR[name][h]
     assert low < ratio < high, ratio

@@ -1,4 +1,4 @@
-"""Time laws (MODEL.md section 2): values and derivatives against closed forms and differences."""
+"""Time laws (docs/model.md s.2): values and derivatives against closed forms and differences."""
 
 from __future__ import annotations
 
@@ -24,7 +24,7 @@ LAWS = {
 
 
 def closed_form(name: str, t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Value, d1, d2 of LAWS[name] written out from MODEL.md section 2."""
+    """Value, d1, d2 of LAWS[name] written out from docs/model.md s.2."""
     z = np.zeros_like(t)
     if name == "constant":
         return 0.7 + z, z, z
@@ -54,7 +54,7 @@ T_IN = np.linspace(0.01, 1.99, 67)
 
 @pytest.mark.parametrize("name", list(LAWS))
 def test_law_matches_closed_form(name: str) -> None:
-    """Each kind's value, d1, d2 equal the MODEL.md formulas (rounding-level agreement)."""
+    """Each kind's value, d1, d2 equal the formulas of docs/model.md (rounding-level agreement)."""
     lv = LAWS[name](T_IN)
     v, d1, d2 = closed_form(name, T_IN)
     for got, want in ((lv.value, v), (lv.d1, d1), (lv.d2, d2)):

@@ -66,7 +66,7 @@ NCOL = 35
 
 
 class UnstableStepError(ValueError):
-    """dt lies beyond the RK4 stability limit of the regularised friction (MODEL.md s.6)."""
+    """dt lies beyond the RK4 stability limit of the regularised friction (docs/model.md s.6)."""
 
 
 def _law_tuple(name: str, law: tuple[float, ...]) -> tuple[float, ...]:

@@ -246,7 +246,7 @@ def observe(first, t, y, d, p, ext, out, row, final, sample, rot, en):
     two_pi = 2.0 * math.pi
     R = y[0]
     a = y[1]
-    # centre's coordinate along the generator e_g (MODEL.md s.1 inverse map); at
+    # centre's coordinate along the generator e_g (docs/model.md s.1 inverse map); at
     # gamma = 0 it is rho - R0, so clear = min(rho - b - R0, R1 - rho - b)
     sx = (math.sqrt(X1 * X1 + X2 * X2) - R0) * math.cos(gm) + X3 * math.sin(gm)
     clear = min(sx - b, dR - sx - b)

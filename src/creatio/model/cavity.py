@@ -1,4 +1,4 @@
-"""Pattern motion, cavity (feature) trajectories and helical pitch (MODEL.md section 3).
+"""Pattern motion, cavity (feature) trajectories and helical pitch (docs/model.md s.3).
 
 The pattern (a line of constant Ka alpha + phi_a) turns at alpha_p' = -phi_a' / Ka: that is
 the motion of the pattern, not of a body on it. A cavity is one branch of minima of W

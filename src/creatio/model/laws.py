@@ -6,7 +6,7 @@ Every law is one case of the general form (angles in radians, t in seconds)
 
 where s(tau) = 10 tau^3 - 15 tau^4 + 6 tau^5 is the quintic smooth step
 (s(0) = 0, s(1) = 1, s' and s'' vanish at both ends, so clamping keeps the law C2).
-The kinds of MODEL.md section 2 are the special cases:
+The kinds of docs/model.md s.2 are the special cases:
 
 * constant:  phi0
 * linear:    phi0 + rate t

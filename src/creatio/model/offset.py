@@ -1,4 +1,4 @@
-"""Exact kinematics of the sphere centre X(q, t) = c(q, t) + b n(q, t) (MODEL.md sections 1, 4).
+"""Exact kinematics of the sphere centre X(q, t) = c(q, t) + b n(q, t) (docs/model.md s.1, s.4).
 
 Everything is computed in the rotating cylindrical frame (e_rho, e_alpha, e_z) at the
 current alpha, as scalar second-order jets in the three variables (R, alpha, t): a jet is a

@@ -1,7 +1,7 @@
 """The corrugated surface c(alpha, R, t), its analytic derivatives, metric, Jacobian and normal.
 
 Vectorised NumPy over arbitrary (broadcastable) shapes; vectors carry a trailing axis of 3.
-Formulas (MODEL.md section 1, restated):
+Formulas (docs/model.md s.1, restated):
 
     k = 2 pi Kr / dR,  u = k R + phi_r(t),  v = Ka alpha + phi_a(t),  W = A sin u cos v
     rho = R0 + R cos(gamma) - W sin(gamma)

@@ -191,6 +191,11 @@ def _drive(stepper, p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, ato
                     if p1 == p0:
                         for j in range(n):
                             work[j] = y[j]
+                    elif p1 == p0 + 1:  # one term (every RK4 stage): one pass
+                        q = a_idx[p0]
+                        v = a_val[p0]
+                        for j in range(n):
+                            work[j] = y[j] + h_use * (v * K[q, j])
                     else:
                         q = a_idx[p0]
                         v = a_val[p0]
@@ -260,11 +265,10 @@ def _drive(stepper, p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, ato
         if status != st.OK:
             break
         steps += 1
-        for j in range(n):
-            y[j] = ynew[j]
+        # the new state becomes the current one by swapping buffers, not copying
+        y, ynew = ynew, y
         if have_f:
-            for j in range(n):
-                f[j] = fnew[j]
+            f, fnew = fnew, f
         if fixed:
             t = t_next
             final = steps == n_steps
