@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
 import pytest
 
 from creatio.errors import ConfigError
@@ -109,3 +110,23 @@ def test_outputs_must_include_the_trajectory():
     """An outputs list without the trajectory is refused, naming the key."""
     with pytest.raises(ConfigError, match="study.outputs"):
         resolve("en02", ["study.outputs=[energy]"])
+
+
+def test_en02v_settles_on_a_still_surface_that_does_no_work():
+    """EN-02V (docs/studies.md): on the viewer's still surface the membrane's power
+    (N n + f) . c_t vanishes (c_t = 0), so E - E0 = -D_friction; the sphere rolls from 30 deg
+    toward the cavity bottom at (180 - 29) / 6 = 25.17 deg and stays near it; the energy
+    residual falls at RK4's order between dt and dt / 2."""
+    resolved = resolve("en02v")
+    runs = [run_study(resolved, dt=dt) for dt in resolved.obj.solver.timesteps()]
+    s = dynamic_summary(runs)
+    assert s["status"] == "ok" and s["stop_time_s"] == 20.0
+    for ds in runs:
+        assert float(abs(ds.surface_work).max()) == 0.0
+        assert float(ds.friction_dissipation[-1]) > 0.0
+    alpha = np.degrees(runs[0].contact_alpha.values)  # the contact point's angle
+    bottom = (180.0 - 29.0) / 6.0
+    assert alpha[0] == pytest.approx(30.0, abs=1e-9)
+    assert alpha.min() < bottom < 30.0 and abs(alpha[-1] - bottom) < 30.0 - bottom
+    coarse, fine = (s["energy_residual_by_dt_J"][repr(dt)] for dt in s["dt_s"])
+    assert coarse / fine > 2.0**4 * 0.9

@@ -25,6 +25,7 @@ from creatio.model.surface import Motion, Surface
 __all__ = [
     "SCALAR_KERNELS",
     "Cavity",
+    "bottom_curvatures",
     "cavity",
     "cavity_angle",
     "cavity_branch",
@@ -61,6 +62,21 @@ def cavity_angle(phi_a, Ka, m):
 def cavity_branch(R: float, phi_r: float, k: float) -> int:
     """The branch n whose cavity radius R_c(phi_r) lies nearest the radial coordinate R."""
     return round((k * R - 0.5 * math.pi + phi_r) / (2.0 * math.pi))
+
+
+def bottom_curvatures(A: float, k: float, Ka: float, rho_c: float, gamma: float
+                      ) -> tuple[float, float]:
+    """Principal curvatures (kappa_R, kappa_alpha) of the surface at a cavity bottom
+    (W = -A, grad W = 0), with the normal towards the sphere (docs/model.md s.6.4):
+
+        kappa_R = A k^2,   kappa_alpha = (A Ka^2 + rho_c sin(gamma)) / rho_c^2
+
+    rho_c = R0 + R_c cos(gamma) + A sin(gamma) is the bottom's distance from the axis. A
+    sphere of radius b sits in the cavity only if b max(kappa) < 1 (necessary, not
+    sufficient: the curvature peaks off the bottom; the integrator checks the general
+    principal curvature, creatio.model.sphere.max_curvature_times_b, at every step).
+    """
+    return A * k * k, (A * Ka**2 + rho_c * math.sin(gamma)) / rho_c**2
 
 
 @dataclass(frozen=True)

@@ -143,6 +143,8 @@ STUDIES: dict[str, Study] = {
               published=published.EN02),
         Study("en02r", SPHERE, DynamicConfig, "creatio.studies.sphere:run",
               "creatio.reports.sphere:write_report", _timestep_parts("en02r")),
+        Study("en02v", SPHERE, DynamicConfig, "creatio.studies.sphere:run",
+              "creatio.reports.sphere:write_report", _timestep_parts("en02v")),
         *(Study(name, ANALYSIS, f"creatio.studies.{name}:{schema}", f"creatio.studies.{name}:run",
                 f"creatio.reports.{name}:write_report", f"creatio.studies.{name}:parts",
                 group="analysis", in_all=False)
