@@ -289,8 +289,8 @@ def test_stop_edge_crossed_and_left_annulus(en02_problem: SphereProblem) -> None
 
 def test_stop_non_finite_at_a_huge_step(en02_problem: SphereProblem) -> None:
     dt = 1e100
-    p = dataclasses.replace(en02_problem, dt=dt, t_end=2 * dt, output_interval=dt, alphadot_init=1.0,
-                            allow_unstable=True)  # fmt: skip
+    p = dataclasses.replace(en02_problem, dt=dt, t_end=2 * dt, output_interval=dt,
+                            alphadot_init=1.0, allow_unstable=True)  # fmt: skip
     res = simulate(p)
     _assert_stopped(res, "non_finite")
     assert res.stop_time == dt and res.steps == 1

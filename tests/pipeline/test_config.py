@@ -8,9 +8,9 @@ import sys
 import pytest
 
 from creatio.errors import ConfigError
-from creatio.studies import registry
 from creatio.pipeline.config import applicable, output_root, resolve
 from creatio.pipeline.planning import plan
+from creatio.studies import registry
 
 BAD = [
     # (study, overrides, key in message, words of the rule)

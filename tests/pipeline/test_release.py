@@ -16,7 +16,6 @@ import yaml
 from creatio.diff import diff
 from creatio.diff import main as diff_main
 from creatio.pipeline import release
-from creatio.studies import registry
 from creatio.pipeline.io import provenance, write_dataset
 from creatio.pipeline.release import (
     Layout,
@@ -28,6 +27,7 @@ from creatio.pipeline.release import (
     parse_version,
     verify_release,
 )
+from creatio.studies import registry
 
 
 def config_for(study: str) -> tuple[str, str]:

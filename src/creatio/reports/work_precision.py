@@ -1,0 +1,268 @@
+"""Report of the work-precision benchmark: work_precision.json, .md and .png.
+
+Derived from the datasets alone (one per base study, creatio.studies.work_precision). The
+headline time of a run is the minimum over its timed repeats; beside it the median and the
+spread, max / min over the repeats (1 = no scatter). Two timings are told apart only when
+their ranges [min, max] do not overlap: a comparison whose ranges overlap is flagged as
+within the timing noise, and a negative saving is never printed without such a flag.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from creatio.reports.common import fmt, plt, strict_json, table
+
+__all__ = ["fastest", "overlap", "summary", "write_report"]
+
+SPREAD = "max / min of the timed repeats (1 = no scatter)"
+TEXT = ("study", "group", "method", "solver", "setting", "setting_kind", "status")
+NUMBERS = ("setting_value", "error_m", "final_error_m", "time_s", "time_median_s",
+           "first_call_s")
+COUNTS = ("repeats", "rhs_evals", "steps", "rejected_steps", "jacobians", "lu_factorisations",
+          "state_size")
+
+
+def entries(ds: Any) -> list[dict[str, Any]]:
+    """The runs of one dataset as records (times_s: the repeats taken, in order)."""
+    out = []
+    for i in range(ds.sizes["entry"]):
+        e: dict[str, Any] = {k: str(ds[k].values[i]) for k in TEXT}
+        e.update({k: float(ds[k].values[i]) for k in NUMBERS})
+        e.update({k: int(ds[k].values[i]) for k in COUNTS})
+        times = np.asarray(ds["times_s"].values[i], dtype=float)
+        e["times_s"] = [float(t) for t in times[np.isfinite(times)]]
+        e["time_max_s"] = max(e["times_s"], default=math.nan)
+        e["time_spread"] = e["time_max_s"] / e["time_s"] if e["time_s"] > 0 else math.nan
+        out.append(e)
+    return out
+
+
+def overlap(a: dict[str, Any], b: dict[str, Any]) -> bool:
+    """Whether the timing ranges [min, max] of two runs overlap (within the noise)."""
+    return a["time_s"] <= b["time_max_s"] and b["time_s"] <= a["time_max_s"]
+
+
+def fastest(runs: Sequence[dict[str, Any]], level: float, group: str,
+            exclude: str | None = None) -> dict[str, Any] | None:
+    """The quickest run of a group (native, peer) whose error is <= level, optionally not
+    of the method exclude."""
+    ok = [e for e in runs if e["group"] == group and e["error_m"] <= level
+          and e["method"] != exclude]
+    return min(ok, key=lambda e: e["time_s"]) if ok else None
+
+
+def _brief(e: dict[str, Any] | None) -> dict[str, Any] | None:
+    keys = ("method", "setting", "error_m", "time_s", "time_median_s", "time_spread")
+    return {k: e[k] for k in keys} if e else None
+
+
+def _saving(lean: dict[str, Any], full: dict[str, Any]) -> dict[str, Any]:
+    """1 - lean / full (min times) and its noise flag."""
+    saved = 1 - lean["time_s"] / full["time_s"]
+    noise = overlap(lean, full)
+    if noise:
+        flag = "within noise (ranges overlap)"
+    elif saved < 0:
+        flag = "noise: negative beyond the ranges (a smaller state does no more work)"
+    else:
+        flag = ""
+    return {"saved": saved, "within_noise": noise or saved < 0, "flag": flag}
+
+
+def summary(runs: Sequence[dict[str, Any]], evidence: dict[str, Any], levels: Sequence[float],
+            resolution_factor: float) -> dict[str, Any]:
+    """One base study: fastest native method and best peer per level, minimal-state rows."""
+    agreement = max(evidence.get("check_adaptive_max_diff_m", 0.0) or 0.0,
+                    evidence.get("check_fixed_max_diff_m", 0.0) or 0.0)
+    rows = []
+    for level in levels:
+        row: dict[str, Any] = {"level_m": level,
+                               "resolved": level >= resolution_factor * agreement}
+        best = fastest(runs, level, "native") if row["resolved"] else None
+        peer = fastest(runs, level, "peer") if row["resolved"] else None
+        second = fastest(runs, level, "native", best["method"]) if best else None
+        row.update(native=_brief(best), peer=_brief(peer), runner_up=_brief(second),
+                   tied_with_runner_up=bool(best and second and overlap(best, second)),
+                   speed_up=peer["time_s"] / best["time_s"] if best and peer else None,
+                   spreads_overlap=bool(best and peer and overlap(best, peer)))
+        rows.append(row)
+    by_key = {(e["method"], e["setting"]): e for e in runs}
+    minimal = []
+    for full in runs:
+        lean = by_key.get((full["method"].removesuffix("-full"), full["setting"]))
+        if full["method"].endswith("-full") and lean is not None:
+            minimal.append({"run": f"{lean['method']} {lean['setting']}",
+                            "state": lean["state_size"], "time_s": lean["time_s"],
+                            "time_spread": lean["time_spread"],
+                            "full_state": full["state_size"], "full_time_s": full["time_s"],
+                            "full_time_spread": full["time_spread"],
+                            "frictionless": lean["group"] == "mu0",
+                            **_saving(lean, full)})
+    return {"reference": evidence, "fastest": rows, "minimal_state": minimal}
+
+
+def _ms(x: float) -> str:
+    return fmt(x * 1e3)
+
+
+def _markdown(studies: dict[str, dict], runs: Sequence[dict], machine: dict, jit: dict,
+              levels: Sequence[float], factor: float) -> str:
+    lines = ["# Work-precision benchmark (EN-02, EN-02R)", "",
+             "Error: max over the 0.1 s output grid of the centre-position error against the "
+             "reference. Time: core call, single thread, JIT excluded; a warm-up run, then "
+             "repeats interleaved round-robin across all settings; the time is the minimum "
+             f"over the repeats, the median beside it, spread = {SPREAD}. Two times whose "
+             "ranges [min, max] overlap are within the noise and flagged so. Regenerate: "
+             "`snakemake benchmarks -c 1`.", "",
+             "Machine: " + "; ".join(f"{k} {v}" for k, v in machine.items()), ""]
+    if jit:
+        lines += ["JIT, excluded from every timing (first call of the compiled loop): "
+                  + ", ".join(f"{k.removesuffix('_s').replace('_', ' ')} {fmt(v)} s"
+                              for k, v in jit.items()) + ".", ""]
+    for study, s in studies.items():
+        ev = s["reference"]
+        limits = ev.get("stability_limit_dt_s", {})
+        lim = ", ".join(f"{m} {fmt(v)} s" for m, v in limits.items() if v is not None)
+        lines += [f"## {study}", "",
+                  f"Reference {ev.get('reference')} ({ev.get('reference_steps')} steps); "
+                  f"agreement with {ev.get('check_adaptive')}: "
+                  f"{fmt(ev.get('check_adaptive_max_diff_m', math.nan))} m, with "
+                  f"{ev.get('check_fixed')}: {fmt(ev.get('check_fixed_max_diff_m', math.nan))} m."
+                  + (f" Fixed-step friction stability limits: {lim}." if lim else ""), ""]
+        rows = []
+        for r in s["fastest"]:
+            if not r["resolved"]:
+                rows.append([r["level_m"], f"not resolved (below {fmt(factor)} x the "
+                             "reference's own agreement)", "", "", "", "", "", "", ""])
+                continue
+            b, p = r["native"], r["peer"]
+            if b is None:
+                rows.append([r["level_m"], "none reaches it", "", "", "", "", "", "", ""])
+                continue
+            second = r["runner_up"]
+            tie = (f"tied with {second['method']} {second['setting']} (ranges overlap)"
+                   if r["tied_with_runner_up"] else "")
+            if p is None:
+                rows.append([r["level_m"], f"{b['method']} {b['setting']}", _ms(b["time_s"]),
+                             fmt(b["time_spread"]), b["error_m"], "none reaches it", "", "",
+                             tie])
+                continue
+            flag = "; ".join(x for x in (tie, "speed-up within noise (ranges overlap)"
+                                         if r["spreads_overlap"] else "") if x)
+            rows.append([r["level_m"], f"{b['method']} {b['setting']}", _ms(b["time_s"]),
+                         fmt(b["time_spread"]), b["error_m"], f"{p['method']} {p['setting']}",
+                         _ms(p["time_s"]), f"{fmt(r['speed_up'])}x", flag])
+        lines += table(["error level (m)", "fastest native run", "time (ms)", "spread",
+                        "error (m)", "best scipy peer", "peer time (ms)", "speed-up", "noise"],
+                       rows)
+        if s["minimal_state"]:
+            lines += ["", "Minimal state (`study.outputs=[trajectory]`) against full "
+                      "diagnostics. With friction the spin drives the slip, so only the energy "
+                      "bookkeeping can go; without friction (mu = 0) rotation goes too:", ""]
+            lines += table(
+                ["run", "state", "time (ms)", "spread", "full state", "full time (ms)",
+                 "full spread", "saved", "noise"],
+                [[m["run"] + (", mu = 0" if m["frictionless"] else ""), m["state"],
+                  _ms(m["time_s"]), fmt(m["time_spread"]), m["full_state"],
+                  _ms(m["full_time_s"]), fmt(m["full_time_spread"]),
+                  f"{fmt(100 * m['saved'])}%", m["flag"]] for m in s["minimal_state"]])
+        lines.append("")
+    lines += ["## All runs", ""]
+    lines += table(["study", "method", "setting", "error (m)", "final error (m)", "time (ms)",
+                    "median (ms)", "spread", "repeats", "RHS evals", "steps", "status",
+                    "first call extra (s)"],
+                   [[e["study"], e["method"], e["setting"], e["error_m"], e["final_error_m"],
+                     _ms(e["time_s"]), _ms(e["time_median_s"]), e["time_spread"], e["repeats"],
+                     e["rhs_evals"], e["steps"], e["status"], e["first_call_s"]] for e in runs])
+    return "\n".join(lines) + "\n"
+
+
+def _styles(methods: Sequence[str]) -> dict[str, tuple[Any, str, str]]:
+    """(colour, marker, line style) per method, distinct for any number of methods."""
+    n = len(methods)
+    cmap = plt.get_cmap("tab10" if n <= 10 else "tab20" if n <= 20 else "turbo")
+    colours = cmap(np.arange(n) % cmap.N) if n <= 20 else cmap(np.linspace(0, 1, n))
+    markers = "osD^vP*Xh<>p"
+    return {m: (colours[i], markers[i % len(markers)], "--" if m.startswith("scipy-") else "-")
+            for i, m in enumerate(methods)}
+
+
+def _figure(runs: Sequence[dict], path: Path) -> None:
+    """Log-log work-precision figure per study: error against core time (bars: the range of
+    the repeats, min to max) and against right-hand-side evaluations."""
+    studies = list(dict.fromkeys(e["study"] for e in runs))
+    shown = [e for e in runs if e["group"] in ("native", "peer")
+             and math.isfinite(e["error_m"]) and e["error_m"] > 0]
+    methods = list(dict.fromkeys(e["method"] for e in shown))
+    styles = _styles(methods)
+    fig, axes = plt.subplots(max(len(studies), 1), 2, figsize=(12, 4.8 * max(len(studies), 1)),
+                             squeeze=False)
+    for row, study in enumerate(studies):
+        for col, (key, label) in enumerate((("time_s", "core time (s)"),
+                                            ("rhs_evals", "right-hand-side evaluations"))):
+            ax = axes[row, col]
+            for m in methods:
+                pts = sorted((e for e in shown if e["study"] == study and e["method"] == m),
+                             key=lambda e: e[key])
+                if not pts:
+                    continue
+                colour, marker, ls = styles[m]
+                x = np.array([e[key] for e in pts], dtype=float)
+                y = np.array([e["error_m"] for e in pts])
+                ax.loglog(x, y, ls, color=colour, marker=marker, ms=4, label=m)
+                if key == "time_s":
+                    upper = np.array([e["time_max_s"] for e in pts]) - x
+                    ax.errorbar(x, y, xerr=[np.zeros_like(x), upper], fmt="none",
+                                ecolor=colour, elinewidth=1.2, capsize=2)
+            ax.axhline(1e-10, color="grey", lw=0.8, ls=":")
+            ax.set_xlabel(label + (" (bars: min to max of the repeats)" if col == 0 else ""))
+            ax.set_ylabel("max centre error (m)")
+            ax.set_title(f"{study}: error against {label.split(' (')[0]}")
+            ax.grid(True, which="both", alpha=0.3)
+            ax.legend(fontsize=8, ncol=2 if len(methods) > 8 else 1)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def write_report(datasets: Sequence[Path], outdir: str | Path) -> dict[str, Path]:
+    """Write work_precision.{json,md,png} into outdir from the benchmark's datasets."""
+    from creatio.pipeline.io import read_dataset
+
+    outdir = Path(outdir)
+    outdir.mkdir(parents=True, exist_ok=True)
+    loaded = [read_dataset(p) for p in datasets]
+    config = next((c for _, c in loaded if c), {})
+    settings = config.get("study", {})
+    levels = [float(v) for v in settings.get("levels", [1e-6, 1e-8, 1e-10, 1e-12])]
+    factor = float(settings.get("resolution_factor", 10.0))
+    runs: list[dict[str, Any]] = []
+    studies: dict[str, dict] = {}
+    machine: dict[str, str] = {}
+    jit: dict[str, float] = {}
+    for ds, _ in loaded:
+        these = entries(ds)
+        runs += these
+        base = str(ds.attrs.get("base", these[0]["study"] if these else "?"))
+        studies[base] = summary(these, json.loads(ds.attrs.get("reference", "{}")), levels,
+                                factor)
+        machine = machine or json.loads(ds.attrs.get("machine", "{}"))
+        jit.update(json.loads(ds.attrs.get("jit", "{}") or "{}"))
+    paths = {"json": outdir / "work_precision.json", "md": outdir / "work_precision.md",
+             "png": outdir / "work_precision.png"}
+    report = {"title": settings.get("title", "work-precision benchmark"),
+              "time": "core call, min over the repeats (time_s); median (time_median_s)",
+              "time_spread": SPREAD, "noise": "two times whose ranges [min, max] overlap",
+              "machine": machine, "jit": jit, "levels_m": levels, "studies": studies,
+              "entries": runs}
+    paths["json"].write_text(strict_json(report))
+    paths["md"].write_text(_markdown(studies, runs, machine, jit, levels, factor))
+    _figure(runs, paths["png"])
+    return paths

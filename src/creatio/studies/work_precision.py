@@ -1,0 +1,599 @@
+"""Work-precision benchmark of the sphere integrators (EN-02, EN-02R): run time against error.
+
+For each base study a reference solution is computed by two independent high-accuracy
+methods (dop853 at rtol 1e-13, explicit; radau5 at rtol 1e-12, implicit) and a fine
+fixed-step RK4 run, whose agreement is recorded; the reference is the dop853 one. Every
+method of the registry (creatio.dynamics.solvers.METHODS) is swept over its settings
+(adaptive ones by tolerance, fixed-step ones by step; an adaptive method may also be run at
+fixed steps), so a newly registered method is benchmarked without editing this module. The
+error of a run is the maximum over the 0.1 s output grid of |X - X_ref| (centre position,
+metres), plus the same at the final time, computed outside the timed region. Timing follows
+the DiffEqBenchmarks practice: one warm-up run (which also yields the error), then repeats
+of the core call alone (the compiled loop, or scipy's stepping loop), single-threaded; the
+repeats are interleaved round-robin across all settings of a base, so a slow spell of the
+machine spreads over every setting instead of spoiling one. Every repeat is recorded; the
+minimum is the headline number, the median and the spread are kept beside it. The first
+call's extra time (JIT compile or cache load) is reported separately.
+
+Peers: scipy's DOP853, Radau and LSODA on a plain NumPy right-hand side
+(creatio.dynamics.peers). Two more rows measure what a minimal-state run saves: rk4 and
+radau5 with full diagnostics (energy bookkeeping on); and, without friction, the base's own
+solver with the trajectory alone against full diagnostics.
+
+Config: conf/analysis/work_precision.yaml (grids, peers, reference, timing) over the base
+studies under ``bases``. One dataset per base study; the first also carries the JIT
+first-call times.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import math
+import os
+import platform
+import sys
+import time
+from collections.abc import Callable, Iterable, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from creatio.dynamics import METHODS, SphereProblem, stability_limit
+from creatio.errors import ConfigError
+from creatio.model.numerics import steps_in
+from creatio.studies.registry import Part
+from creatio.studies.schema import MISSING, DynamicConfig, require
+
+__all__ = [
+    "PEER_METHODS",
+    "JitConfig",
+    "MethodGrid",
+    "ReferenceConfig",
+    "Setting",
+    "WorkPrecisionConfig",
+    "WorkPrecisionStudy",
+    "errors",
+    "parts",
+    "run",
+    "settings",
+]
+
+#: Names of the scipy peers (creatio.dynamics.peers.PEERS, which imports scipy: the names
+#: are repeated here so that validating a config does not).
+PEER_METHODS = ("RK45", "DOP853", "Radau", "LSODA")
+
+
+# --------------------------------------------------------------------------------- schema
+@dataclass
+class MethodGrid:
+    """The settings one method runs at: tolerances (adaptive), steps (fixed step).
+
+    A fixed step is dt = solver.output_interval / n for n in steps_per_output, so that it
+    divides the output grid.
+    """
+
+    rtol: list[float] = field(default_factory=list)
+    steps_per_output: list[int] = field(default_factory=list)
+
+    def check(self, path: str) -> None:
+        """Tolerances in (0, 1), step counts >= 1."""
+        for i, v in enumerate(self.rtol):
+            require(math.isfinite(v) and 0.0 < v < 1.0, f"{path}.rtol[{i}]", v,
+                    "must lie in (0, 1)")
+        for i, n in enumerate(self.steps_per_output):
+            require(n >= 1, f"{path}.steps_per_output[{i}]", n, "must be an integer >= 1")
+
+
+@dataclass
+class ReferenceConfig:
+    """The reference run (an adaptive method at a tight tolerance) and its two checks."""
+
+    method: str = "dop853"
+    rtol: float = 1e-13
+    atol: float = 1e-15
+    check_method: str = "radau5"
+    check_rtol: float = 1e-12
+    check_atol: float = 1e-14
+    fixed_method: str = "rk4"
+    fixed_steps_per_output: int = 400
+
+    def check(self, path: str) -> None:
+        """Methods registered (the first two adaptive), tolerances positive, steps >= 1."""
+        for key in ("method", "check_method", "fixed_method"):
+            name = getattr(self, key)
+            require(name in METHODS, f"{path}.{key}", name,
+                    f"must be a registered method: one of {', '.join(METHODS)}")
+        for key in ("method", "check_method"):
+            name = getattr(self, key)
+            require(METHODS[name].adaptive, f"{path}.{key}", name,
+                    "must be an adaptive method (the reference is error-controlled)")
+        for key in ("rtol", "atol", "check_rtol", "check_atol"):
+            v = getattr(self, key)
+            require(math.isfinite(v) and 0.0 < v < 1.0, f"{path}.{key}", v, "must lie in (0, 1)")
+        require(self.fixed_steps_per_output >= 1, f"{path}.fixed_steps_per_output",
+                self.fixed_steps_per_output, "must be an integer >= 1")
+
+
+@dataclass
+class JitConfig:
+    """First-call measurement: which methods, over how long a run, and whether cold."""
+
+    methods: list[str] = field(default_factory=lambda: ["rk4", "radau5"])
+    t_end: float = 0.1
+    cold: bool = True
+
+    def check(self, path: str) -> None:
+        """Methods registered, t_end > 0."""
+        for i, name in enumerate(self.methods):
+            require(name in METHODS, f"{path}.methods[{i}]", name,
+                    f"must be a registered method: one of {', '.join(METHODS)}")
+        require(math.isfinite(self.t_end) and self.t_end > 0.0, f"{path}.t_end", self.t_end,
+                "must be > 0")
+
+
+@dataclass
+class WorkPrecisionStudy:
+    """The benchmark's settings (conf/analysis/work_precision.yaml documents each)."""
+
+    id: str = "work_precision"
+    title: str = ""
+    levels: list[float] = MISSING
+    resolution_factor: float = 10.0
+    atol_ratio: float = 0.01
+    methods: dict[str, MethodGrid] = field(default_factory=dict)
+    unlisted: MethodGrid = field(default_factory=MethodGrid)
+    full_state: dict[str, MethodGrid] = field(default_factory=dict)
+    minimal_state: bool = True
+    peers: dict[str, list[float]] = field(default_factory=dict)
+    reference: ReferenceConfig = field(default_factory=ReferenceConfig)
+    repeats: int = 5
+    budget_s: float = 2.0
+    quick: bool = False
+    jit: JitConfig = field(default_factory=JitConfig)
+
+    def grid(self, name: str) -> MethodGrid:
+        """The settings of a registered method: its own entry, else the unlisted grid
+        (tolerances for an adaptive method, steps for a fixed-step one)."""
+        if name in self.methods:
+            return self.methods[name]
+        if METHODS[name].adaptive:
+            return MethodGrid(rtol=list(self.unlisted.rtol))
+        return MethodGrid(steps_per_output=list(self.unlisted.steps_per_output))
+
+    def check(self, path: str) -> None:
+        """Every grid value valid; every method and peer known; every registered method
+        swept (adaptive ones by rtol); full-state settings among the swept ones."""
+        require(len(self.levels) >= 1, f"{path}.levels", list(self.levels),
+                "needs at least 1 value")
+        for i, v in enumerate(self.levels):
+            require(math.isfinite(v) and v > 0.0, f"{path}.levels[{i}]", v, "must be > 0")
+        require(math.isfinite(self.resolution_factor) and self.resolution_factor >= 1.0,
+                f"{path}.resolution_factor", self.resolution_factor, "must be >= 1")
+        require(math.isfinite(self.atol_ratio) and 0.0 < self.atol_ratio <= 1.0,
+                f"{path}.atol_ratio", self.atol_ratio, "must lie in (0, 1]")
+        known = f"must be a registered method: one of {', '.join(METHODS)}"
+        for name, g in self.methods.items():
+            key = f"{path}.methods.{name}"
+            require(name in METHODS, key, name, known)
+            g.check(key)
+            if METHODS[name].adaptive:
+                require(len(g.rtol) >= 1, f"{key}.rtol", list(g.rtol),
+                        "an adaptive method needs at least 1 tolerance")
+            else:
+                require(not g.rtol, f"{key}.rtol", list(g.rtol),
+                        f"{name} takes a fixed step: give steps_per_output")
+                require(len(g.steps_per_output) >= 1, f"{key}.steps_per_output",
+                        list(g.steps_per_output), "needs at least 1 value")
+        self.unlisted.check(f"{path}.unlisted")
+        for name in METHODS:
+            if name not in self.methods:
+                kind = "rtol" if METHODS[name].adaptive else "steps_per_output"
+                require(len(getattr(self.unlisted, kind)) >= 1, f"{path}.unlisted.{kind}",
+                        list(getattr(self.unlisted, kind)),
+                        f"needs at least 1 value: {name} is registered but not under methods")
+        for name, g in self.full_state.items():
+            key = f"{path}.full_state.{name}"
+            require(name in METHODS, key, name, known)
+            g.check(key)
+            swept = self.grid(name)
+            for i, v in enumerate(g.rtol):
+                require(v in swept.rtol, f"{key}.rtol[{i}]", v,
+                        f"must be one of the tolerances {name} is swept over (its partner)")
+            for i, n in enumerate(g.steps_per_output):
+                require(n in swept.steps_per_output, f"{key}.steps_per_output[{i}]", n,
+                        f"must be one of the steps {name} is swept over (its partner)")
+        for name, rtols in self.peers.items():
+            key = f"{path}.peers.{name}"
+            require(name in PEER_METHODS, key, name,
+                    f"must be a scipy peer: one of {', '.join(PEER_METHODS)}")
+            require(len(rtols) >= 1, key, list(rtols), "needs at least 1 tolerance")
+            for i, v in enumerate(rtols):
+                require(math.isfinite(v) and 0.0 < v < 1.0, f"{key}[{i}]", v,
+                        "must lie in (0, 1)")
+        self.reference.check(f"{path}.reference")
+        require(self.repeats >= 1, f"{path}.repeats", self.repeats, "must be an integer >= 1")
+        require(math.isfinite(self.budget_s) and self.budget_s > 0.0, f"{path}.budget_s",
+                self.budget_s, "must be > 0")
+        self.jit.check(f"{path}.jit")
+
+
+@dataclass
+class WorkPrecisionConfig:
+    """Root schema of the work-precision benchmark: its settings and the base studies."""
+
+    study: WorkPrecisionStudy = field(default_factory=WorkPrecisionStudy)
+    bases: dict[str, DynamicConfig] = field(default_factory=dict)
+
+    def check(self) -> None:
+        """Validate the settings and every base (its keys prefixed ``bases.<id>.``), and
+        that each base's duration and JIT run fit the fixed-step grids."""
+        self.study.check("study")
+        require(len(self.bases) >= 1, "bases", list(self.bases), "needs at least 1 base study")
+        for name, base in self.bases.items():
+            try:
+                base.check()
+            except ConfigError as e:
+                raise ConfigError(f"bases.{name}.{e.key}", e.value, e.rule) from None
+            interval = base.solver.output_interval
+            require(steps_in(base.study.duration, interval) is not None,
+                    f"bases.{name}.study.duration", base.study.duration,
+                    f"must be an integer multiple of solver.output_interval = {interval} "
+                    "(every fixed step of the sweep divides the output grid)")
+        first = next(iter(self.bases.values()))
+        if self.study.jit.methods:
+            require(steps_in(self.study.jit.t_end, first.solver.output_interval) is not None,
+                    "study.jit.t_end", self.study.jit.t_end,
+                    f"must be an integer multiple of the first base's solver.output_interval "
+                    f"= {first.solver.output_interval}")
+
+
+def parts(cfg: WorkPrecisionConfig) -> list[Part]:
+    """One dataset per base study; the first also measures the JIT first calls."""
+    return [Part(f"work_precision_{name}", {"base": name, "jit": i == 0})
+            for i, name in enumerate(cfg.bases)]
+
+
+# ------------------------------------------------------------------------------- settings
+@dataclass(frozen=True)
+class Setting:
+    """One benchmarked run: group (native, full, mu0, peer), entry label, the registered
+    method or scipy class it runs, and its setting (rtol, or a fixed dt)."""
+
+    group: str
+    method: str
+    solver: str
+    kind: str
+    value: float
+
+    @property
+    def label(self) -> str:
+        """The setting as the report prints it: ``rtol=1e-08``, ``dt=0.002``."""
+        return f"{self.kind}={self.value:.6g}"
+
+
+def _thin(values: Sequence[Any], quick: bool, keep: Iterable[Any] = ()) -> list[Any]:
+    """Every value, or in a quick run every third one plus those in keep."""
+    if not quick:
+        return list(values)
+    keep = set(keep)
+    return [v for i, v in enumerate(values) if i % 3 == 0 or v in keep]
+
+
+def settings(study: WorkPrecisionStudy, base: SphereProblem) -> list[Setting]:
+    """Every run on one base problem, in report order: each registered method over its grid
+    (an adaptive one by rtol, then at its fixed steps if it has any; a fixed-step one by
+    dt = output_interval / n), the full-state rows, the mu = 0 pair at the base's own
+    solver, the scipy peers."""
+    output_interval = base.output_interval
+    out: list[Setting] = []
+    full = study.full_state
+    for name, method in METHODS.items():
+        grid = study.grid(name)
+        keep = full[name] if name in full else MethodGrid()
+        fixed = f"{name}-fixed" if method.adaptive else name
+        if method.adaptive:
+            out += [Setting("native", name, name, "rtol", float(v))
+                    for v in _thin(grid.rtol, study.quick, keep.rtol)]
+        out += [Setting("native", fixed, name, "dt", output_interval / n)
+                for n in _thin(grid.steps_per_output, study.quick, keep.steps_per_output)]
+    for name, grid in full.items():
+        fixed = f"{name}-fixed" if METHODS[name].adaptive else name
+        out += [Setting("full", f"{name}-full", name, "rtol", float(v)) for v in grid.rtol]
+        out += [Setting("full", f"{fixed}-full", name, "dt", output_interval / n)
+                for n in grid.steps_per_output]
+    if study.minimal_state:
+        kind, value = ("rtol", base.rtol) if base.adaptive else ("dt", base.dt)
+        name = base.method if base.adaptive or not METHODS[base.method].adaptive \
+            else f"{base.method}-fixed"
+        out += [Setting("mu0", f"{name}-mu0", base.method, kind, value),
+                Setting("mu0", f"{name}-mu0-full", base.method, kind, value)]
+    for name, rtols in study.peers.items():
+        out += [Setting("peer", f"scipy-{name}", name, "rtol", float(v))
+                for v in _thin(rtols, study.quick)]
+    return out
+
+
+def native_problem(base: SphereProblem, s: Setting, atol_ratio: float) -> SphereProblem:
+    """The base problem set up for one native setting (full: energy bookkeeping on; mu0:
+    no friction, trajectory alone or full diagnostics, at the base's own solver)."""
+    if s.group == "mu0":
+        full = s.method.endswith("-full")
+        return dataclasses.replace(base, mu=0.0, rotation=full, energy=full)
+    energy = s.group == "full"
+    if s.kind == "dt":
+        return dataclasses.replace(base, method=s.solver, dt=s.value, allow_unstable=True,
+                                   fixed_step=METHODS[s.solver].adaptive, energy=energy)
+    return dataclasses.replace(base, method=s.solver, rtol=s.value, atol=s.value * atol_ratio,
+                               fixed_step=False, energy=energy)
+
+
+# -------------------------------------------------------------------------------- running
+def errors(X: np.ndarray, ref: np.ndarray) -> tuple[float, float]:
+    """(max over the grid, final) Euclidean centre error; inf if the run stopped short."""
+    if X.shape != ref.shape or not np.all(np.isfinite(X)):
+        return math.inf, math.inf
+    e = np.linalg.norm(X - ref, axis=1)
+    return float(e.max()), float(e[-1])
+
+
+def base_problem(cfg: WorkPrecisionConfig, base: str) -> SphereProblem:
+    """A base study's problem, trajectory only (energy off; rotation as friction needs)."""
+    return dataclasses.replace(cfg.bases[base].sphere_problem(), energy=False)
+
+
+def reference(base: SphereProblem, ref: ReferenceConfig) -> tuple[np.ndarray, dict[str, Any]]:
+    """Reference centre positions and the evidence that they are one: the agreement of an
+    independent adaptive method and of a fine fixed step with them."""
+    from creatio.dynamics import simulate
+
+    dt = base.output_interval / ref.fixed_steps_per_output
+    runs = {
+        "reference": dataclasses.replace(base, method=ref.method, rtol=ref.rtol, atol=ref.atol,
+                                         fixed_step=False),
+        "check_adaptive": dataclasses.replace(base, method=ref.check_method, rtol=ref.check_rtol,
+                                              atol=ref.check_atol, fixed_step=False),
+        "check_fixed": dataclasses.replace(base, method=ref.fixed_method, dt=dt,
+                                           fixed_step=METHODS[ref.fixed_method].adaptive),
+    }
+    res = {k: simulate(p) for k, p in runs.items()}
+    for k, r in res.items():
+        if r.status != "ok":
+            raise RuntimeError(f"{k} run stopped: {r.status} at {r.stop_time} s")
+    X = res["reference"].X
+    return X, {
+        "reference": f"{ref.method} rtol={ref.rtol:g} atol={ref.atol:g}",
+        "reference_steps": int(res["reference"].steps),
+        "check_adaptive": f"{ref.check_method} rtol={ref.check_rtol:g} atol={ref.check_atol:g}",
+        "check_adaptive_max_diff_m": errors(res["check_adaptive"].X, X)[0],
+        "check_fixed": f"{ref.fixed_method} dt={dt:.6g}",
+        "check_fixed_max_diff_m": errors(res["check_fixed"].X, X)[0],
+    }
+
+
+def stability_limits(base: SphereProblem) -> dict[str, float | None]:
+    """Largest stable fixed step (s) of every registered method on this problem's friction
+    (None: no limit, L-stable or frictionless)."""
+    out: dict[str, float | None] = {}
+    for name, method in METHODS.items():
+        fixed = dataclasses.replace(base, method=name, fixed_step=method.adaptive,
+                                    dt=base.output_interval)  # the limit does not depend on dt
+        lim = stability_limit(fixed)
+        out[name] = lim if math.isfinite(lim) else None
+    return out
+
+
+@dataclass
+class Run:
+    """A setting after its warm-up: what is timed, how often, and what it measured."""
+
+    setting: Setting
+    call: Callable[[], float]
+    first_s: float
+    count: int
+    record: dict[str, Any]
+
+
+def _repeat_count(warm_s: float, repeats: int, budget_s: float) -> int:
+    """repeats, or fewer for slow calls (budget_s / warm-up time, at least 1)."""
+    if warm_s < budget_s / repeats:
+        return repeats
+    return max(1, int(budget_s / max(warm_s, 1e-9)))
+
+
+def _timed(call: Callable[[], Any]) -> Callable[[], float]:
+    def timed() -> float:
+        t0 = time.perf_counter()
+        call()
+        return time.perf_counter() - t0
+
+    return timed
+
+
+def prepare_native(base: SphereProblem, s: Setting, ref: np.ndarray, study: WorkPrecisionStudy
+                   ) -> Run:
+    """The first core call (JIT compile or cache load included), then a simulate() run for
+    the error and the work counters (its wall time sets the repeat count)."""
+    from creatio.dynamics import simulate
+
+    prob = native_problem(base, s, study.atol_ratio)
+    call = _timed(prob.compiled_call())
+    first = call()
+    t0 = time.perf_counter()
+    res = simulate(prob)
+    warm = time.perf_counter() - t0
+    if s.group == "mu0":
+        err = fin = math.nan  # no reference without friction: a timing row only
+    else:
+        err, fin = errors(res.X, ref) if res.status == "ok" else (math.inf, math.inf)
+    record = {"error_m": err, "final_error_m": fin, "rhs_evals": res.rhs_evals,
+              "steps": res.steps, "status": res.status,
+              "state_size": prob.initial_state(prob.rotation_integrated, prob.energy).size,
+              "rejected_steps": res.rejected_steps, "jacobians": res.jacobians,
+              "lu_factorisations": res.lu_factorisations}
+    return Run(s, call, first, _repeat_count(warm, study.repeats, study.budget_s), record)
+
+
+def prepare_peer(base: SphereProblem, s: Setting, ref: np.ndarray, study: WorkPrecisionStudy
+                 ) -> Run:
+    """A warm-up scipy solve gives the error; a timed call is its stepping loop alone."""
+    from creatio.dynamics.peers import centre_grid, solve_peer
+
+    rtol, atol = s.value, s.value * study.atol_ratio
+    res = solve_peer(base, s.solver, rtol, atol)
+    X = centre_grid(base, res.t, res.y, False)
+    err, fin = errors(X, ref) if res.status == "ok" else (math.inf, math.inf)
+    record = {"error_m": err, "final_error_m": fin, "rhs_evals": res.rhs_evals,
+              "steps": res.steps, "status": res.status, "state_size": res.y.shape[1],
+              "rejected_steps": 0, "jacobians": res.jacobians,
+              "lu_factorisations": res.lu_factorisations}
+    return Run(s, lambda: solve_peer(base, s.solver, rtol, atol).time_s, res.time_s,
+               _repeat_count(res.time_s, study.repeats, study.budget_s), record)
+
+
+def round_robin(runs: Sequence[Run]) -> np.ndarray:
+    """Time every run's core call, repeats interleaved: round r calls each run that still
+    has repeats left, in order. Returns seconds (run, repeat), NaN where none was taken."""
+    times = np.full((len(runs), max((r.count for r in runs), default=0)), np.nan)
+    for k in range(times.shape[1]):
+        for i, r in enumerate(runs):
+            if k < r.count:
+                times[i, k] = r.call()
+    return times
+
+
+COLD = """
+import dataclasses, json, sys, time
+from creatio.dynamics import SphereProblem, simulate
+spec = json.loads(sys.stdin.read())
+base = SphereProblem(**spec["problem"])
+for method in spec["methods"]:
+    t0 = time.perf_counter()
+    simulate(dataclasses.replace(base, method=method))
+    print(method, time.perf_counter() - t0)
+"""
+
+
+def jit_times(base: SphereProblem, jit: JitConfig) -> dict[str, float]:
+    """First-call seconds of the compiled loop over a short run: in a fresh process with an
+    empty numba cache (cold compile, when jit.cold) and in this process (cache load, or
+    compile if there is no cache)."""
+    import subprocess
+    import tempfile
+
+    from creatio.dynamics import simulate
+
+    short = dataclasses.replace(base, t_end=jit.t_end)
+    out: dict[str, float] = {}
+    if jit.cold:
+        spec = {"problem": dataclasses.asdict(short), "methods": list(jit.methods)}
+        with tempfile.TemporaryDirectory() as cache:
+            env = dict(os.environ, NUMBA_CACHE_DIR=cache)
+            proc = subprocess.run([sys.executable, "-c", COLD], input=json.dumps(spec), env=env,
+                                  capture_output=True, text=True, check=True)
+        for line in proc.stdout.splitlines():
+            if line.strip():
+                name, value = line.split()
+                out[f"cold_compile_{name}_s"] = float(value)
+    for name in jit.methods:
+        t0 = time.perf_counter()
+        simulate(dataclasses.replace(short, method=name))
+        out[f"this_process_first_{name}_s"] = time.perf_counter() - t0
+    return out
+
+
+def machine() -> dict[str, str]:
+    """Facts about the machine and the numeric stack the timings belong to."""
+    import numba
+    import scipy
+
+    return {
+        "platform": platform.platform(),
+        "processor": platform.processor() or platform.machine(),
+        "cpu_count": str(os.cpu_count()),
+        "python": platform.python_version(),
+        "numpy": np.__version__,
+        "scipy": scipy.__version__,
+        "numba": numba.__version__,
+        "threads": ", ".join(f"{k}={os.environ.get(k, 'unset')}" for k in
+                             ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "NUMBA_NUM_THREADS")),
+    }
+
+
+_COUNTERS = {
+    "rhs_evals": "right-hand-side evaluations",
+    "steps": "accepted steps",
+    "rejected_steps": "rejected steps",
+    "jacobians": "Jacobian evaluations",
+    "lu_factorisations": "LU factorisations",
+    "state_size": "integrated state components",
+}
+
+
+def to_dataset(base: str, runs: Sequence[Run], times: np.ndarray, attrs: dict[str, Any]):
+    """The runs as an xarray Dataset over dims (entry, repeat), CF attributes on each."""
+    import xarray as xr
+
+    n = len(runs)
+    with np.errstate(all="ignore"):
+        tmin = np.nanmin(times, axis=1) if n else np.zeros(0)
+        tmed = np.nanmedian(times, axis=1) if n else np.zeros(0)
+    first = np.array([max(r.first_s - t, 0.0) for r, t in zip(runs, tmin, strict=True)])
+    text = {
+        "study": [base] * n,
+        "group": [r.setting.group for r in runs],
+        "method": [r.setting.method for r in runs],
+        "solver": [r.setting.solver for r in runs],
+        "setting": [r.setting.label for r in runs],
+        "setting_kind": [r.setting.kind for r in runs],
+        "status": [str(r.record["status"]) for r in runs],
+    }
+    data: dict[str, Any] = {k: ("entry", np.array(v, dtype=object), {"long_name": k})
+                            for k, v in text.items()}
+    data["setting_value"] = ("entry", np.array([r.setting.value for r in runs], dtype=float),
+                             {"long_name": "rtol, or the fixed step dt (s)"})
+    data["error_m"] = ("entry", np.array([r.record["error_m"] for r in runs], dtype=float),
+                       {"long_name": "max centre-position error on the output grid",
+                        "units": "m"})
+    data["final_error_m"] = ("entry",
+                             np.array([r.record["final_error_m"] for r in runs], dtype=float),
+                             {"long_name": "centre-position error at the final time",
+                              "units": "m"})
+    data["time_s"] = ("entry", tmin, {"long_name": "core run time, min over repeats",
+                                      "units": "s"})
+    data["time_median_s"] = ("entry", tmed, {"long_name": "core run time, median over repeats",
+                                             "units": "s"})
+    data["times_s"] = (("entry", "repeat"), times,
+                       {"long_name": "core run time of each repeat (round-robin order; NaN: "
+                        "not taken)", "units": "s"})
+    data["repeats"] = ("entry", np.array([r.count for r in runs], dtype=np.int64),
+                       {"long_name": "timed repeats", "units": "1"})
+    data["first_call_s"] = ("entry", first,
+                            {"long_name": "extra time of the first call (JIT compile or cache "
+                             "load)", "units": "s"})
+    for key, name in _COUNTERS.items():
+        data[key] = ("entry", np.array([r.record[key] for r in runs], dtype=np.int64),
+                     {"long_name": name, "units": "1"})
+    ds = xr.Dataset(data, coords={"entry": np.arange(n), "repeat": np.arange(times.shape[1])})
+    ds.attrs.update(attrs)
+    return ds
+
+
+def run(cfg: WorkPrecisionConfig, base: str, jit: bool = False):
+    """Benchmark every setting on one base study; returns the dataset (attrs: machine,
+    reference evidence, stability limits, JIT first calls when jit)."""
+    study = cfg.study
+    prob = base_problem(cfg, base)
+    attrs: dict[str, Any] = {"title": "work-precision benchmark of the sphere integrators",
+                             "base": base, "machine": json.dumps(machine())}
+    if jit and study.jit.methods:
+        attrs["jit"] = json.dumps(jit_times(prob, study.jit))
+    ref, evidence = reference(prob, study.reference)
+    evidence["stability_limit_dt_s"] = stability_limits(prob)
+    attrs["reference"] = json.dumps(evidence)
+    attrs["timing"] = ("warm-up run, then repeats of the core call interleaved round-robin "
+                       "across all settings; time_s = min, time_median_s = median")
+    runs = [(prepare_peer if s.group == "peer" else prepare_native)(prob, s, ref, study)
+            for s in settings(study, prob)]
+    return to_dataset(base, runs, round_robin(runs), attrs)

@@ -1,0 +1,86 @@
+"""The package's layers: imports go one way, the numeric core stays free of the pipeline's
+libraries, and planning a workflow loads neither the compiler nor xarray."""
+
+from __future__ import annotations
+
+import ast
+import subprocess
+import sys
+from pathlib import Path
+
+import creatio
+
+PACKAGE = Path(creatio.__file__).resolve().parent
+
+#: Each layer and the layers it may import (its own included). cli dispatches to everything.
+ALLOWED = {
+    "model": {"model"},
+    "dynamics": {"model", "dynamics"},
+    "studies": {"model", "dynamics", "studies"},
+    "pipeline": {"model", "dynamics", "studies", "pipeline", "reports"},
+    "reports": {"model", "dynamics", "studies", "pipeline", "reports"},
+    "diff": {"model", "dynamics", "studies", "pipeline", "diff"},
+}
+#: Top-level modules every layer may import.
+SHARED = {"errors", "__init__"}
+
+
+def _imports(path: Path) -> list[tuple[str, list[str]]]:
+    """(module, names) of every `import creatio...` / `from creatio... import ...` in a file."""
+    out = []
+    for node in ast.walk(ast.parse(path.read_text())):
+        if isinstance(node, ast.ImportFrom) and node.module and node.level == 0:
+            if node.module == "creatio" or node.module.startswith("creatio."):
+                out.append((node.module, [a.name for a in node.names]))
+        elif isinstance(node, ast.Import):
+            out += [(a.name, []) for a in node.names if a.name.startswith("creatio")]
+    return out
+
+
+def _layer(module: str) -> str:
+    parts = module.split(".")
+    return parts[1] if len(parts) > 1 else "__init__"
+
+
+def test_imports_go_one_way_and_no_private_names_cross_packages():
+    bad = []
+    for path in sorted(PACKAGE.rglob("*.py")):
+        rel = path.relative_to(PACKAGE)
+        layer = rel.parts[0] if len(rel.parts) > 1 else rel.stem
+        if layer not in ALLOWED:
+            continue
+        for module, names in _imports(path):
+            target = _layer(module)
+            if module == "creatio":  # from creatio import <subpackage> (or __version__)
+                targets = {n for n in names if n != "__version__"}
+            else:
+                targets = {target}
+            for t in targets:
+                if t not in ALLOWED[layer] | SHARED:
+                    bad.append(f"{rel}: imports {module} ({t}) from layer {layer}")
+            if target != layer:
+                bad += [f"{rel}: imports private {module}.{n}" for n in names
+                        if n.startswith("_") and n != "__version__"]
+    assert not bad, "\n".join(bad)
+
+
+def _loaded_after(code: str) -> set[str]:
+    """Which of the heavy libraries a fresh interpreter has loaded after running code."""
+    probe = (f"{code}\nimport sys\nprint(' '.join(m for m in ('numba', 'xarray', 'matplotlib', "
+             "'hydra', 'snakemake', 'scipy') if m in sys.modules))")
+    out = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True,
+                         check=True).stdout
+    return set(out.split())
+
+
+def test_numeric_core_imports_no_pipeline_library():
+    loaded = _loaded_after("import creatio.model.surface, creatio.model.cavity, "
+                           "creatio.model.sphere, creatio.dynamics.simulation")
+    assert "numba" in loaded  # the compiled half really was imported
+    assert not loaded & {"xarray", "matplotlib", "hydra", "snakemake"}, loaded
+
+
+def test_planning_a_workflow_loads_neither_the_compiler_nor_xarray():
+    loaded = _loaded_after("from creatio.pipeline.planning import plan\nplan()")
+    assert "hydra" in loaded  # planning composed the configs
+    assert not loaded & {"numba", "xarray", "matplotlib"}, loaded
