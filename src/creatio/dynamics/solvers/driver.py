@@ -56,7 +56,7 @@ def _implicit_workspace(stepper, n):
     raise NotImplementedError("called only from compiled code")
 
 
-@overload(_implicit_step, prefer_literal=True)
+@overload(_implicit_step, prefer_literal=True, inline="always")
 def _implicit_step_of(stepper, t, t_next, h, y, f, ynew, fnew, dbuf, ws, tol, fixed, rejected,
                       pp, lc, rot, en):
     """Radau's step for the RADAU kind; for the explicit kind a stand-in that is never run,
@@ -64,10 +64,7 @@ def _implicit_step_of(stepper, t, t_next, h, y, f, ynew, fnew, dbuf, ws, tol, fi
     if not isinstance(stepper, types.IntegerLiteral):
         return None
     if stepper.literal_value == RADAU:
-        def impl(stepper, t, t_next, h, y, f, ynew, fnew, dbuf, ws, tol, fixed, rejected, pp,
-                 lc, rot, en):
-            return radau.step(stepper, t, t_next, h, y, f, ynew, fnew, dbuf, ws, tol, fixed,
-                              rejected, pp, lc, rot, en)
+        return radau.step.py_func
     else:
         def impl(stepper, t, t_next, h, y, f, ynew, fnew, dbuf, ws, tol, fixed, rejected, pp,
                  lc, rot, en):
@@ -77,12 +74,12 @@ def _implicit_step_of(stepper, t, t_next, h, y, f, ynew, fnew, dbuf, ws, tol, fi
 
 @overload(_implicit_workspace, prefer_literal=True)
 def _implicit_workspace_of(stepper, n):
-    """Radau's workspace for the RADAU kind, a placeholder otherwise."""
+    """Radau's workspace for the RADAU kind, an empty placeholder otherwise."""
     if not isinstance(stepper, types.IntegerLiteral):
         return None
     if stepper.literal_value == RADAU:
         return lambda stepper, n: radau.workspace(n)
-    return lambda stepper, n: radau.workspace(0)
+    return lambda stepper, n: np.empty(0)
 
 
 @njit(cache=True)
@@ -113,10 +110,10 @@ def _drive(stepper, p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, ato
     s = c.size
     y = y0.copy()
     ynew = np.empty(n)
-    f = np.empty(n)
+    K = np.empty((s + 1, n))  # explicit stages (one row each) and the end-of-step stage
+    f = K[0]  # f(t, y) is the first stage: a view made once, so never copied into K
     fnew = np.empty(n)
     dbuf = np.empty(NDIAG)
-    K = np.empty((s + 1, n))  # explicit stages (one row each) and the end-of-step stage
     work = np.empty(n)
     kst = np.empty(n)
     iws = _implicit_workspace(stepper, n)
@@ -179,23 +176,17 @@ def _drive(stepper, p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, ato
                     status = st.STEP_FAILED
                     break
             if stepper == EXPLICIT:
-                # Explicit Runge-Kutta, any tableau: K[0] = f(t, y); stage st from
+                # Explicit Runge-Kutta, any tableau: K[0] = f(t, y) (f is K's first row); stage
+                # st from
                 # y + h sum_q a[st, q] K[q], its terms added in column order from the first
                 # (0 + x = x exactly, so skipping zero coefficients changes no rounding);
                 # stages at c = 1 are evaluated at t_next exactly.
-                for j in range(n):
-                    K[0, j] = f[j]
                 for stg in range(1, s):
                     p0 = a_ptr[stg]
                     p1 = a_ptr[stg + 1]
                     if p1 == p0:
                         for j in range(n):
                             work[j] = y[j]
-                    elif p1 == p0 + 1:  # one term (every RK4 stage): one pass
-                        q = a_idx[p0]
-                        v = a_val[p0]
-                        for j in range(n):
-                            work[j] = y[j] + h_use * (v * K[q, j])
                     else:
                         q = a_idx[p0]
                         v = a_val[p0]
@@ -265,10 +256,11 @@ def _drive(stepper, p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, ato
         if status != st.OK:
             break
         steps += 1
-        # the new state becomes the current one by swapping buffers, not copying
-        y, ynew = ynew, y
+        for j in range(n):
+            y[j] = ynew[j]
         if have_f:
-            f, fnew = fnew, f
+            for j in range(n):
+                f[j] = fnew[j]
         if fixed:
             t = t_next
             final = steps == n_steps
