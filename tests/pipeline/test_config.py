@@ -153,3 +153,31 @@ def test_probe_prints_surface_quantities(tmp_path):
     # Viewer phases (phi_r = 0, phi_a = 29 deg), flat: rho = R0 + R, so x = 1.18 cos 30 deg.
     assert "1.021909976" in out and "0.590000000" in out
     assert list(tmp_path.iterdir()) == []
+
+
+def test_resolved_configs_are_cached_on_disk_and_invalidated_by_any_conf_edit(tmp_path, repo):
+    """A resolution is composed with Hydra once; later processes load it (no Hydra at all);
+    editing a file under conf/ composes again and changes the hash."""
+    import shutil
+
+    conf = tmp_path / "conf"
+    shutil.copytree(repo / "conf", conf)
+    env = {**__import__("os").environ, "CREATIO_CONF_DIR": str(conf),
+           "CREATIO_CONFIG_CACHE": str(tmp_path / "cache")}
+    code = ("import sys; from creatio.pipeline.config import resolve; "
+            "r = resolve('ct02', ['study.feature_h=2e-4']); "
+            "print(r.sha256, 'hydra' in sys.modules)")
+
+    def run() -> tuple[str, str]:
+        out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True,
+                             text=True, check=True).stdout.split()
+        return out[0], out[1]
+
+    first, composed = run()
+    second, composed_again = run()
+    assert composed == "True" and composed_again == "False" and first == second
+    assert first == resolve("ct02", ["study.feature_h=2e-4"]).sha256
+    study = conf / "study" / "ct02.yaml"
+    study.write_text(study.read_text().replace("n_radii: 9", "n_radii: 11"))
+    third, composed_third = run()
+    assert composed_third == "True" and third != first

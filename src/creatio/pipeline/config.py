@@ -13,6 +13,7 @@ from __future__ import annotations
 import functools
 import hashlib
 import os
+import pickle
 from collections.abc import Sequence
 from dataclasses import dataclass, fields, is_dataclass
 from enum import Enum
@@ -75,9 +76,15 @@ def register_schemas(*extra: str) -> None:
 
     cs = ConfigStore.instance()
     names = [s.id for s in registry.STUDIES.values() if s.group == "study"] + list(extra)
-    for name in names:
-        cs.store(group="schema", name=name, node=registry.get(name).schema, package="_global_")
-    cs.store(group="schema", name="probe", node=ProbeConfig, package="_global_")
+    for name in [*names, "probe"]:
+        if name in _REGISTERED:  # storing converts the dataclass: once per process
+            continue
+        schema = ProbeConfig if name == "probe" else registry.get(name).schema
+        cs.store(group="schema", name=name, node=schema, package="_global_")
+        _REGISTERED.add(name)
+
+
+_REGISTERED: set[str] = set()
 
 
 def compose(study: str, overrides: Sequence[str] = (), config_name: str | None = None
@@ -135,18 +142,25 @@ def validate(cfg: DictConfig | dict, schema: type | None = None) -> Resolved:
 
 def applicable(study: str, overrides: Sequence[str]) -> list[str]:
     """The overrides whose full key (or group) exists in this study's config."""
-    base = compose(study)
-    missing = object()
+    if not overrides:
+        return []
+    base = resolve(study).data
     keep = []
     for ov in overrides:
         key = ov.split("=", 1)[0].lstrip("+~").split("@", 1)[0]
-        if OmegaConf.select(base, key, default=missing, throw_on_missing=False) is not missing:
+        node: Any = base
+        for part in key.split("."):
+            if not isinstance(node, dict) or part not in node:
+                break
+            node = node[part]
+        else:
             keep.append(ov)
     return keep
 
 
 def resolve(study: str, overrides: Sequence[str] = (), only_applicable: bool = False) -> Resolved:
-    """Compose and validate one study's config with overrides (memoised per process)."""
+    """Compose and validate one study's config with overrides (memoised in the process, and
+    on disk: see :func:`cache_dir`)."""
     return _resolve(study, tuple(str(o) for o in overrides), only_applicable)
 
 
@@ -154,12 +168,73 @@ def resolve(study: str, overrides: Sequence[str] = (), only_applicable: bool = F
 def _resolve(study: str, overrides: tuple[str, ...], only_applicable: bool) -> Resolved:
     if study not in registry.STUDIES:
         raise ConfigError("study", study, f"must be one of {', '.join(registry.STUDIES)}")
-    ovs = applicable(study, overrides) if only_applicable else list(overrides)
+    ovs = tuple(applicable(study, overrides) if only_applicable else overrides)
+    path = _cache_path(study, ovs)
+    if path is not None:
+        try:
+            with path.open("rb") as fh:
+                cached = pickle.load(fh)
+            if isinstance(cached, Resolved):
+                return cached
+        except Exception:  # noqa: BLE001 - no entry, or an unreadable one: compose again
+            pass
     try:
-        cfg = compose(study, ovs)
+        cfg = compose(study, list(ovs))
     except Exception as e:  # Hydra refused an override: unknown key, bad type, bad syntax
-        raise override_error(study, ovs, e) from None
-    return validate(cfg)
+        raise override_error(study, list(ovs), e) from None
+    resolved = validate(cfg)
+    if path is not None:
+        _store(path, resolved)
+    return resolved
+
+
+def cache_dir() -> Path:
+    """Where resolved configs are kept between processes: composing with Hydra costs a few
+    tenths of a second per study, loading a resolved one a millisecond. Entries are keyed by
+    the content of conf/ and of the package's sources, so any edit recomposes.
+    ``CREATIO_CONFIG_CACHE`` moves it (``off`` disables it)."""
+    root = os.environ.get("CREATIO_CONFIG_CACHE") or Path(
+        os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "creatio" / "configs"
+    return Path(root)
+
+
+def _fingerprint() -> str:
+    """sha256 over conf/ and the package sources (what composition and validation read),
+    recomputed when any of those files' size or modification time changes."""
+    package = Path(__file__).resolve().parents[1]
+    files = [p for root, pattern in ((CONF_DIR, "*.yaml"), (package, "*.py"))
+             for p in sorted(root.rglob(pattern))]
+    stamp = tuple((str(p), st.st_mtime_ns, st.st_size) for p in files for st in [p.stat()])
+    if _FINGERPRINT.get("stamp") != stamp:
+        h = hashlib.sha256()
+        for path in files:
+            h.update(str(path).encode())
+            h.update(path.read_bytes())
+        _FINGERPRINT.update(stamp=stamp, digest=h.hexdigest())
+    return _FINGERPRINT["digest"]
+
+
+_FINGERPRINT: dict[str, Any] = {}
+
+
+def _cache_path(study: str, overrides: tuple[str, ...]) -> Path | None:
+    """The cache entry of a resolution (None when the cache is off)."""
+    if os.environ.get("CREATIO_CONFIG_CACHE") == "off":
+        return None
+    spec = "\0".join((_fingerprint(), study, *overrides))
+    return cache_dir() / f"{hashlib.sha256(spec.encode()).hexdigest()[:32]}.pkl"
+
+
+def _store(path: Path, resolved: Resolved) -> None:
+    """Write one cache entry atomically; a cache that cannot be written is skipped."""
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        tmp = path.with_name(f".{path.name}.{os.getpid()}")
+        with tmp.open("wb") as fh:
+            pickle.dump(resolved, fh, protocol=pickle.HIGHEST_PROTOCOL)
+        os.replace(tmp, path)
+    except OSError:
+        pass
 
 
 def override_error(
