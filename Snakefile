@@ -40,7 +40,13 @@ SWEEPS = SweepRegistry(JOBS, workflow.basedir)
 PLANNERS = [
     lambda: RUNS.plans,
     lambda: ANALYSES.plans,
-    lambda: SWEEPS.outputs(config.get("study", ""), config["sweep"], config.get("overrides"))
+    lambda: SWEEPS.outputs(
+        config.get("study", ""),
+        config["sweep"],
+        config.get("overrides"),
+        config.get("sweep_batch"),
+        config.get("sweep_max_points"),
+    )
     if config.get("sweep")
     else None,
     lambda: SWEEPS.worked("en02_mu"),

@@ -34,6 +34,7 @@ commands:
             creatio diff latest data    creatio diff 0.1.0 0.2.0 --json    creatio diff --help
   task    one workflow step, as the Snakefile calls it
             creatio task dataset ct02 OUT.nc [--part NAME] [--override K=V ...]
+            creatio task sweep-batch --study en02 --sweep sphere.mu=0,0.1 --batch 0
             creatio task report ct02 OUTDIR DATASET.nc [DATASET.nc ...]
             creatio task compare OUTDIR EN02.nc EN02R.nc
 
@@ -69,22 +70,38 @@ def _run_task(cfg) -> None:
     run_resolved(resolved)
 
 
-def _aggregate_multirun(args: Sequence[str]) -> None:
-    """After `creatio run -m`, aggregate the points exactly as `snakemake sweep` does."""
+def _multirun(args: Sequence[str]) -> int:
+    """`creatio run -m`: the sweep's batches in this process (progress on stderr, points
+    computed before reused), then the aggregate `snakemake sweep` writes."""
     from hydra.core.override_parser.overrides_parser import OverridesParser
 
     from creatio.pipeline.sweep import plan_sweep, write_sweep
 
     items = [a for a in args if not a.startswith("-") and not a.startswith("hydra")]
-    parsed = OverridesParser.create().parse_overrides(items)
+    try:
+        parsed = OverridesParser.create().parse_overrides(items)
+    except Exception as e:  # noqa: BLE001 - Hydra's grammar errors, re-worded
+        print(f"creatio run: invalid override: {str(e).splitlines()[0]}", file=sys.stderr)
+        return 2
     study = next((o.get_value_element_as_str() for o in parsed
                   if o.get_key_element() in ("study", "analysis")), "ct02")
     sweep = [a for a, o in zip(items, parsed, strict=True) if o.is_sweep_override()]
     base = [a for a, o in zip(items, parsed, strict=True)
             if not o.is_sweep_override() and o.get_key_element() not in ("study", "analysis")]
-    if sweep:
-        paths = write_sweep(plan_sweep(study, sweep, base))
-        log.info("sweep aggregate: %s", ", ".join(str(p) for p in paths.values()))
+    try:
+        if not sweep:
+            from creatio.pipeline.config import resolve
+            from creatio.pipeline.run import run_resolved
+
+            run_resolved(resolve(study, base))
+            return 0
+        plan = plan_sweep(study, sweep, base)
+        paths = write_sweep(plan, compute_missing=True)
+    except ConfigError as e:
+        print(f"creatio run: {e}", file=sys.stderr)
+        return 2
+    log.info("sweep aggregate: %s", ", ".join(str(p) for p in paths.values()))
+    return 0
 
 
 def _probe_task(cfg) -> None:
@@ -171,10 +188,17 @@ def _task(argv: Sequence[str]) -> int:
     r.add_argument("study", choices=list(registry.STUDIES))
     r.add_argument("outdir", type=Path)
     r.add_argument("datasets", type=Path, nargs="+")
-    w = sub.add_parser("sweep", help="aggregate a sweep's point datasets")
-    w.add_argument("--study", required=True, choices=list(registry.STUDIES))
-    w.add_argument("--sweep", action="append", required=True, metavar="KEY=V1,V2,...")
-    w.add_argument("--override", action="append", default=[], metavar="KEY=VALUE")
+    w = sub.add_parser("sweep", help="aggregate a sweep's batches")
+    b = sub.add_parser("sweep-batch", help="compute one batch of a sweep's points")
+    for parser in (w, b):
+        parser.add_argument("--study", required=True, choices=list(registry.STUDIES))
+        parser.add_argument("--sweep", action="append", required=True,
+                            metavar="KEY=V1,V2,...")
+        parser.add_argument("--override", action="append", default=[], metavar="KEY=VALUE")
+        parser.add_argument("--batch-size", type=int, default=None,
+                            help="points per batch (default: about 8 batches, at most 250)")
+    b.add_argument("--batch", type=int, required=True, help="the batch's number (from 0)")
+    b.add_argument("--out", type=Path, default=None, help="the batch file (default: its path)")
     c = sub.add_parser("compare", help="EN-02 vs EN-02R comparison from both datasets")
     c.add_argument("outdir", type=Path)
     c.add_argument("datasets", type=Path, nargs=2)
@@ -190,11 +214,19 @@ def _task(argv: Sequence[str]) -> int:
                 except KeyError as e:
                     raise ConfigError("--part", args.part, str(e.args[0])) from None
             compute_dataset(resolved, args.out, args.part)
-        elif args.step == "sweep":
-            from creatio.pipeline.sweep import plan_sweep, write_sweep
+        elif args.step in ("sweep", "sweep-batch"):
+            from creatio.pipeline.sweep import plan_sweep, run_batch, write_sweep
 
-            paths = write_sweep(plan_sweep(args.study, args.sweep, args.override))
-            log.info("sweep: %s", ", ".join(str(p) for p in paths.values()))
+            plan = plan_sweep(args.study, args.sweep, args.override,
+                              batch_size=args.batch_size)
+            if args.step == "sweep":
+                paths = write_sweep(plan)
+                log.info("sweep: %s", ", ".join(str(p) for p in paths.values()))
+            else:
+                if not 0 <= args.batch < plan.n_batches:
+                    raise ConfigError("--batch", args.batch,
+                                      f"must lie in [0, {plan.n_batches - 1}]")
+                run_batch(plan, args.batch, args.out)
         elif args.step == "report":
             from creatio.pipeline.run import write_report
 
@@ -245,6 +277,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(_usage())
         return 0
     command, rest = argv[0], argv[1:]
+    if command == "run" and ("-m" in rest or "--multirun" in rest):
+        return _multirun(rest)
     if command in ("run", "probe"):
         config_name = _primary(rest) if command == "run" else "probe"
         _prevalidate(rest, config_name)
@@ -252,8 +286,6 @@ def main(argv: Sequence[str] | None = None) -> int:
         study = _selected([a for a in rest if not a.startswith("-")])[0]
         _hydra_app(config_name, _run_task if command == "run" else _probe_task,
                    study if command == "run" and study in _study_ids() else None)
-        if command == "run" and ("-m" in rest or "--multirun" in rest):
-            _aggregate_multirun(rest)
         return 0
     if command == "task":
         return _task(rest)

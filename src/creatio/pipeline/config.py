@@ -114,10 +114,13 @@ def compose(study: str, overrides: Sequence[str] = (), config_name: str | None =
         GlobalHydra.instance().hydra = outer
 
 
-def validate(cfg: DictConfig | dict, schema: type | None = None) -> Resolved:
+def validate(cfg: DictConfig | dict, schema: type | None = None, check: bool = True
+             ) -> Resolved:
     """Merge onto the study's schema, check every rule, return the resolved config.
 
     Raises ConfigError for unknown keys, wrong types, missing values and broken rules.
+    ``check=False`` skips the rules (types are still enforced): a base for
+    creatio.studies.schema.vary, which checks the varied config.
     """
     cfg = OmegaConf.create(cfg) if isinstance(cfg, dict) else cfg
     cfg = OmegaConf.masked_copy(cfg, [k for k in cfg if k != "hydra"])
@@ -135,7 +138,8 @@ def validate(cfg: DictConfig | dict, schema: type | None = None) -> Resolved:
         key = getattr(e, "full_key", None) or "?"
         msg = str(getattr(e, "msg", e)).splitlines()[0]
         raise ConfigError(key, getattr(e, "value", None), msg) from None
-    obj.check()
+    if check:
+        obj.check()
     text = OmegaConf.to_yaml(OmegaConf.create(data), sort_keys=True)
     return Resolved(study, obj, data, text, hashlib.sha256(text.encode()).hexdigest())
 

@@ -198,6 +198,19 @@ class StudyRuns:
         return [f for p in self.plans.values() for f in p.reports] + compare_targets(self.plans)
 
 
+def _positive_int(key: str, value: Any) -> int | None:
+    """A --config value that must be a positive integer (None when not given)."""
+    if value is None:
+        return None
+    try:
+        number = int(str(value))
+    except ValueError:
+        number = 0
+    if number < 1:
+        raise ConfigError(key, value, "must be a positive integer")
+    return number
+
+
 class SweepRegistry:
     """The sweeps of one workflow invocation, planned on demand (only when targeted)."""
 
@@ -208,22 +221,22 @@ class SweepRegistry:
         # Planners to run on a miss (a job re-invoked alone, e.g. on a cluster node).
         self.fallbacks: list[Callable[[], Any]] = []
 
-    def outputs(self, study: str, sweep: Any, overrides: Any) -> list[str]:
-        """Plan a sweep (once), register its points' dataset jobs, return its aggregate."""
-        from creatio.pipeline.sweep import plan_sweep
+    def outputs(self, study: str, sweep: Any, overrides: Any, batch: Any = None,
+                max_points: Any = None) -> list[str]:
+        """Plan a sweep (once) and return its aggregate files; its batches are its jobs."""
+        from creatio.pipeline.sweep import MAX_POINTS, plan_sweep
 
         sweep = as_list(sweep)
         if not sweep:
             raise ConfigError("sweep", sweep,
                               "`snakemake sweep` needs --config study=ID 'sweep=[\"KEY=V1,V2\"]'")
-        s = plan_sweep(study, sweep, as_list(overrides), self.jobs.data_dir)
+        s = plan_sweep(study, sweep, as_list(overrides), self.jobs.data_dir,
+                       batch_size=_positive_int("sweep_batch", batch),
+                       max_points=_positive_int("sweep_max_points", max_points) or MAX_POINTS)
         if s.name not in self.plans:
             self.plans[s.name] = s
-            for point in s.points:
-                if point.valid:
-                    self.jobs.add(str(Path(point.dataset).parents[2]), point.resolved)
-            print(f"creatio: sweep {s.name}: {len(s.points)} points, {len(s.datasets)} valid "
-                  f"-> {s.outdir}", file=sys.stderr)
+            print(f"creatio: sweep {s.name}: {s.n_points} points in {s.n_batches} batch(es) of "
+                  f"{s.batch_size} -> {s.outdir}", file=sys.stderr)
         return s.outputs
 
     def worked(self, name: str) -> list[str]:
@@ -231,7 +244,8 @@ class SweepRegistry:
         import yaml
 
         spec = yaml.safe_load((self.basedir / "conf" / "sweeps" / f"{name}.yaml").read_text())
-        return self.outputs(spec["study"], spec["sweep"], spec.get("overrides"))
+        return self.outputs(spec["study"], spec["sweep"], spec.get("overrides"),
+                            spec.get("batch"))
 
     def __getitem__(self, name: str) -> Any:
         for fallback in self.fallbacks:
