@@ -1,12 +1,15 @@
-"""A sphere run as plain numbers, its result, and its stability limit (docs/model.md s.4-6).
+"""A sphere run as plain numbers, its result, and its stability limit (docs/model.md s.4-10).
 
 Nothing here compiles: a SphereProblem is built, checked and its friction stability limit
 estimated without numba (validation and workflow planning use it), and creatio.dynamics
-.simulate hands it to the compiled driver.
+.simulate hands it to the compiled driver. The same problem describes the fixed structure of
+EN-02 (s.4), an equilibrium start on the inclined family (s.8), a structure free to yaw
+(s.9) and a confining force (s.10).
 """
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass, field
 
@@ -15,10 +18,12 @@ from numpy.typing import NDArray
 
 from creatio.dynamics import solvers
 from creatio.model import sphere as contact
-from creatio.model.cavity import cavity_branch
+from creatio.model.cavity import cavity_angle_branch, cavity_branch
+from creatio.model.equilibrium import Equilibrium, static_equilibrium
 from creatio.model.laws import law_eval
 from creatio.model.numerics import steps_in
 from creatio.model.offset import offset_jets
+from creatio.model.structure import CONFINEMENTS, inverse_inertia
 from creatio.model.surface import wavenumber
 
 __all__ = [
@@ -35,9 +40,12 @@ __all__ = [
 #: Accepted steps after which an adaptive run gives up (status step_failed).
 MAX_STEPS = 20_000_000
 
-# Parameter vector layout of the compiled core (creatio.dynamics.sphere unpacks it).
-P_R0, P_DR, P_K, P_A, P_KA, P_M, P_B, P_G, P_MU, P_EPS, P_I, P_NCAV = range(12)
-NPAR = 12
+# Parameter vector layout of the compiled core (creatio.dynamics.sphere unpacks it): the
+# surface and sphere, the cavity (n, m) the run starts in, the structure's inertia I_s (inf:
+# fixed) and its inverse, the normal preload P, and whether leaving the cavity stops the run.
+(P_R0, P_DR, P_K, P_A, P_KA, P_M, P_B, P_G, P_MU, P_EPS, P_I, P_NCAV, P_MCAV, P_IS, P_INV_IS,
+ P_PRELOAD, P_STOP_LEAVE) = range(17)
+NPAR = 17
 
 # Columns of the history table written by the compiled loop (world frame unless noted).
 COL_T = 0
@@ -62,7 +70,16 @@ COL_WORK = 31
 COL_DISSIPATION = 32
 COL_RESIDUAL = 33
 COL_CAVITY_R = 34
-NCOL = 35
+COL_CELL_U = 35         # phase offsets from the starting cavity's bottom (docs/model.md s.8.2)
+COL_CELL_V = 36
+COL_THETA = 37          # structure yaw and its rate (free structure only, else NaN)
+COL_THETA_RATE = 38
+COL_HZ_STRUCTURE = 39   # H_z parts: I_s Theta, m [X x V_abs] . z^, I omega_z (free only)
+COL_HZ_ORBITAL = 40
+COL_HZ_SPIN = 41
+COL_CONFINE = 42        # W_confine, the normal preload's work (free path only)
+COL_WORLD_AZIMUTH = 43  # centre azimuth in the world frame: relative azimuth + theta
+NCOL = 44
 
 
 class UnstableStepError(ValueError):
@@ -98,6 +115,16 @@ class SphereProblem:
     method: "rk4" (fixed step dt) or one of the adaptive methods "dopri5", "dop853",
     "radau5", which control the local error to rtol/atol (dt is then the first step; with
     fixed_step they take the constant step dt instead, without error control).
+
+    Beyond the notebook (docs/model.md s.8-10): ``equilibrium_start`` starts at rest at the
+    static equilibrium nearest the bottom of the cavity nearest (R_init, alpha_init) instead
+    of at (R_init, alpha_init) (status no_equilibrium and no run when there is none);
+    ``structure_inertia`` is I_s about z (inf: the fixed structure of EN-02); confinement
+    ``normal`` presses the sphere along -n and ``base`` pulls it along -z, each with force
+    ``confining_force`` P (``base`` is gravity of strength g + P / m); a run with a finite I_s
+    or the normal preload takes the structure path of the core (theta, Theta and the
+    preload's work in the state). ``stop_on_leaving_cavity`` turns leaving the starting
+    cavity's cell from a recorded time into a stop (status left_cavity).
     """
 
     R0: float
@@ -128,6 +155,11 @@ class SphereProblem:
     rtol: float = 1e-10
     atol: float = 1e-12
     fixed_step: bool = False
+    structure_inertia: float = math.inf
+    confinement: str = "none"
+    confining_force: float = 0.0
+    equilibrium_start: bool = False
+    stop_on_leaving_cavity: bool = False
 
     @property
     def adaptive(self) -> bool:
@@ -167,6 +199,59 @@ class SphereProblem:
                 "rotation=False needs mu = 0 and omega_init = 0: friction or an initial spin "
                 f"couples rotation to the trajectory (mu = {self.mu}, omega_init = {omega})"
             )
+        if not (self.structure_inertia > 0.0 and not math.isnan(self.structure_inertia)):
+            raise ValueError(f"structure_inertia must be > 0 (inf: fixed), got "
+                             f"{self.structure_inertia}")
+        if self.confinement not in CONFINEMENTS:
+            raise ValueError(f"confinement must be one of {', '.join(CONFINEMENTS)}, got "
+                             f"{self.confinement!r}")
+        P = self.confining_force
+        if not (math.isfinite(P) and P >= 0.0):
+            raise ValueError(f"confining_force must be finite and >= 0, got {P}")
+        if self.confinement == "none" and P != 0.0:
+            raise ValueError(f"confining_force = {P} N needs a confinement (normal or base)")
+        if self.equilibrium_start and not self.vertical_pull > 0.0:
+            raise ValueError("equilibrium_start needs a pull along -z (g > 0 or a base "
+                             "confinement with P > 0): the equilibrium minimises the height")
+
+    @property
+    def structure_free(self) -> bool:
+        """Whether the run takes the structure path (docs/model.md s.9-10): a structure free to
+        yaw (finite I_s) or the normal preload, which needs that path's bookkeeping even on a
+        fixed structure (I_s = inf there, so theta stays 0 exactly)."""
+        return math.isfinite(self.structure_inertia) or self.confinement == "normal"
+
+    @property
+    def vertical_pull(self) -> float:
+        """Acceleration of the pull along -z: gravity g, plus P / m for the base confinement
+        (docs/model.md s.10: a pull toward the base acts as gravity of strength P / m)."""
+        if self.confinement == "base":
+            return self.g + self.confining_force / self.m
+        return self.g
+
+    @property
+    def preload(self) -> float:
+        """The normal preload P (N) along -n; 0 unless confinement is normal."""
+        return self.confining_force if self.confinement == "normal" else 0.0
+
+    @functools.cached_property
+    def equilibrium(self) -> Equilibrium | None:
+        """The static equilibrium of docs/model.md s.8.1 (None unless equilibrium_start)."""
+        if not self.equilibrium_start:
+            return None
+        n, m = self.cavity_cell()
+        return static_equilibrium(self.R0, self.k, self.A, float(self.Ka), self.b,
+                                  law_eval(*self.law_r, 0.0)[0], law_eval(*self.law_a, 0.0)[0],
+                                  law_eval(*self.law_gamma, 0.0)[0], n, m)
+
+    @property
+    def start(self) -> tuple[float, float]:
+        """(R, alpha) the run starts at: the equilibrium when asked for and acceptable, else
+        (R_init, alpha_init)."""
+        eq = self.equilibrium
+        if eq is not None and eq.acceptable:
+            return eq.R, eq.alpha
+        return self.R_init, self.alpha_init
 
     @property
     def rotation_integrated(self) -> bool:
@@ -189,6 +274,13 @@ class SphereProblem:
         """Branch n of the cavity R_c = (pi/2 - phi_r + 2 pi n) / k nearest R_init at t = 0."""
         return cavity_branch(self.R_init, law_eval(*self.law_r, 0.0)[0], self.k)
 
+    def cavity_cell(self) -> tuple[int, int]:
+        """The cavity (n, m) nearest (R_init, alpha_init) at t = 0: the one whose cell the
+        "carried" check follows (docs/model.md s.8.2) and whose bottom an equilibrium
+        start begins from."""
+        m = cavity_angle_branch(self.alpha_init, law_eval(*self.law_a, 0.0)[0], float(self.Ka))
+        return self.cavity_branch(), m
+
     def parameter_vector(self) -> NDArray[np.float64]:
         """Plain parameter array in the layout the compiled core expects."""
         p = np.empty(NPAR)
@@ -199,11 +291,17 @@ class SphereProblem:
         p[P_KA] = float(self.Ka)
         p[P_M] = self.m
         p[P_B] = self.b
-        p[P_G] = self.g
+        p[P_G] = self.vertical_pull
         p[P_MU] = self.mu
         p[P_EPS] = self.eps
         p[P_I] = self.inertia
-        p[P_NCAV] = float(self.cavity_branch())
+        n, m = self.cavity_cell()
+        p[P_NCAV] = float(n)
+        p[P_MCAV] = float(m)
+        p[P_IS] = self.structure_inertia
+        p[P_INV_IS] = inverse_inertia(self.structure_inertia)
+        p[P_PRELOAD] = self.preload
+        p[P_STOP_LEAVE] = 1.0 if self.stop_on_leaving_cavity else 0.0
         return p
 
     def law_matrix(self) -> NDArray[np.float64]:
@@ -231,6 +329,7 @@ class SphereProblem:
             "n_steps": 0 if self.adaptive else n_steps, "stride": stride,
             "rtol": self.rtol, "atol": self.atol, "fixed": not self.adaptive,
             "max_steps": MAX_STEPS, "rotation": rot, "energy": en,
+            "free": self.structure_free,
         }
         return args, kwargs
 
@@ -243,11 +342,19 @@ class SphereProblem:
         return lambda: run(*args, **kwargs)
 
     def initial_state(self, rotation: bool, energy: bool) -> NDArray[np.float64]:
-        """Initial state vector for the given specialisation (identity orientation, zero sums)."""
-        y = [self.R_init, self.alpha_init, self.Rdot_init, self.alphadot_init]
+        """Initial state vector for the given specialisation (identity orientation, zero sums).
+
+        Layout (docs/model.md s.4.7): [R, alpha, Rdot, alphadot] + rotation [omega (3), Q (4),
+        cumulative spin] + energy [surface work, friction dissipation] and, on the structure
+        path, + [confinement work] in the energy block and [theta, Theta] last.
+        """
+        R, alpha = self.start
+        y = [R, alpha, self.Rdot_init, self.alphadot_init]
         if rotation:
             y += [*self.omega_init, 1.0, 0.0, 0.0, 0.0, 0.0]
         if energy:
+            y += [0.0, 0.0, 0.0] if self.structure_free else [0.0, 0.0]
+        if self.structure_free:
             y += [0.0, 0.0]
         return np.array(y, dtype=float)
 
@@ -298,30 +405,76 @@ class SimulationResult:
     rejected_steps: int = 0
     jacobians: int = 0
     lu_factorisations: int = 0
+    cell_u: NDArray[np.float64] = field(default_factory=lambda: np.empty(0))
+    cell_v: NDArray[np.float64] = field(default_factory=lambda: np.empty(0))
+    theta: NDArray[np.float64] = field(default_factory=lambda: np.empty(0))
+    theta_rate: NDArray[np.float64] = field(default_factory=lambda: np.empty(0))
+    hz_structure: NDArray[np.float64] = field(default_factory=lambda: np.empty(0))
+    hz_orbital: NDArray[np.float64] = field(default_factory=lambda: np.empty(0))
+    hz_spin: NDArray[np.float64] = field(default_factory=lambda: np.empty(0))
+    confinement_work: NDArray[np.float64] = field(default_factory=lambda: np.empty(0))
+    world_azimuth: NDArray[np.float64] = field(default_factory=lambda: np.empty(0))
+    left_cavity_time: float = math.nan
+    max_hz_drift: float = math.nan
+    max_structure_momentum: float = math.nan
+    max_structure_rate: float = math.nan
+    max_contact_radius: float = math.nan
+    structure_free: bool = False
+    start_R: float = math.nan
+    start_alpha: float = math.nan
+    equilibrium_message: str = ""
+
+    @property
+    def carried(self) -> bool:
+        """Whether the contact point never left its starting cavity's cell (docs/model.md
+        s.8.2) over the steps that ran."""
+        return math.isnan(self.left_cavity_time) and self.status != "no_equilibrium"
+
+
+def _start_jets(problem: SphereProblem) -> tuple:
+    """The offset jets at the start point and t = 0."""
+    pr, pr1, pr2 = law_eval(*problem.law_r, 0.0)
+    pa, pa1, pa2 = law_eval(*problem.law_a, 0.0)
+    gm, g1, g2 = law_eval(*problem.law_gamma, 0.0)
+    R, alpha = problem.start
+    return offset_jets(R, alpha, problem.R0, problem.k, problem.A, float(problem.Ka),
+                       problem.b, pr, pr1, pr2, pa, pa1, pa2, gm, g1, g2)
 
 
 def normal_reaction_at_start(problem: SphereProblem) -> float:
     """N at the initial state (docs/model.md s.4), evaluated with the model's own scalar
-    formulas, without a compiler."""
-    lr, la, lg = problem.law_r, problem.law_a, problem.law_gamma
-    pr, pr1, pr2 = law_eval(*lr, 0.0)
-    pa, pa1, pa2 = law_eval(*la, 0.0)
-    gm, g1, g2 = law_eval(*lg, 0.0)
-    _, _, n1, n2, n3, P, Q, Z = offset_jets(
-        problem.R_init, problem.alpha_init, problem.R0, problem.k, problem.A,
-        float(problem.Ka), problem.b, pr, pr1, pr2, pa, pa1, pa2, gm, g1, g2)
+    formulas, without a compiler: m n . (a0 - g) with the pull along -z of the problem,
+    plus the normal preload (s.10); the structure's reaction term m theta'' n . (z^ x X) of
+    s.9 is left out (it vanishes at rest on a fixed structure and is second order in 1/I_s
+    otherwise)."""
+    _, _, n1, n2, n3, P, Q, Z = _start_jets(problem)
     a0 = contact.acceleration_at_fixed_rates(P, Q, Z, problem.Rdot_init, problem.alphadot_init)
-    return float(contact.normal_reaction(problem.m, problem.g, n1, n2, n3, *a0))
+    return float(contact.normal_reaction(problem.m, problem.vertical_pull, n1, n2, n3, *a0)
+                 + problem.preload)
+
+
+def contact_radius_at_start(problem: SphereProblem) -> float:
+    """Horizontal radius rho_c of the contact point at the start (the lever arm of the
+    friction's reaction on a free structure, docs/model.md s.6.3 and s.9)."""
+    return float(_start_jets(problem)[0][0])
 
 
 def normal_estimate(problem: SphereProblem) -> float:
     """The a-priori normal reaction of the stability estimate (docs/model.md s.6)."""
-    return contact.normal_estimate(normal_reaction_at_start(problem), problem.m, problem.g)
+    return contact.normal_estimate(normal_reaction_at_start(problem), problem.m,
+                                   problem.vertical_pull)
 
 
-def slip_rate(problem: SphereProblem, N: float) -> float:
-    """The slip relaxation rate of this sphere at normal reaction N (1/s)."""
-    return contact.slip_relaxation_rate(problem.mu, N, problem.m, problem.b, problem.eps)
+def slip_rate(problem: SphereProblem, N: float, rho: float | None = None) -> float:
+    """The slip relaxation rate of this sphere at normal reaction N (1/s); on a free
+    structure with the contact at horizontal radius rho (default: the start's), the
+    structure's turn adds rho^2 / I_s to the slip mobility (docs/model.md s.6.3)."""
+    inv_Is = inverse_inertia(problem.structure_inertia)
+    if inv_Is == 0.0:
+        return contact.slip_relaxation_rate(problem.mu, N, problem.m, problem.b, problem.eps)
+    rho = contact_radius_at_start(problem) if rho is None else rho
+    return contact.slip_relaxation_rate(problem.mu, N, problem.m, problem.b, problem.eps, rho,
+                                        inv_Is)
 
 
 def stability_limit(problem: SphereProblem) -> float:
@@ -333,7 +486,9 @@ def stability_limit(problem: SphereProblem) -> float:
     dop853 6.3937) needs lambda dt <= z*. N is estimated a priori as 1.25 x max(N at the
     initial state, m g): on slowly actuated surfaces N stays within a few per cent of its
     start value, and the margin covers surface accelerations up to g/4 beyond it (simulate
-    also checks the limit against the run's max N). Returns inf for mu = 0.
+    also checks the limit against the run's max N). On a free structure the rate gains
+    rho_c^2 / I_s with rho_c the contact point's horizontal radius at the start (simulate
+    checks it again with the largest rho_c reached). Returns inf for mu = 0.
     """
     method = solvers.get(problem.method)
     if problem.mu == 0.0 or problem.adaptive or method.l_stable:

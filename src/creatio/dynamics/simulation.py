@@ -8,15 +8,23 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
+
 from creatio.dynamics import solvers
 from creatio.dynamics import status as st
 from creatio.dynamics.problem import (
     COL_ALPHA,
     COL_AZIMUTH,
     COL_CAVITY_R,
+    COL_CELL_U,
+    COL_CELL_V,
+    COL_CONFINE,
     COL_DISSIPATION,
     COL_ENERGY,
     COL_F,
+    COL_HZ_ORBITAL,
+    COL_HZ_SPIN,
+    COL_HZ_STRUCTURE,
     COL_KINETIC,
     COL_MARKER,
     COL_N,
@@ -30,8 +38,11 @@ from creatio.dynamics.problem import (
     COL_SPIN,
     COL_SPIN_RATE,
     COL_T,
+    COL_THETA,
+    COL_THETA_RATE,
     COL_V,
     COL_WORK,
+    COL_WORLD_AZIMUTH,
     COL_X,
     SimulationResult,
     SphereProblem,
@@ -41,7 +52,14 @@ from creatio.dynamics.problem import (
     stability_limit,
 )
 from creatio.dynamics.solvers.driver import run
-from creatio.dynamics.sphere import E_E0
+from creatio.dynamics.sphere import (
+    E_E0,
+    E_LEFT,
+    E_MAX_HZ_DRIFT,
+    E_MAX_IS_THETA,
+    E_MAX_RHO,
+    E_MAX_THETA_RATE,
+)
 from creatio.model import sphere as contact
 
 __all__ = ["simulate"]
@@ -51,8 +69,13 @@ def simulate(problem: SphereProblem) -> SimulationResult:
     """Integrate one sphere run with problem.method; return its histories and extrema.
 
     Raises UnstableStepError when dt exceeds stability_limit(problem) unless allow_unstable
-    is set (then the run goes ahead and the result carries a warning).
+    is set (then the run goes ahead and the result carries a warning). A problem with
+    equilibrium_start and no acceptable equilibrium is not run: its result has status
+    no_equilibrium, no steps and empty histories.
     """
+    eq = problem.equilibrium
+    if eq is not None and not eq.acceptable:
+        return _no_equilibrium(problem, eq.reason)
     warnings: list[str] = []
     limit = stability_limit(problem)
     name = problem.method.upper()
@@ -79,8 +102,13 @@ def simulate(problem: SphereProblem) -> SimulationResult:
     min_n, max_n, max_slip, max_res, max_track, min_clear, max_bk = (
         float(v) for v in ext[:E_E0]
     )
+    free = problem.structure_free
+    max_rho = float(ext[E_MAX_RHO]) if free else math.nan
     if problem.mu > 0.0 and math.isfinite(max_n) and math.isfinite(bound):
-        observed = contact.stable_step(bound, slip_rate(problem, max_n))
+        # on a free structure, with the largest horizontal radius the contact reached
+        # (bounded by the centre's plus b)
+        observed = contact.stable_step(
+            bound, slip_rate(problem, max_n, max_rho if math.isfinite(max_rho) else None))
         if problem.dt > observed:
             warnings.append(
                 f"max N = {max_n:.6g} N during the run puts the {name} stability limit at "
@@ -88,6 +116,13 @@ def simulate(problem: SphereProblem) -> SimulationResult:
                 f"eps = {problem.eps} m/s): slip may chatter"
             )
     h = out[:rows]
+    nan = np.full(rows, math.nan)
+
+    def structure_column(col: int) -> np.ndarray:
+        return h[:, col].copy() if free else nan.copy()
+
+    fixed = math.isinf(problem.structure_inertia)
+    start_R, start_alpha = problem.start
     return SimulationResult(
         t=h[:, COL_T].copy(),
         X=h[:, COL_X : COL_X + 3].copy(),
@@ -131,4 +166,41 @@ def simulate(problem: SphereProblem) -> SimulationResult:
         rejected_steps=int(rejected),
         jacobians=int(jacobians),
         lu_factorisations=int(factorisations),
+        cell_u=h[:, COL_CELL_U].copy(),
+        cell_v=h[:, COL_CELL_V].copy(),
+        theta=structure_column(COL_THETA),
+        theta_rate=structure_column(COL_THETA_RATE),
+        hz_structure=structure_column(COL_HZ_STRUCTURE),
+        hz_orbital=structure_column(COL_HZ_ORBITAL),
+        hz_spin=structure_column(COL_HZ_SPIN),
+        confinement_work=structure_column(COL_CONFINE),
+        world_azimuth=(h[:, COL_WORLD_AZIMUTH].copy() if free else h[:, COL_AZIMUTH].copy()),
+        left_cavity_time=float(ext[E_LEFT]),
+        max_hz_drift=float(ext[E_MAX_HZ_DRIFT]) if free and not fixed else math.nan,
+        max_structure_momentum=float(ext[E_MAX_IS_THETA]) if free and not fixed else math.nan,
+        max_structure_rate=float(ext[E_MAX_THETA_RATE]) if free else math.nan,
+        max_contact_radius=max_rho,
+        structure_free=free,
+        start_R=float(start_R),
+        start_alpha=float(start_alpha),
     )
+
+
+def _no_equilibrium(problem: SphereProblem, reason: str) -> SimulationResult:
+    """The result of a run that was not run: no acceptable equilibrium start (s.8.1)."""
+    empty = np.empty(0)
+    vec = np.empty((0, 3))
+    nan = math.nan
+    return SimulationResult(
+        t=empty, X=vec, R=empty, alpha=empty, V=vec, speed=empty, N=empty, f=vec,
+        slip_speed=empty, omega=vec, spin_rate=empty, cumulative_spin=empty,
+        Q=np.empty((0, 4)), marker=vec, azimuth=empty, kinetic=empty, potential=empty,
+        energy=empty, surface_work=empty, friction_dissipation=empty, energy_residual=empty,
+        cavity_R=empty, min_N=nan, max_N=nan, max_slip_speed=nan, max_energy_residual=nan,
+        max_cavity_tracking_error=nan, min_edge_clearance=nan, max_b_kappa=nan,
+        status=st.NAMES[st.NO_EQUILIBRIUM], stop_time=0.0, steps=0, rhs_evals=0,
+        rotation_integrated=problem.rotation_integrated,
+        energy_integrated=bool(problem.energy), dt=problem.dt,
+        stability_limit=stability_limit(problem), method=problem.method,
+        structure_free=problem.structure_free, equilibrium_message=reason,
+    )  # fmt: skip

@@ -1,14 +1,20 @@
-"""Compiled right-hand side and per-step diagnostics of the sphere dynamics (docs/model.md s.4-6).
+"""Compiled right-hand side and per-step diagnostics of the sphere dynamics (docs/model.md s.4-10).
 
 One right-hand side serves every integrator. The first evaluation of a step (``diag``)
 also yields every diagnostic (normal reaction, slip, energy, stop conditions, extrema,
 curvature), so extrema are taken over all integration steps at no extra cost. Rotation and
 energy bookkeeping are compile-time specialisations (literal flags), so switching them off
 removes their work instead of branching around it. The formulas themselves are those of
-creatio.model (offset jets, contact closed forms, cavity radius), compiled here.
+creatio.model (offset jets, contact closed forms, cavity radius and cell), compiled here.
+
+The structure path (a structure free to yaw, or the normal preload: docs/model.md s.9-10) is
+a third literal flag, ``free``: :func:`rhs_of` resolves it at compile time to this module's
+:func:`rhs` (the fixed structure of EN-02) or to creatio.dynamics.structure.rhs_structure,
+so a run compiles, and executes, only the right-hand side it uses.
 
 State layout: [R, alpha, Rdot, alphadot] + (rotation) [omega_x, omega_y, omega_z, q0, q1, q2,
-q3, cumulative spin] + (energy) [surface work, friction dissipation].
+q3, cumulative spin] + (energy) [surface work, friction dissipation (, confinement work on
+the structure path)] + (structure path) [theta, Theta].
 """
 
 from __future__ import annotations
@@ -16,6 +22,8 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from numba.core import types
+from numba.extending import overload
 
 from creatio.dynamics import status as st
 from creatio.dynamics.jit import njit
@@ -23,9 +31,15 @@ from creatio.dynamics.problem import (
     COL_ALPHA,
     COL_AZIMUTH,
     COL_CAVITY_R,
+    COL_CELL_U,
+    COL_CELL_V,
+    COL_CONFINE,
     COL_DISSIPATION,
     COL_ENERGY,
     COL_F,
+    COL_HZ_ORBITAL,
+    COL_HZ_SPIN,
+    COL_HZ_STRUCTURE,
     COL_KINETIC,
     COL_MARKER,
     COL_N,
@@ -39,19 +53,29 @@ from creatio.dynamics.problem import (
     COL_SPIN,
     COL_SPIN_RATE,
     COL_T,
+    COL_THETA,
+    COL_THETA_RATE,
     COL_V,
     COL_WORK,
+    COL_WORLD_AZIMUTH,
     COL_X,
     P_B,
     P_DR,
     P_G,
     P_I,
+    P_INV_IS,
+    P_IS,
     P_K,
+    P_KA,
     P_M,
+    P_MCAV,
     P_NCAV,
+    P_PRELOAD,
     P_R0,
+    P_STOP_LEAVE,
 )
-from creatio.model.cavity import cavity_radius
+from creatio.dynamics.structure import rhs_structure
+from creatio.model.cavity import cavity_cell_offsets, cavity_radius, in_cavity_cell
 from creatio.model.laws import law_eval
 from creatio.model.offset import offset_jets
 from creatio.model.sphere import (
@@ -60,11 +84,13 @@ from creatio.model.sphere import (
     max_curvature_times_b,
     normal_reaction,
 )
+from creatio.model.structure import angular_momentum_parts
 
 
 @njit(cache=True)
 def rhs(t, y, dy, pp, lc, rot, en, diag):
-    """Write dy/dt into dy; return (N, |v_s|, X, V, f (rotating frame), phi_r, gamma, b kappa).
+    """Write dy/dt into dy; return (N, |v_s|, X, V, f (rotating frame), phi_r, gamma, b kappa,
+    phi_a).
 
     pp = (R0, dR, k, A, Ka, m, b, g, mu, eps, I); lc = the 18 law coefficients (r, a, gamma).
     b kappa (the largest principal curvature times b) is computed only when diag is True.
@@ -162,11 +188,32 @@ def rhs(t, y, dy, pp, lc, rot, en, diag):
     bk = 0.0
     if diag:
         bk = max_curvature_times_b(rho, z, n1, n2, n3, b)
-    return N, math.sqrt(slip2), P[0], Q[0], Z[0], V1, V2, V3, f1, f2, f3, pr, gm, bk
+    return N, math.sqrt(slip2), P[0], Q[0], Z[0], V1, V2, V3, f1, f2, f3, pr, gm, bk, pa
 
 
 #: Length of the diagnostics tuple of rhs.
-NDIAG = 14
+NDIAG = 15
+
+
+def rhs_of(free, t, y, dy, pp, lc, rot, en, diag, px):
+    """The right-hand side of the fixed structure (:func:`rhs`) or of the structure path
+    (creatio.dynamics.structure.rhs_structure), chosen by the literal flag free at compile
+    time (compiled code only); px = (1 / I_s, normal preload P)."""
+    raise NotImplementedError("called only from compiled code")
+
+
+@overload(rhs_of, prefer_literal=True, inline="always")
+def _rhs_of(free, t, y, dy, pp, lc, rot, en, diag, px):
+    """Resolve rhs_of on the literal free: the fixed structure never types the structure path."""
+    if not isinstance(free, types.BooleanLiteral):
+        return None
+    if free.literal_value:
+        def impl(free, t, y, dy, pp, lc, rot, en, diag, px):
+            return rhs_structure(t, y, dy, pp, lc, rot, en, diag, px)
+    else:
+        def impl(free, t, y, dy, pp, lc, rot, en, diag, px):
+            return rhs(t, y, dy, pp, lc, rot, en, diag)
+    return impl
 
 
 @njit(cache=True)
@@ -187,30 +234,38 @@ def store(d, buf):
     buf[11] = d[11]
     buf[12] = d[12]
     buf[13] = d[13]
+    buf[14] = d[14]
 
 
 @njit(cache=True)
 def load(buf):
     """The diagnostics tuple stored by :func:`store`."""
     return (buf[0], buf[1], buf[2], buf[3], buf[4], buf[5], buf[6], buf[7], buf[8], buf[9],
-            buf[10], buf[11], buf[12], buf[13])
+            buf[10], buf[11], buf[12], buf[13], buf[14])
 
 
 @njit(cache=True)
 def pack(p, lawc):
-    """Parameter and law tuples from the plain arrays (unpacked once, outside the loop)."""
+    """Parameter and law tuples from the plain arrays (unpacked once, outside the loop):
+    pp the surface and sphere, lc the 18 law coefficients, px = (1 / I_s, normal preload P)
+    for the structure path."""
     pp = (p[0], p[1], p[2], p[3], p[4], p[5], p[6], p[7], p[8], p[9], p[10])
     lc = (
         lawc[0, 0], lawc[0, 1], lawc[0, 2], lawc[0, 3], lawc[0, 4], lawc[0, 5],
         lawc[1, 0], lawc[1, 1], lawc[1, 2], lawc[1, 3], lawc[1, 4], lawc[1, 5],
         lawc[2, 0], lawc[2, 1], lawc[2, 2], lawc[2, 3], lawc[2, 4], lawc[2, 5],
     )  # fmt: skip
-    return pp, lc
+    px = (p[P_INV_IS], p[P_PRELOAD])
+    return pp, lc, px
 
 
-# Slots of the running-extrema array shared by the loops (see observe).
-E_MIN_N, E_MAX_N, E_MAX_SLIP, E_MAX_RES, E_MAX_TRACK, E_MIN_CLEAR, E_MAX_BK, E_E0, E_AZ = range(9)
-NEXT = 9
+# Slots of the running-extrema array shared by the loops (see observe): the first seven are
+# the run's reported extrema, E_E0 and E_AZ carry state between steps; then the first time
+# outside the cavity's cell (NaN while inside) and, on the structure path, H_z(0), the
+# largest |H_z - H_z(0)|, |I_s Theta|, |Theta| and horizontal radius of the centre plus b.
+(E_MIN_N, E_MAX_N, E_MAX_SLIP, E_MAX_RES, E_MAX_TRACK, E_MIN_CLEAR, E_MAX_BK, E_E0, E_AZ,
+ E_LEFT, E_HZ0, E_MAX_HZ_DRIFT, E_MAX_IS_THETA, E_MAX_THETA_RATE, E_MAX_RHO) = range(15)
+NEXT = 15
 
 
 @njit(cache=True)
@@ -222,18 +277,21 @@ def new_extrema(en):
     ext[E_MAX_RES] = 0.0 if en else math.nan
     ext[E_MIN_CLEAR] = math.inf
     ext[E_MAX_BK] = -math.inf
+    ext[E_LEFT] = math.nan
     return ext
 
 
 @njit(cache=True)
-def observe(first, t, y, d, p, ext, out, row, final, sample, rot, en):
+def observe(first, t, y, d, p, ext, out, row, final, sample, rot, en, free):
     """Diagnostics of one step start: update extrema, test the stop conditions, write a row.
 
     d is the diagnostic tuple of rhs at (t, y). A row is written when the step is on the
-    output grid (sample), is the last one (final) or stops the run. Returns (status, rows
-    written).
+    output grid (sample), is the last one (final) or stops the run. Every run records the
+    first time its contact point is outside the starting cavity's cell (docs/model.md s.8.2);
+    the structure path (free) also tracks theta, H_z and the energy of s.9-10. Returns
+    (status, rows written).
     """
-    N, slip, X1, X2, X3, V1, V2, V3, f1, f2, f3, pr, gm, bk = d
+    N, slip, X1, X2, X3, V1, V2, V3, f1, f2, f3, pr, gm, bk, pa = d
     R0 = p[P_R0]
     dR = p[P_DR]
     k = p[P_K]
@@ -252,12 +310,48 @@ def observe(first, t, y, d, p, ext, out, row, final, sample, rot, en):
     clear = min(sx - b, dR - sx - b)
     rc = cavity_radius(pr, k, ncav)
     track = abs(R - rc)
+    du, dv = cavity_cell_offsets(R, a, pr, pa, k, p[P_KA], ncav, p[P_MCAV])
+    inside = in_cavity_cell(du, dv)
+    if not inside and math.isnan(ext[E_LEFT]):
+        ext[E_LEFT] = t
+    theta = 0.0
+    Th = 0.0
+    h_s = 0.0
+    h_o = 0.0
+    h_w = 0.0
+    if free:
+        # structure path (docs/model.md s.9): V is relative to the structure, V_abs adds
+        # Theta z^ x X; H_z is frame-invariant; I_s = inf (fixed) makes its part NaN
+        iy = ie + 3 if en else ie
+        theta = y[iy]
+        Th = y[iy + 1]
+        wz = y[6] if rot else 0.0
+        h_s, h_o, h_w = angular_momentum_parts(p[P_IS], Th, m, X1, X2, V1, V2, inertia, wz)
+        hz = h_s + h_o + h_w
+        if first:
+            ext[E_HZ0] = hz
+        if abs(hz - ext[E_HZ0]) > ext[E_MAX_HZ_DRIFT]:
+            ext[E_MAX_HZ_DRIFT] = abs(hz - ext[E_HZ0])
+        if abs(h_s) > ext[E_MAX_IS_THETA]:
+            ext[E_MAX_IS_THETA] = abs(h_s)
+        if abs(Th) > ext[E_MAX_THETA_RATE]:
+            ext[E_MAX_THETA_RATE] = abs(Th)
+        rx = math.sqrt(X1 * X1 + X2 * X2) + b
+        if rx > ext[E_MAX_RHO]:
+            ext[E_MAX_RHO] = rx
     kin = math.nan
     pot = math.nan
     energy = math.nan
     res = math.nan
     if en:
-        kin = 0.5 * m * (V1 * V1 + V2 * V2 + V3 * V3)
+        if free:
+            Va1 = V1 - Th * X2
+            Va2 = V2 + Th * X1
+            kin = 0.5 * m * (Va1 * Va1 + Va2 * Va2 + V3 * V3)
+            if p[P_INV_IS] > 0.0:
+                kin += 0.5 * Th * Th / p[P_INV_IS]
+        else:
+            kin = 0.5 * m * (V1 * V1 + V2 * V2 + V3 * V3)
         if rot:
             kin += 0.5 * inertia * (y[4] * y[4] + y[5] * y[5] + y[6] * y[6])
         pot = m * g * X3
@@ -265,6 +359,8 @@ def observe(first, t, y, d, p, ext, out, row, final, sample, rot, en):
         if first:
             ext[E_E0] = energy
         res = energy - ext[E_E0] - y[ie] + y[ie + 1]
+        if free:
+            res -= y[ie + 2]
         if abs(res) > ext[E_MAX_RES]:
             ext[E_MAX_RES] = abs(res)
     raw = a + math.atan2(X2, X1)
@@ -299,6 +395,8 @@ def observe(first, t, y, d, p, ext, out, row, final, sample, rot, en):
         status = st.EDGE_CROSSED
     elif bk >= 1.0:
         status = st.OFFSET_SINGULAR
+    elif not inside and p[P_STOP_LEAVE] > 0.0:
+        status = st.LEFT_CAVITY
     if not (status != st.OK or final or sample):
         return status, 0
     ca = math.cos(a)
@@ -357,6 +455,16 @@ def observe(first, t, y, d, p, ext, out, row, final, sample, rot, en):
     out[row, COL_DISSIPATION] = y[ie + 1] if en else math.nan
     out[row, COL_RESIDUAL] = res
     out[row, COL_CAVITY_R] = rc
+    out[row, COL_CELL_U] = du
+    out[row, COL_CELL_V] = dv
+    if free:
+        out[row, COL_THETA] = theta
+        out[row, COL_THETA_RATE] = Th
+        out[row, COL_HZ_STRUCTURE] = h_s
+        out[row, COL_HZ_ORBITAL] = h_o
+        out[row, COL_HZ_SPIN] = h_w
+        out[row, COL_CONFINE] = y[ie + 2] if en else math.nan
+        out[row, COL_WORLD_AZIMUTH] = az + theta
     return status, 1
 
 
@@ -368,18 +476,28 @@ def evaluate(
 
     Returns (dy/dt, N, |v_s|, b kappa); used for a-priori estimates and tests.
     """
-    pp, lc = pack(p, lawc)
+    pp, lc, px = pack(p, lawc)
     dy = np.empty(y.size)
-    N, slip, X1, X2, X3, V1, V2, V3, f1, f2, f3, pr, gm, bk = rhs(
+    N, slip, X1, X2, X3, V1, V2, V3, f1, f2, f3, pr, gm, bk, pa = rhs(
         t, y, dy, pp, lc, True, True, True
     )
     return dy, N, slip, bk
 
 
 @njit(cache=True)
+def evaluate_structure(p, lawc, y, t):
+    """:func:`evaluate` on the structure path: a full (rotation + energy) state with theta,
+    Theta last; returns (dy/dt, N, |v_s|, b kappa)."""
+    pp, lc, px = pack(p, lawc)
+    dy = np.empty(y.size)
+    d = rhs_structure(t, y, dy, pp, lc, True, True, True, px)
+    return dy, d[0], d[1], d[13]
+
+
+@njit(cache=True)
 def derivative(p, lawc, t, y, rot, en):
     """dy/dt of one state (the right-hand side every integrator uses), as a new array."""
-    pp, lc = pack(p, lawc)
+    pp, lc, px = pack(p, lawc)
     dy = np.empty(y.size)
     rhs(t, y, dy, pp, lc, rot, en, False)
     return dy
@@ -392,7 +510,7 @@ def centre_positions(p, lawc, t, states, rot, en):
     The same formula the loops write into the histories (rotating-frame X turned by alpha),
     so an error measured from states equals the one measured from a loop's histories.
     """
-    pp, lc = pack(p, lawc)
+    pp, lc, px = pack(p, lawc)
     n = t.size
     X = np.empty((n, 3))
     dy = np.empty(states.shape[1])

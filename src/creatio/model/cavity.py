@@ -28,8 +28,11 @@ __all__ = [
     "bottom_curvatures",
     "cavity",
     "cavity_angle",
+    "cavity_angle_branch",
     "cavity_branch",
+    "cavity_cell_offsets",
     "cavity_radius",
+    "in_cavity_cell",
     "classify_inclination",
     "helical_pitch",
     "pattern_angle",
@@ -62,6 +65,33 @@ def cavity_angle(phi_a, Ka, m):
 def cavity_branch(R: float, phi_r: float, k: float) -> int:
     """The branch n whose cavity radius R_c(phi_r) lies nearest the radial coordinate R."""
     return round((k * R - 0.5 * math.pi + phi_r) / (2.0 * math.pi))
+
+
+def cavity_angle_branch(alpha: float, phi_a: float, Ka: float) -> int:
+    """The branch m whose cavity angle alpha_c(phi_a) lies nearest the angle alpha (alpha
+    continuous, not reduced modulo 2 pi)."""
+    return round((Ka * alpha - math.pi + phi_a) / (2.0 * math.pi))
+
+
+def cavity_cell_offsets(R, alpha, phi_r, phi_a, k, Ka, n, m):
+    """Phase offsets (du, dv) of the point (R, alpha) from the bottom of cavity (n, m)
+    (docs/model.md s.8.2):
+
+        du = k R + phi_r - (pi/2 + 2 pi n),   dv = Ka alpha + phi_a - (pi + 2 pi m)
+
+    The cavity's cell, the rectangle around its bottom where W < 0 (bounded by the zero
+    lines of W through the saddles), is |du| < pi/2 and |dv| < pi/2. Scalar or array; the
+    dynamics layer compiles it into its per-step diagnostics.
+    """
+    du = k * R + phi_r - (0.5 * math.pi + 2.0 * math.pi * n)
+    dv = Ka * alpha + phi_a - (math.pi + 2.0 * math.pi * m)
+    return du, dv
+
+
+def in_cavity_cell(du, dv):
+    """Whether phase offsets (du, dv) of :func:`cavity_cell_offsets` lie inside the cell
+    (|du| < pi/2 and |dv| < pi/2): the sphere is carried while its contact point is."""
+    return abs(du) < 0.5 * math.pi and abs(dv) < 0.5 * math.pi
 
 
 def bottom_curvatures(A: float, k: float, Ka: float, rho_c: float, gamma: float
@@ -154,4 +184,4 @@ def classify_inclination(gamma: float, tol: float = 1e-12) -> str:
 
 
 #: The functions the dynamics layer compiles into its loops.
-SCALAR_KERNELS = (cavity_radius,)
+SCALAR_KERNELS = (cavity_radius, cavity_cell_offsets, in_cavity_cell)

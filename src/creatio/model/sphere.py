@@ -98,14 +98,18 @@ def max_curvature_times_b(rho, z, n1: float, n2: float, n3: float, b: float) -> 
     return b * (hm + math.sqrt(disc))
 
 
-def slip_relaxation_rate(mu: float, N: float, m: float, b: float, eps: float) -> float:
+def slip_relaxation_rate(mu: float, N: float, m: float, b: float, eps: float,
+                         rho: float = 0.0, inv_Is: float = 0.0) -> float:
     """Rate at which slip relaxes under the regularised friction near zero slip (1/s).
 
     Near v_s = 0, f = -(mu N / eps) v_s feeds the slip through translation (f / m) and
     rotation ((b^2 / I) f), so lambda = mu N (1/m + b^2/I) / eps = 3.5 mu N / (m eps) for
-    the solid sphere (docs/model.md s.6).
+    the solid sphere (docs/model.md s.6). On a free structure (docs/model.md s.9) the
+    friction's reaction also turns the structure, which moves the membrane under the
+    contact point at horizontal radius rho: the azimuthal slip gains rho^2 / I_s, so
+    lambda = mu N (1/m + b^2/I + rho^2 / I_s) / eps (inv_Is = 1 / I_s; 0 when fixed).
     """
-    return mu * (1.0 / m + b**2 / inertia(m, b)) / eps * N
+    return mu * (1.0 / m + b**2 / inertia(m, b) + rho * rho * inv_Is) / eps * N
 
 
 def normal_estimate(n_start: float, m: float, g: float) -> float:

@@ -12,8 +12,10 @@ stepper of creatio.dynamics.solvers.radau.
   proposal, which continues from the step it judged.
 
 Every accepted step's end state is observed (creatio.dynamics.sphere.observe), so extrema are
-over all steps. The stepper kind and the rotation / energy flags are compile-time constants
-of each entry in SPECIALISATIONS: a run compiles only the stepper and the bookkeeping it uses.
+over all steps. The stepper kind and the rotation / energy / structure flags are compile-time
+constants of each entry in SPECIALISATIONS: a run compiles only the stepper, the right-hand
+side (fixed structure or the structure path of docs/model.md s.9-10, resolved by
+creatio.dynamics.sphere.rhs_of) and the bookkeeping it uses.
 
 Why the explicit stages are written inside the loop and not in a function of their own:
 measured on EN-02 (RK4, 60,000 steps), a function boundary per step, tuple unpacking or a
@@ -40,13 +42,13 @@ from creatio.dynamics.solvers.explicit import (
     error_norm,
     step_factor,
 )
-from creatio.dynamics.sphere import NDIAG, load, new_extrema, observe, pack, rhs, store
+from creatio.dynamics.sphere import NDIAG, load, new_extrema, observe, pack, rhs_of, store
 
 __all__ = ["SPECIALISATIONS", "run"]
 
 
 def _implicit_step(stepper, t, t_next, h, y, f, ynew, fnew, dbuf, ws, tol, fixed, rejected, pp,
-                   lc, rot, en):
+                   lc, rot, en, free, px):
     """One try at one implicit step (compiled code only; resolved at compile time)."""
     raise NotImplementedError("called only from compiled code")
 
@@ -58,7 +60,7 @@ def _implicit_workspace(stepper, n):
 
 @overload(_implicit_step, prefer_literal=True, inline="always")
 def _implicit_step_of(stepper, t, t_next, h, y, f, ynew, fnew, dbuf, ws, tol, fixed, rejected,
-                      pp, lc, rot, en):
+                      pp, lc, rot, en, free, px):
     """Radau's step for the RADAU kind; for the explicit kind a stand-in that is never run,
     so an explicit run never types or compiles the implicit stepper."""
     if not isinstance(stepper, types.IntegerLiteral):
@@ -67,7 +69,7 @@ def _implicit_step_of(stepper, t, t_next, h, y, f, ynew, fnew, dbuf, ws, tol, fi
         return radau.step.py_func
     else:
         def impl(stepper, t, t_next, h, y, f, ynew, fnew, dbuf, ws, tol, fixed, rejected, pp,
-                 lc, rot, en):
+                 lc, rot, en, free, px):
             return ERROR_REJECTED, 1.0, 0, 0, 0, False
     return impl
 
@@ -93,7 +95,7 @@ def _next_h(h, h_use, factor, m):
 
 @njit(cache=True)
 def _drive(stepper, p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, atol, fixed,
-           max_steps, tab, out, rot, en):
+           max_steps, tab, out, rot, en, free):
     """Integrate from t = 0 to t_end with the stepper of kind `stepper` (a compile-time
     constant); rows of `out` are the sampled histories.
 
@@ -104,7 +106,7 @@ def _drive(stepper, p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, ato
     extrema, rejected, jacobians, lu_factorisations, stop_time); STEP_FAILED when the step
     underflows, Newton fails at a fixed step, or max_steps accepted steps did not reach t_end.
     """
-    pp, lc = pack(p, lawc)
+    pp, lc, px = pack(p, lawc)
     c, a_ptr, a_idx, a_val, b_idx, b_val, b_divisor, e, e3, estimator, error_order = tab
     n = y0.size
     s = c.size
@@ -144,9 +146,10 @@ def _drive(stepper, p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, ato
         if have_f:
             d = load(dbuf)
         else:
-            d = rhs(t, y, f, pp, lc, rot, en, True)
+            d = rhs_of(free, t, y, f, pp, lc, rot, en, True, px)
             evals += 1
-        status, wrote = observe(steps == 0, t, y, d, p, ext, out, rows, final, sample, rot, en)
+        status, wrote = observe(steps == 0, t, y, d, p, ext, out, rows, final, sample, rot, en,
+                                free)
         rows += wrote
         if status != st.OK or final:
             break
@@ -200,7 +203,7 @@ def _drive(stepper, p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, ato
                         for j in range(n):
                             work[j] = y[j] + h_use * work[j]
                     ts = t_next if c[stg] == 1.0 else t + c[stg] * h_use
-                    rhs(ts, work, kst, pp, lc, rot, en, False)
+                    rhs_of(free, ts, work, kst, pp, lc, rot, en, False, px)
                     for j in range(n):
                         K[stg, j] = kst[j]
                 # y_new = y + (h / divisor) sum b_q K[q], in the tableau's summation order
@@ -227,7 +230,7 @@ def _drive(stepper, p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, ato
                     have_f = not yes
                 else:
                     # the error estimate needs the end-of-step derivative (FSAL): keep it
-                    store(rhs(t_next, ynew, fnew, pp, lc, rot, en, True), dbuf)
+                    store(rhs_of(free, t_next, ynew, fnew, pp, lc, rot, en, True, px), dbuf)
                     for j in range(n):
                         K[s, j] = fnew[j]
                     en_err = error_norm(K, y, ynew, h_use, e, e3, estimator, rtol, atol)
@@ -238,7 +241,7 @@ def _drive(stepper, p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, ato
             else:
                 outcome, factor, ev, nj, nl, have_f = _implicit_step(
                     stepper, t, t_next, h_use, y, f, ynew, fnew, dbuf, iws, tol, fixed,
-                    rejected, pp, lc, rot, en)
+                    rejected, pp, lc, rot, en, free, px)
             evals += ev
             n_jac += nj
             n_lu += nl
@@ -274,82 +277,147 @@ def _drive(stepper, p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, ato
             sample = hit
     if status == st.STEP_FAILED:
         # record the state where the integrator gave up, so the stop is visible in histories
-        d = rhs(t, y, f, pp, lc, rot, en, True)
+        d = rhs_of(free, t, y, f, pp, lc, rot, en, True, px)
         evals += 1
-        _, wrote = observe(steps == 0, t, y, d, p, ext, out, rows, yes, yes, rot, en)
+        _, wrote = observe(steps == 0, t, y, d, p, ext, out, rows, yes, yes, rot, en, free)
         rows += wrote
     return status, steps, rows, evals, ext, n_rej, n_jac, n_lu, t
 
 
-# The table of compiled specialisations: (stepper, rotation, energy) -> entry. Each entry
-# hands the driver constant flags, so a run compiles only the stepper it uses and none of the
-# bookkeeping it skips; an entry is compiled (and cached) on its first call only.
+# The table of compiled specialisations: (stepper, rotation, energy, structure) -> entry. Each
+# entry hands the driver constant flags, so a run compiles only the stepper, right-hand side
+# and bookkeeping it uses; an entry is compiled (and cached) on its first call only.
 @njit(cache=True)
 def _explicit_rot_en(p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, atol, fixed,
                      max_steps, tab, out):
     return _drive(EXPLICIT, p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, atol,
-                  fixed, max_steps, tab, out, True, True)
+                  fixed, max_steps, tab, out, True, True, False)
 
 
 @njit(cache=True)
-def _explicit_rot(p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, atol, fixed,
-                  max_steps, tab, out):
+def _explicit_rot(p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, atol, fixed, max_steps,
+                  tab, out):
     return _drive(EXPLICIT, p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, atol,
-                  fixed, max_steps, tab, out, True, False)
+                  fixed, max_steps, tab, out, True, False, False)
 
 
 @njit(cache=True)
-def _explicit_en(p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, atol, fixed,
-                 max_steps, tab, out):
+def _explicit_en(p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, atol, fixed, max_steps,
+                 tab, out):
     return _drive(EXPLICIT, p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, atol,
-                  fixed, max_steps, tab, out, False, True)
+                  fixed, max_steps, tab, out, False, True, False)
 
 
 @njit(cache=True)
-def _explicit_bare(p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, atol, fixed,
-                   max_steps, tab, out):
+def _explicit_bare(p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, atol, fixed, max_steps,
+                   tab, out):
     return _drive(EXPLICIT, p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, atol,
-                  fixed, max_steps, tab, out, False, False)
+                  fixed, max_steps, tab, out, False, False, False)
 
 
 @njit(cache=True)
-def _radau_rot_en(p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, atol, fixed,
-                  max_steps, tab, out):
-    return _drive(RADAU, p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, atol,
-                  fixed, max_steps, tab, out, True, True)
+def _explicit_structure_rot_en(p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, atol,
+                               fixed, max_steps, tab, out):
+    return _drive(EXPLICIT, p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, atol,
+                  fixed, max_steps, tab, out, True, True, True)
 
 
 @njit(cache=True)
-def _radau_rot(p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, atol, fixed,
-               max_steps, tab, out):
-    return _drive(RADAU, p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, atol,
-                  fixed, max_steps, tab, out, True, False)
+def _explicit_structure_rot(p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, atol, fixed,
+                            max_steps, tab, out):
+    return _drive(EXPLICIT, p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, atol,
+                  fixed, max_steps, tab, out, True, False, True)
 
 
 @njit(cache=True)
-def _radau_en(p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, atol, fixed,
-              max_steps, tab, out):
-    return _drive(RADAU, p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, atol,
-                  fixed, max_steps, tab, out, False, True)
+def _explicit_structure_en(p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, atol, fixed,
+                           max_steps, tab, out):
+    return _drive(EXPLICIT, p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, atol,
+                  fixed, max_steps, tab, out, False, True, True)
 
 
 @njit(cache=True)
-def _radau_bare(p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, atol, fixed,
-                max_steps, tab, out):
+def _explicit_structure_bare(p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, atol, fixed,
+                             max_steps, tab, out):
+    return _drive(EXPLICIT, p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, atol,
+                  fixed, max_steps, tab, out, False, False, True)
+
+
+@njit(cache=True)
+def _radau_rot_en(p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, atol, fixed, max_steps,
+                  tab, out):
     return _drive(RADAU, p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, atol,
-                  fixed, max_steps, tab, out, False, False)
+                  fixed, max_steps, tab, out, True, True, False)
+
+
+@njit(cache=True)
+def _radau_rot(p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, atol, fixed, max_steps,
+               tab, out):
+    return _drive(RADAU, p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, atol,
+                  fixed, max_steps, tab, out, True, False, False)
+
+
+@njit(cache=True)
+def _radau_en(p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, atol, fixed, max_steps, tab,
+              out):
+    return _drive(RADAU, p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, atol,
+                  fixed, max_steps, tab, out, False, True, False)
+
+
+@njit(cache=True)
+def _radau_bare(p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, atol, fixed, max_steps,
+                tab, out):
+    return _drive(RADAU, p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, atol,
+                  fixed, max_steps, tab, out, False, False, False)
+
+
+@njit(cache=True)
+def _radau_structure_rot_en(p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, atol, fixed,
+                            max_steps, tab, out):
+    return _drive(RADAU, p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, atol,
+                  fixed, max_steps, tab, out, True, True, True)
+
+
+@njit(cache=True)
+def _radau_structure_rot(p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, atol, fixed,
+                         max_steps, tab, out):
+    return _drive(RADAU, p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, atol,
+                  fixed, max_steps, tab, out, True, False, True)
+
+
+@njit(cache=True)
+def _radau_structure_en(p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, atol, fixed,
+                        max_steps, tab, out):
+    return _drive(RADAU, p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, atol,
+                  fixed, max_steps, tab, out, False, True, True)
+
+
+@njit(cache=True)
+def _radau_structure_bare(p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, atol, fixed,
+                          max_steps, tab, out):
+    return _drive(RADAU, p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, atol,
+                  fixed, max_steps, tab, out, False, False, True)
 
 
 SPECIALISATIONS = {
-    (EXPLICIT, True, True): _explicit_rot_en,
-    (EXPLICIT, True, False): _explicit_rot,
-    (EXPLICIT, False, True): _explicit_en,
-    (EXPLICIT, False, False): _explicit_bare,
-    (RADAU, True, True): _radau_rot_en,
-    (RADAU, True, False): _radau_rot,
-    (RADAU, False, True): _radau_en,
-    (RADAU, False, False): _radau_bare,
+    (EXPLICIT, True, True, False): _explicit_rot_en,
+    (EXPLICIT, True, False, False): _explicit_rot,
+    (EXPLICIT, False, True, False): _explicit_en,
+    (EXPLICIT, False, False, False): _explicit_bare,
+    (EXPLICIT, True, True, True): _explicit_structure_rot_en,
+    (EXPLICIT, True, False, True): _explicit_structure_rot,
+    (EXPLICIT, False, True, True): _explicit_structure_en,
+    (EXPLICIT, False, False, True): _explicit_structure_bare,
+    (RADAU, True, True, False): _radau_rot_en,
+    (RADAU, True, False, False): _radau_rot,
+    (RADAU, False, True, False): _radau_en,
+    (RADAU, False, False, False): _radau_bare,
+    (RADAU, True, True, True): _radau_structure_rot_en,
+    (RADAU, True, False, True): _radau_structure_rot,
+    (RADAU, False, True, True): _radau_structure_en,
+    (RADAU, False, False, True): _radau_structure_bare,
 }
+
 
 def run(
     method: Method,
@@ -369,8 +437,10 @@ def run(
     max_steps: int,
     rotation: bool,
     energy: bool,
+    free: bool = False,
 ) -> tuple:
-    """Run `method` through its compiled specialisation; see _drive for the result tuple."""
-    fn = SPECIALISATIONS[(method.stepper, bool(rotation), bool(energy))]
+    """Run `method` through its compiled specialisation; see _drive for the result tuple.
+    free selects the structure path (docs/model.md s.9-10)."""
+    fn = SPECIALISATIONS[(method.stepper, bool(rotation), bool(energy), bool(free))]
     return fn(p, lawc, y0, float(t_end), float(interval), float(h0), int(n_steps), int(stride),
               float(rtol), float(atol), bool(fixed), int(max_steps), method.driver_tableau, out)

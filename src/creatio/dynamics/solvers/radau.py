@@ -3,7 +3,8 @@
 3-stage collocation, L-stable: the stage equations damp the friction's stiff slip mode at
 any h, so the step follows the slow dynamics. Simplified Newton on the transformed stage
 increments with the real/complex eigen-split of the Radau matrix, a forward-difference
-Jacobian reused across steps (only the 7 columns the dynamics depend on are differenced),
+Jacobian reused across steps (only the columns the dynamics depend on are differenced: 7 on
+a fixed structure, 9 on the structure path of docs/model.md s.9-10),
 LU factors kept while h is steady, and Gustafsson's predictive step control; the pieces
 follow scipy.integrate's Radau (solve_collocation_system, predict_factor), so native and
 scipy runs take comparable steps.
@@ -28,7 +29,7 @@ from creatio.dynamics.solvers.explicit import (
     NEWTON_FAILED,
 )
 from creatio.dynamics.solvers.linalg import lu_factor, lu_solve
-from creatio.dynamics.sphere import rhs, store
+from creatio.dynamics.sphere import rhs_of, store
 
 __all__ = ["THETA", "jacobian", "step", "workspace"]
 
@@ -83,13 +84,15 @@ def workspace(n):
 
 
 @njit(cache=True)
-def jacobian(t, y, f, jac, work, tmp, pp, lc, rot, en):
+def jacobian(t, y, f, jac, work, tmp, pp, lc, rot, en, free, px):
     """Jacobian df/dy into jac; returns the right-hand-side evaluations it cost.
 
-    Only (R, alpha, Rdot, alphadot, omega) drive the dynamics: their columns are forward
-    differences. The quaternion block is exact (dQ/dt = Omega(omega) Q / 2 is linear in Q)
-    and the accumulators (cumulative spin, surface work, dissipation) feed nothing back, so
-    their columns are zero.
+    Only (R, alpha, Rdot, alphadot, omega) drive the dynamics, and on the structure path
+    (theta, Theta), the last two states (theta turns the world-frame omega into the
+    structure's frame, Theta enters the slip, Coriolis and centrifugal terms): their columns
+    are forward differences. The quaternion block is exact (dQ/dt = Omega(omega) Q / 2 is
+    linear in Q) and the accumulators (cumulative spin, surface work, dissipation,
+    confinement work) feed nothing back, so their columns are zero.
     """
     n = y.size
     for i in range(n):
@@ -98,11 +101,14 @@ def jacobian(t, y, f, jac, work, tmp, pp, lc, rot, en):
     for j in range(n):
         work[j] = y[j]
     active = 7 if rot else 4
-    for j in range(active):
+    # the feedback columns: 0 .. active - 1, then theta and Theta on the structure path
+    n_cols = active + 2 if free else active
+    for jj in range(n_cols):
+        j = jj if jj < active else n - n_cols + jj
         delta = 1.4901161193847656e-08 * max(abs(y[j]), 1.0)
         work[j] = y[j] + delta
         delta = work[j] - y[j]
-        rhs(t, work, tmp, pp, lc, rot, en, False)
+        rhs_of(free, t, work, tmp, pp, lc, rot, en, False, px)
         for i in range(n):
             jac[i, j] = (tmp[i] - f[i]) / delta
         work[j] = y[j]
@@ -125,7 +131,7 @@ def jacobian(t, y, f, jac, work, tmp, pp, lc, rot, en):
         jac[10, 7] = wz
         jac[10, 8] = -wy
         jac[10, 9] = wx
-    return active
+    return n_cols
 
 
 @njit(cache=True)
@@ -149,7 +155,7 @@ def _predict(t, h, y, rs, Z0, Qold, yold):
 
 @njit(cache=True)
 def _newton(t, h, y, rtol, atol, newton_tol, lur, pivr, luc, pivc, Z0, Z, W, F, rreal, rcplx,
-            work, tmp, pp, lc, rot, en):
+            work, tmp, pp, lc, rot, en, free, px):
     """Simplified Newton on W = TI Z; returns (converged, iterations, rate, evaluations)."""
     n = y.size
     for i in range(3):
@@ -169,7 +175,7 @@ def _newton(t, h, y, rtol, atol, newton_tol, lur, pivr, luc, pivc, Z0, Z, W, F, 
         for i in range(3):
             for j in range(n):
                 work[j] = y[j] + Z[i, j]
-            rhs(t + _RC[i] * h, work, tmp, pp, lc, rot, en, False)
+            rhs_of(free, t + _RC[i] * h, work, tmp, pp, lc, rot, en, False, px)
             for j in range(n):
                 F[i, j] = tmp[j]
                 if not math.isfinite(tmp[j]):
@@ -235,7 +241,7 @@ def _factor(h, n_iter, rate, en_err, rs, fixed):
 
 @njit(cache=True)
 def step(stepper, t, t_next, h, y, f, ynew, fnew, dbuf, ws, tol, fixed, rejected, pp, lc, rot,
-         en):
+         en, free, px):
     """One try at the step t -> t_next = t + h (the driver's implicit stepper; `stepper` is
     its kind, which the driver dispatches on at compile time).
 
@@ -252,7 +258,7 @@ def step(stepper, t, t_next, h, y, f, ynew, fnew, dbuf, ws, tol, fixed, rejected
     n_lu = 0
     newton_tol = max(10.0 * _EPS / rtol, min(0.03, math.sqrt(rtol))) if rtol > 0 else 0.03
     if rs[RS_HAVE_JAC] == 0.0:
-        evals += jacobian(t, y, f, jac, work, tmp, pp, lc, rot, en)
+        evals += jacobian(t, y, f, jac, work, tmp, pp, lc, rot, en, free, px)
         n_jac += 1
         rs[RS_HAVE_JAC] = 1.0
         rs[RS_CURRENT_JAC] = 1.0
@@ -279,12 +285,12 @@ def step(stepper, t, t_next, h, y, f, ynew, fnew, dbuf, ws, tol, fixed, rejected
                 break
         converged, n_iter, rate, ev = _newton(t, h, y, rtol, atol, newton_tol, lur, pivr, luc,
                                               pivc, Z0, Z, W, F, rreal, rcplx, work, tmp, pp,
-                                              lc, rot, en)
+                                              lc, rot, en, free, px)
         evals += ev
         if not converged:
             if rs[RS_CURRENT_JAC] > 0.0:
                 break
-            evals += jacobian(t, y, f, jac, work, tmp, pp, lc, rot, en)
+            evals += jacobian(t, y, f, jac, work, tmp, pp, lc, rot, en, free, px)
             n_jac += 1
             rs[RS_CURRENT_JAC] = 1.0
             rs[RS_LU_H] = -1.0
@@ -307,7 +313,7 @@ def step(stepper, t, t_next, h, y, f, ynew, fnew, dbuf, ws, tol, fixed, rejected
     if rejected and en_err > 1.0 and not fixed:
         for j in range(n):
             work[j] = y[j] + err[j]
-        rhs(t, work, rreal, pp, lc, rot, en, False)
+        rhs_of(free, t, work, rreal, pp, lc, rot, en, False, px)
         evals += 1
         for j in range(n):
             err[j] = rreal[j] + tmp[j]
@@ -323,10 +329,10 @@ def step(stepper, t, t_next, h, y, f, ynew, fnew, dbuf, ws, tol, fixed, rejected
     if en_err > 1.0 and not fixed:
         rs[RS_LU_H] = -1.0
         return ERROR_REJECTED, factor, evals, n_jac, n_lu, False
-    store(rhs(t_next, ynew, fnew, pp, lc, rot, en, True), dbuf)
+    store(rhs_of(free, t_next, ynew, fnew, pp, lc, rot, en, True, px), dbuf)
     evals += 1
     if recompute:
-        evals += jacobian(t_next, ynew, fnew, jac, work, tmp, pp, lc, rot, en)
+        evals += jacobian(t_next, ynew, fnew, jac, work, tmp, pp, lc, rot, en, free, px)
         n_jac += 1
         rs[RS_CURRENT_JAC] = 1.0
         rs[RS_LU_H] = -1.0

@@ -1,0 +1,146 @@
+"""Compiled right-hand side of the structure path (docs/model.md s.9-10), for every integrator.
+
+A structure free to yaw about z (inverse inertia 1 / I_s, 0 when fixed) and the normal
+preload P of the microgravity studies. Everything is in the structure's rotating
+cylindrical frame at the contact angle alpha (as in creatio.dynamics.sphere.rhs), except the
+sphere's angular velocity omega, which stays in world components as in s.4.6: it is turned
+into the rotating frame by the angle theta + alpha where the slip needs it, and the torque
+is turned back by the same angle (docs/model.md s.9.2, project choice). The 4 x 4 system in
+(qddot, theta'', N) is solved by creatio.model.structure.free_structure_solve.
+
+State: the layout of creatio.dynamics.sphere, with the energy block [surface work, friction
+dissipation, confinement work] and [theta, Theta] last. The diagnostics tuple is that of
+creatio.dynamics.sphere.rhs, with V the centre's velocity relative to the structure.
+"""
+
+from __future__ import annotations
+
+import math
+
+from creatio.dynamics.jit import njit
+from creatio.model.laws import law_eval
+from creatio.model.offset import offset_jets
+from creatio.model.sphere import (
+    acceleration_at_fixed_rates,
+    centre_tangents,
+    max_curvature_times_b,
+)
+from creatio.model.structure import confinement_power, free_structure_solve
+
+__all__ = ["rhs_structure"]
+
+
+@njit(cache=True)
+def rhs_structure(t, y, dy, pp, lc, rot, en, diag, px):
+    """Write dy/dt into dy on the structure path; return the diagnostics tuple of
+    creatio.dynamics.sphere.rhs (N, |v_s|, X, V_rel, f, phi_r, gamma, b kappa, phi_a).
+
+    px = (1 / I_s, P): the structure's inverse inertia (0: fixed) and the normal preload.
+    """
+    R0, dR, k, A, Ka, m, b, g, mu, eps, inertia = pp
+    inv_is, P = px
+    R = y[0]
+    a = y[1]
+    Rd = y[2]
+    ad = y[3]
+    ie = 12 if rot else 4
+    iy = ie + 3 if en else ie
+    th = y[iy]
+    Th = y[iy + 1]
+    pr, pr1, pr2 = law_eval(lc[0], lc[1], lc[2], lc[3], lc[4], lc[5], t)
+    pa, pa1, pa2 = law_eval(lc[6], lc[7], lc[8], lc[9], lc[10], lc[11], t)
+    gm, g1, g2 = law_eval(lc[12], lc[13], lc[14], lc[15], lc[16], lc[17], t)
+    rho, z, n1, n2, n3, P_, Q, Z = offset_jets(
+        R, a, R0, k, A, Ka, b, pr, pr1, pr2, pa, pa1, pa2, gm, g1, g2
+    )
+    xR1, xR2, xR3, xa1, xa2, xa3, xt1, xt2, xt3 = centre_tangents(P_, Q, Z)
+    a01, a02, a03 = acceleration_at_fixed_rates(P_, Q, Z, Rd, ad)
+    X1 = P_[0]
+    X2 = Q[0]
+    V1 = xt1 + xR1 * Rd + xa1 * ad
+    V2 = xt2 + xR2 * Rd + xa2 * ad
+    V3 = xt3 + xR3 * Rd + xa3 * ad
+    ct1 = rho[3]
+    ct3 = z[3]
+    # slip: V_rel + Theta z^ x (b n) + omega x (-b n) - c_t, tangential part
+    u1 = V1 - ct1 - Th * b * n2
+    u2 = V2 + Th * b * n1
+    u3 = V3 - ct3
+    ca = 0.0
+    sa = 0.0
+    if rot:
+        ca = math.cos(th + a)
+        sa = math.sin(th + a)
+        wx = y[4]
+        wy = y[5]
+        w3 = y[6]
+        w1 = wx * ca + wy * sa
+        w2 = wy * ca - wx * sa
+        u1 -= b * (w2 * n3 - w3 * n2)
+        u2 -= b * (w3 * n1 - w1 * n3)
+        u3 -= b * (w1 * n2 - w2 * n1)
+    un = u1 * n1 + u2 * n2 + u3 * n3
+    vs1 = u1 - un * n1
+    vs2 = u2 - un * n2
+    vs3 = u3 - un * n3
+    slip2 = vs1 * vs1 + vs2 * vs2 + vs3 * vs3
+    ph = 0.0
+    if mu > 0.0:
+        ph = -mu / math.sqrt(slip2 + eps * eps)
+    phi1 = ph * vs1
+    phi2 = ph * vs2
+    phi3 = ph * vs3
+    # b = g - a0 - 2 Theta z^ x V_rel - Theta^2 z^ x (z^ x X) (per unit mass, without the
+    # preload, whose -P/m n enters n . b only: J^T n = 0)
+    b1 = -a01 + 2.0 * Th * V2 + Th * Th * X1
+    b2 = -a02 - 2.0 * Th * V1 + Th * Th * X2
+    b3 = -g - a03
+    bn = n1 * b1 + n2 * b2 + n3 * b3 - P / m
+    thdd, N = free_structure_solve(m, inv_is, P, n1, n2, n3, phi1, phi2, X1, X2, rho[0], bn)
+    f1 = N * phi1
+    f2 = N * phi2
+    f3 = N * phi3
+    # (J^T J) qddot = J^T (b - theta'' z^ x X + f / m)
+    r1 = b1 + thdd * X2 + f1 / m
+    r2 = b2 - thdd * X1 + f2 / m
+    r3 = b3 + f3 / m
+    j11 = xR1 * xR1 + xR2 * xR2 + xR3 * xR3
+    j12 = xR1 * xa1 + xR2 * xa2 + xR3 * xa3
+    j22 = xa1 * xa1 + xa2 * xa2 + xa3 * xa3
+    c1 = xR1 * r1 + xR2 * r2 + xR3 * r3
+    c2 = xa1 * r1 + xa2 * r2 + xa3 * r3
+    idet = 1.0 / (j11 * j22 - j12 * j12)
+    dy[0] = Rd
+    dy[1] = ad
+    dy[2] = (j22 * c1 - j12 * c2) * idet
+    dy[3] = (j11 * c2 - j12 * c1) * idet
+    if rot:
+        # I domega/dt = (-b n) x f, turned from the rotating frame to the world by theta + a
+        s = -b / inertia
+        d1 = s * (n2 * f3 - n3 * f2)
+        d2 = s * (n3 * f1 - n1 * f3)
+        dy[4] = d1 * ca - d2 * sa
+        dy[5] = d1 * sa + d2 * ca
+        dy[6] = s * (n1 * f2 - n2 * f1)
+        wx = y[4]
+        wy = y[5]
+        wz = y[6]
+        q0 = y[7]
+        q1 = y[8]
+        q2 = y[9]
+        q3 = y[10]
+        dy[7] = -0.5 * (wx * q1 + wy * q2 + wz * q3)
+        dy[8] = 0.5 * (q0 * wx + wy * q3 - wz * q2)
+        dy[9] = 0.5 * (q0 * wy + wz * q1 - wx * q3)
+        dy[10] = 0.5 * (q0 * wz + wx * q2 - wy * q1)
+        dy[11] = math.sqrt(wx * wx + wy * wy + wz * wz)
+    if en:
+        dy[ie] = (N * n1 + f1) * ct1 + (N * n3 + f3) * ct3
+        dy[ie + 1] = -(f1 * vs1 + f2 * vs2 + f3 * vs3)
+        dy[ie + 2] = confinement_power(P, n1, n3, ct1, ct3)
+    dy[iy] = Th
+    dy[iy + 1] = thdd
+    bk = 0.0
+    if diag:
+        bk = max_curvature_times_b(rho, z, n1, n2, n3, b)
+    return N, math.sqrt(slip2), X1, X2, Z[0], V1, V2, V3, f1, f2, f3, pr, gm, bk, pa
