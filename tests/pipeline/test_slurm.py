@@ -162,7 +162,7 @@ def run_both(tmp_path: Path, *args: str, timeout: float = TIMEOUT) -> Runs:
 
 def test_ct02_through_slurm_equals_local(slurm_cluster, tmp_path):
     runs = run_both(tmp_path, "all", "--config", 'studies=["ct02"]')
-    assert "kinematic_dataset" in runs.slurm_jobs.values()
+    assert "study_dataset" in runs.slurm_jobs.values()
     for local, slurm in runs.pairs("data/reports/ct02.json"):
         assert json.loads(slurm.read_text()) == json.loads(local.read_text())
     for local, slurm in runs.pairs("data/reports/*.csv"):
@@ -179,12 +179,12 @@ def test_status_fails_loudly_when_down(tmp_path):
 
 
 def test_sweep_through_slurm_equals_local(slurm_cluster, tmp_path):
-    """A small EN-02 sweep: its point jobs go through SLURM; the aggregate equals local."""
+    """A small EN-02 sweep: its batch jobs go through SLURM; the aggregate equals local."""
     import xarray as xr
 
-    runs = run_both(tmp_path, "sweep", "--config", 'sweep=["sphere.mu=0,0.15"]', "study=en02",
-                    'overrides=["phases.T=2.0"]')
-    assert list(runs.slurm_jobs.values()).count("dynamic_dataset") == 2
+    runs = run_both(tmp_path, "sweep", "--config", 'sweep=["sphere.mu=0,0.15,0.3"]',
+                    "study=en02", 'overrides=["phases.T=2.0"]', "sweep_batch=2")
+    assert list(runs.slurm_jobs.values()).count("sweep_batch") == 2
     for local, slurm in runs.pairs("data/sweeps/*/sweep.nc"):
         with xr.open_dataset(local) as a, xr.open_dataset(slurm) as b:
             xr.testing.assert_equal(a, b)  # not _identical: history, date_created differ

@@ -336,6 +336,7 @@ def run_batch(plan: SweepPlan, k: int, out: str | Path | None = None,
     indices = list(plan.batch_range(k))
     rows: list[dict[str, Any]] = []
     counts = {"computed": 0, "reused": 0, "refused": 0}
+    compute_s = 0.0
     t0 = last = time.perf_counter()
     for done, index in enumerate(indices, start=1):
         idx = _unravel(index, plan.shape)
@@ -354,10 +355,12 @@ def run_batch(plan: SweepPlan, k: int, out: str | Path | None = None,
                 row = dict(known[key])
                 counts["reused"] += 1
             else:
+                tc = time.perf_counter()
                 row = {"status": "ok", **_run_point(entry, obj), "message": "",
                        "point_key": key}
+                compute_s += time.perf_counter() - tc
                 counts["computed"] += 1
-        if sphere and "stability_limit_dt_s" not in row:
+        if sphere and "dt_s" not in row:
             row.update(_sphere_extras(obj, changes, base.obj))
         row["point"] = index
         rows.append(row)
@@ -380,7 +383,8 @@ def run_batch(plan: SweepPlan, k: int, out: str | Path | None = None,
     spec = json.dumps(plan.spec(), sort_keys=True)
     ds.attrs = {**provenance(plan.study, spec, hashlib.sha256(spec.encode()).hexdigest(),
                              f"sweep {plan.name} batch {k}"),
-                "batch": k, "batch_size": plan.batch_size, **counts}
+                "batch": k, "batch_size": plan.batch_size, **counts,
+                "compute_s": compute_s, "wall_s": time.perf_counter() - t0}
     target = Path(out) if out is not None else Path(plan.batch_file(k))
     return write_dataset(ds, target)
 
