@@ -17,7 +17,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-__all__ = ["fmt", "h_key", "nested", "plt", "strict_json", "table"]
+__all__ = ["cell", "fmt", "h_key", "nested", "plt", "readable_y", "strict_json", "table"]
 
 
 def strict_json(data: Any) -> str:
@@ -52,8 +52,34 @@ def fmt(x: Any) -> str:
     return str(x)
 
 
+def cell(x: Any) -> str:
+    """A table cell: the number formatted by :func:`fmt`, with ``|`` escaped so that a
+    label such as ``max |C' - C'_fd|`` stays inside its cell when rendered."""
+    return fmt(x).replace("|", "\\|")
+
+
 def table(header: Sequence[str], rows: Sequence[Sequence[Any]]) -> list[str]:
-    """Markdown table lines (cells formatted by :func:`fmt`)."""
-    lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
-    lines += ["| " + " | ".join(fmt(c) for c in row) + " |" for row in rows]
+    """Markdown table lines (cells formatted by :func:`fmt`, ``|`` escaped); every row must
+    have one cell per header (a column without a header is a bug, not a blank)."""
+    for row in rows:
+        if len(row) != len(header):
+            raise ValueError(f"table row {list(row)} has {len(row)} cells for {len(header)} "
+                             f"columns {list(header)}")
+    lines = ["| " + " | ".join(cell(h) for h in header) + " |", "|" + "---|" * len(header)]
+    lines += ["| " + " | ".join(cell(c) for c in row) + " |" for row in rows]
     return lines
+
+
+def readable_y(ax: Any, y: Any) -> None:
+    """No offset notation on the y axis (it hides the values); a series constant to
+    rounding is drawn flat in the middle of a readable range around its value."""
+    ax.ticklabel_format(axis="y", useOffset=False)
+    y = np.asarray(y, float)
+    y = y[np.isfinite(y)]
+    if y.size == 0:
+        return
+    lo, hi = float(y.min()), float(y.max())
+    scale = max(abs(lo), abs(hi))
+    if scale > 0 and hi - lo <= 1e-6 * scale:
+        pad = 1e-3 * scale
+        ax.set_ylim(lo - pad, hi + pad)

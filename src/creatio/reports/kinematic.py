@@ -20,7 +20,15 @@ from creatio.model.numerics import observed_order
 from creatio.reports.common import h_key, nested, plt, strict_json, table
 from creatio.studies import registry
 
-__all__ = ["kinematic_summary", "write_report"]
+__all__ = ["PATTERN_LABELS", "kinematic_summary", "write_report"]
+
+#: How the EN-01 pattern figures read in the report (their JSON keys are the contract's).
+PATTERN_LABELS = {
+    "pattern_max_rate_rad_s": "largest pattern rate |alpha_p'| (rad/s)",
+    "pattern_max_rate_time_s": "time of the largest rate (s)",
+    "pattern_travel_deg": "pattern travel over the cycle (deg)",
+    "pattern_fd_error": "max |alpha_p' - central difference| (rad/s)",
+}
 
 
 def kinematic_summary(ds: xr.Dataset) -> dict[str, Any]:
@@ -179,5 +187,6 @@ def _kinematic_markdown(ds: xr.Dataset, s: dict, header, rows, paths) -> str:
     else:
         lines += ["", "## Pattern velocity over the EN-02 cycle", ""]
         lines += table(["figure", "computed", "published"], [
-            (k, s[k], v) for k, v in registry.get(study).published.get("pattern", {}).items()])
+            (PATTERN_LABELS.get(k, k), s[k], v)
+            for k, v in registry.get(study).published.get("pattern", {}).items()])
     return "\n".join(lines) + "\n"

@@ -14,7 +14,7 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
-from creatio.reports.common import fmt, plt, strict_json, table
+from creatio.reports.common import fmt, plt, readable_y, strict_json, table
 from creatio.studies import registry
 
 __all__ = ["dynamic_summary", "timestep_difference", "write_comparison", "write_report"]
@@ -68,8 +68,8 @@ def dynamic_summary(datasets: Sequence[xr.Dataset]) -> dict[str, Any]:
     return out
 
 
-def _surface_top_view(ax, config: dict, t: float = 0.0) -> None:
-    """Filled contour of the surface height c_z in top view at time t."""
+def _surface_top_view(ax, config: dict, t: float = 0.0) -> Any:
+    """The surface height c_z in top view at time t; returns the mesh (for a colour bar)."""
     from omegaconf import OmegaConf
 
     from creatio.model.surface import Frame, Motion, Surface
@@ -110,10 +110,12 @@ def _history_figure(ds: xr.Dataset, path: Path) -> None:
         ax.plot(t, y, lw=1.2)
         ax.set_ylabel(label)
         ax.grid(alpha=0.3)
+        readable_y(ax, y)
         if y2 is not None:
             ax2 = ax.twinx()
             ax2.plot(t, y2, color="tab:orange", lw=1.0)
             ax2.set_ylabel(label2, color="tab:orange")
+            readable_y(ax2, y2)
     for ax in axes[-1]:
         ax.set_xlabel("time (s)")
     fig.suptitle(f"{ds.attrs.get('title', '')}: time histories (dt = {ds.attrs['dt']:g} s, "
@@ -124,8 +126,8 @@ def _history_figure(ds: xr.Dataset, path: Path) -> None:
 
 
 def _trajectory_figure(runs: Sequence[tuple[str, xr.Dataset]], config: dict, path: Path) -> None:
-    fig, ax = plt.subplots(figsize=(7, 6.4))
-    _surface_top_view(ax, config)
+    fig, ax = plt.subplots(figsize=(8.4, 6.4))
+    height = _surface_top_view(ax, config)
     tmax = max(float(ds.time.values[-1]) for _, ds in runs)
     norm = plt.Normalize(0.0, tmax)
     markers = ["o", "s", "^", "D"]
@@ -134,12 +136,16 @@ def _trajectory_figure(runs: Sequence[tuple[str, xr.Dataset]], config: dict, pat
         ax.plot(x, y, lw=0.8, color="k", alpha=0.4)
         sc = ax.scatter(x[::10], y[::10], c=ds.time.values[::10], cmap="viridis", norm=norm,
                         s=10, marker=mk, label=label)
-        ax.plot(x[0], y[0], "g*", ms=12)
-        ax.plot(x[-1], y[-1], "r*", ms=12)
-    fig.colorbar(sc, ax=ax, label="time (s) (shared)")
+        # A start and an end that coincide (a whole cycle) must both stay visible: an open
+        # circle around the start, a cross inside it for the end.
+        ax.plot(x[0], y[0], "o", ms=13, mfc="none", mec="green", mew=2.2, zorder=5)
+        ax.plot(x[-1], y[-1], "x", ms=9, color="red", mew=2.2, zorder=6)
+    ax.plot([], [], "o", ms=9, mfc="none", mec="green", mew=2, label="start")
+    ax.plot([], [], "x", ms=8, color="red", mew=2, label="end")
+    fig.colorbar(sc, ax=ax, label="time (s) (shared)", pad=0.02)
+    fig.colorbar(height, ax=ax, label="surface height c_z at t = 0 (m)", pad=0.02)
     ax.legend(loc="upper right", fontsize=8)
-    ax.set_title("centre path in top view over the surface height at t = 0 "
-                 "(green start, red end)", fontsize=9)
+    ax.set_title("centre path in top view over the surface height at t = 0", fontsize=9)
     fig.tight_layout()
     fig.savefig(path, dpi=100)
     plt.close(fig)
@@ -225,7 +231,10 @@ def write_report(datasets: Sequence[Path], outdir: str | Path) -> dict[str, Path
     _convergence_figure_dynamic(runs, paths["convergence"])
     _history_csv(ds, paths["csv"])
     pub = dict(registry.get(study).published)
-    rows = [(label, s[key], pub.get(key, "")) for label, key in SUMMARY_ROWS]
+    if pub:
+        rows = [(label, s[key], pub.get(key, "")) for label, key in SUMMARY_ROWS]
+    else:
+        rows = [(label, s[key]) for label, key in SUMMARY_ROWS]
     method = str(ds.attrs.get("method", "rk4"))
     if "rtol" in ds.attrs:
         pair = (f"{method} (adaptive) at rtol = {ds.attrs['rtol']:g} compared with rtol = "
@@ -239,7 +248,7 @@ def write_report(datasets: Sequence[Path], outdir: str | Path) -> dict[str, Path
              f"config sha256 `{s['config_sha256'][:12]}`, creatio "
              f"{ds.attrs.get('creatio_version')}, commit {ds.attrs.get('git_commit', '')[:10]}.",
              "", "## Summary figures", ""]
-    lines += table(["figure", "computed", "published" if pub else ""], rows)
+    lines += table(["figure", "computed", "published"] if pub else ["figure", "computed"], rows)
     if pub:
         lines += ["", "Published timestep difference and energy residual are upper bounds "
                   "(the notebook's code used approximate derivatives); these runs use exact "

@@ -8,9 +8,31 @@ from pathlib import Path
 import numpy as np
 import xarray as xr
 
-from creatio.reports.common import plt, table
+from creatio.reports.common import plt, readable_y, table
 
-__all__ = ["write_sweep_report"]
+__all__ = ["axis_label", "figure_label", "write_sweep_report"]
+
+
+def figure_label(name: str) -> str:
+    """How a summary figure reads on an axis: the reports' own label (``cumulative spin
+    (deg)``), else the key with its unit suffix spelled out."""
+    from creatio.reports.sphere import SUMMARY_ROWS
+
+    labels = {key: label for label, key in SUMMARY_ROWS}
+    if name in labels:
+        return labels[name]
+    for suffix, unit in (("_deg", "deg"), ("_m_s", "m/s"), ("_N", "N"), ("_J", "J"),
+                         ("_m", "m"), ("_s", "s")):
+        if name.endswith(suffix):
+            return f"{name[: -len(suffix)].replace('_', ' ')} ({unit})"
+    return name.replace("_", " ")
+
+
+def axis_label(ds: xr.Dataset, dim: str) -> str:
+    """A swept key as an axis label: its config key (``sphere.mu``) and units if known."""
+    name = str(ds[dim].attrs.get("long_name", dim.replace("__", ".")))
+    units = ds[dim].attrs.get("units")
+    return f"{name} ({units})" if units else name
 
 
 SWEEP_FIGURES = {
@@ -49,7 +71,7 @@ def write_sweep_report(ds: xr.Dataset, outdir: str | Path) -> dict[str, Path]:
     dims = list(ds.status.dims)
     names = _sweep_figures(ds)
     flat = ds.stack(point=dims) if len(dims) > 1 else ds.rename({dims[0]: "point"})
-    header = [ds[d].attrs.get("long_name", d) for d in dims] + ["status", *names]
+    header = [axis_label(ds, d) for d in dims] + ["status", *[figure_label(n) for n in names]]
     if "stability_limit_dt_s" in ds:
         header.append("RK4 limit dt (s)")
     rows = []
@@ -76,20 +98,26 @@ def write_sweep_report(ds: xr.Dataset, outdir: str | Path) -> dict[str, Path]:
     for ax, name in zip(axes.flat, names, strict=False):
         if len(dims) == 1:
             x = ds[dims[0]].values
-            ok = ds.status.values == "ok"
-            ax.plot(x, ds[name].values, "o-", label="ran")
-            if (~ok).any():
-                bad = x[~ok]
-                ax.plot(bad, np.where(np.isnan(ds[name].values[~ok]),
-                                      np.nanmin(ds[name].values) if ok.any() else 0.0,
-                                      ds[name].values[~ok]),
-                        "rx", ms=9, label="refused or stopped")
+            y = ds[name].values.astype(float)
+            status = ds.status.values.astype(str)
+            ok = status == "ok"
+            refused = status == "invalid"
+            stopped = ~ok & ~refused & np.isfinite(y)
+            ax.plot(x[ok], y[ok], "o-", label="ran (status ok)")
+            if stopped.any():  # a run that stopped early: its own value, marked
+                ax.plot(x[stopped], y[stopped], "rx", ms=9, mew=2, label="stopped early")
+            if refused.any():  # never run: no value, only where along the axis
+                ax.plot(x[refused], np.zeros(refused.sum()), "v", color="0.4", ms=8,
+                        transform=ax.get_xaxis_transform(), clip_on=False,
+                        label="refused (not run)")
+            readable_y(ax, y[ok | stopped])
             edge = _stability_edge(ds, dims[0]) if "stability_limit_dt_s" in ds else None
             if edge is not None:
                 ax.axvspan(edge, x.max(), color="red", alpha=0.08,
                            label=f"dt beyond the RK4 friction limit (from {edge:.4g})")
                 ax.axvline(edge, color="red", lw=0.8)
-            ax.set_xlabel(ds[dims[0]].attrs.get("long_name", dims[0]))
+            ax.set_xlabel(axis_label(ds, dims[0]))
+            ax.set_ylabel(figure_label(name), fontsize=8)
         else:
             img = ds[name].transpose(dims[0], dims[1]).values
             im = ax.imshow(img, origin="lower", aspect="auto", cmap="viridis")
@@ -97,10 +125,10 @@ def write_sweep_report(ds: xr.Dataset, outdir: str | Path) -> dict[str, Path]:
                                                      for v in ds[dims[0]].values])
             ax.set_xticks(range(len(ds[dims[1]])), [f"{v:g}" if isinstance(v, float) else v
                                                      for v in ds[dims[1]].values])
-            ax.set_ylabel(ds[dims[0]].attrs.get("long_name", dims[0]))
-            ax.set_xlabel(ds[dims[1]].attrs.get("long_name", dims[1]))
-            fig.colorbar(im, ax=ax)
-        ax.set_title(name, fontsize=9)
+            ax.set_ylabel(axis_label(ds, dims[0]))
+            ax.set_xlabel(axis_label(ds, dims[1]))
+            fig.colorbar(im, ax=ax, label=figure_label(name))
+        ax.set_title(figure_label(name), fontsize=9)
         ax.grid(alpha=0.3)
     for ax in list(axes.flat)[len(names):]:
         ax.axis("off")
