@@ -10,6 +10,8 @@
 #   snakemake release -c 2 --config version=0.2.0    freeze data/ in data/releases/0.2.0/
 #   snakemake diff -c 2 --config against=latest      data/reports/diff/<v>_vs_data.{txt,json}
 #   snakemake all --workflow-profile profiles/slurm    the same on a SLURM cluster
+#   snakemake scenes -c 2            the notebook's viewers: data/scenes/<scene>/ (creatio.scenes)
+#   snakemake --report data/report.html    Snakemake's report of everything built
 #
 # Overrides are Hydra overrides, applied to every study whose config has the key. Study ids,
 # their files and report rules come from the study registry (creatio.studies.registry).
@@ -59,10 +61,12 @@ wildcard_constraints:
     root=r"data|data/runs/[0-9a-f]{12}",
 
 
+include: "workflow/report/report.smk"
 include: "workflow/rules/studies.smk"
 include: "workflow/rules/analyses.smk"
 include: "workflow/rules/sweeps.smk"
 include: "workflow/rules/release.smk"
+include: "workflow/rules/scenes.smk"
 
 
 # Cheap aggregation, reports and plots run where Snakemake runs, not as cluster jobs.
@@ -79,9 +83,12 @@ localrules:
     release,
     diff,
     diff_report,
+    scenes,
+    scene_library,
+    scene_page,
 
 
 rule all:
     default_target: True
     input:
-        lambda wc: RUNS.targets(),
+        lambda wc: RUNS.targets() + report_extras(),

@@ -5,6 +5,7 @@
     creatio release VERSION | verify | list             freeze the default outputs
     creatio diff A B                                     compare datasets, dirs or releases
     creatio task dataset|report|sweep|compare            one workflow step (the Snakefile's)
+    creatio task scene library|dataset|page|media        one step of a scene (scenes.smk)
 """
 
 from __future__ import annotations
@@ -37,6 +38,7 @@ commands:
             creatio task sweep-batch --study en02 --sweep sphere.mu=0,0.1 --batch 0
             creatio task report ct02 OUTDIR DATASET.nc [DATASET.nc ...]
             creatio task compare OUTDIR EN02.nc EN02R.nc
+            creatio task scene dataset en02 OUT.nc [--override K=V ...] [--reuse en02=NC]
 
 Studies: {studies}. Configs live in {conf}.
 """
@@ -288,6 +290,10 @@ def main(argv: Sequence[str] | None = None) -> int:
                    study if command == "run" and study in _study_ids() else None)
         return 0
     if command == "task":
+        if rest[:1] == ["scene"]:
+            from creatio.scenes.cli import main as scene_main
+
+            return scene_main(rest[1:])
         return _task(rest)
     if command == "release":
         from creatio.pipeline.release import main as release_main

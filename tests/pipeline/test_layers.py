@@ -20,6 +20,7 @@ ALLOWED = {
     "pipeline": {"model", "dynamics", "studies", "pipeline", "reports"},
     "reports": {"model", "dynamics", "studies", "pipeline", "reports"},
     "diff": {"model", "dynamics", "studies", "pipeline", "diff"},
+    "scenes": {"model", "dynamics", "studies", "pipeline", "reports", "scenes"},
 }
 #: Top-level modules every layer may import.
 SHARED = {"errors", "__init__"}

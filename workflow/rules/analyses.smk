@@ -39,7 +39,7 @@ rule analysis_report:
     input:
         lambda wc: JOBS.datasets(wc.root, wc.study),
     output:
-        expand("{{root}}/benchmarks/{{study}}{suffix}", suffix=KINDS["analysis"].reports),
+        reported("analysis"),
     wildcard_constraints:
         study=ANALYSIS_IDS,
     params:

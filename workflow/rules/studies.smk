@@ -26,7 +26,7 @@ rule kinematic_report:
     input:
         lambda wc: JOBS.datasets(wc.root, wc.study),
     output:
-        expand("{{root}}/reports/{{study}}{suffix}", suffix=KINDS["kinematic"].reports),
+        reported("kinematic"),
     wildcard_constraints:
         study=wildcard_pattern("kinematic"),
     params:
@@ -43,7 +43,7 @@ rule sphere_report:
     input:
         lambda wc: JOBS.datasets(wc.root, wc.study),
     output:
-        expand("{{root}}/reports/{{study}}{suffix}", suffix=KINDS["sphere"].reports),
+        reported("sphere"),
     wildcard_constraints:
         study=wildcard_pattern("sphere"),
     params:
@@ -64,8 +64,10 @@ rule compare:
             JOBS.datasets(wc.root, "en02r")[0],
         ],
     output:
-        md="{root}/reports/compare_en02_en02r.md",
-        png="{root}/reports/compare_en02_en02r.png",
+        md=reported_plain("{root}/reports/compare_en02_en02r.md", "compare_markdown.rst",
+                          "Comparison", "report (markdown)"),
+        png=reported_plain("{root}/reports/compare_en02_en02r.png", "compare_figure.rst",
+                           "Comparison", "figure: both centre paths"),
     params:
         creatio=CREATIO,
     conda:

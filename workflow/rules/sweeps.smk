@@ -48,8 +48,10 @@ rule sweep_aggregate:
         lambda wc: SWEEPS[wc.name].batches,
     output:
         nc="data/sweeps/{name}/sweep.nc",
-        md="data/sweeps/{name}/sweep.md",
-        png="data/sweeps/{name}/sweep.png",
+        md=reported_plain("data/sweeps/{name}/sweep.md", "sweep_markdown.rst", "Sweeps",
+                          "{name}: table (markdown)"),
+        png=reported_plain("data/sweeps/{name}/sweep.png", "sweep_figure.rst", "Sweeps",
+                           "{name}: figure"),
     params:
         creatio=CREATIO,
         args=lambda wc: SWEEPS[wc.name].cli_args(),

@@ -1,0 +1,97 @@
+"""`creatio task scene ...`: the steps of the scene rules (workflow/rules/scenes.smk).
+
+    creatio task scene library OUT.js                       bundle three.js (npm ci + esbuild)
+    creatio task scene dataset SCENE OUT.nc [--config-yaml Y | --override K=V ...]
+                                            [--reuse STUDY=DATASET.nc ...]
+    creatio task scene page SCENE.nc LIBRARY.js OUT.html
+    creatio task scene media SCENE.nc ANIMATION.webp POSTER.png
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from collections.abc import Sequence
+from pathlib import Path
+
+from creatio.errors import ConfigError
+
+__all__ = ["main"]
+
+
+def main(argv: Sequence[str]) -> int:
+    """Run one scene step; 2 on a refused config, 1 on a failed build."""
+    from creatio.scenes import registry
+
+    ap = argparse.ArgumentParser(prog="creatio task scene", description="One scene step.")
+    sub = ap.add_subparsers(dest="step", required=True)
+    lib = sub.add_parser("library", help="bundle the pages' three.js (needs Node.js and npm)")
+    lib.add_argument("out", type=Path)
+    d = sub.add_parser("dataset", help="compute (or read) a scene's data: scene.nc")
+    d.add_argument("scene", choices=list(registry.SCENES))
+    d.add_argument("out", type=Path)
+    d.add_argument("--config-yaml", default=None, help="the resolved scene config (YAML)")
+    d.add_argument("--override", action="append", default=[], metavar="KEY=VALUE",
+                   help="a Hydra override, routed to the scene (sphere.mu reaches its bases)")
+    d.add_argument("--reuse", action="append", default=[], metavar="STUDY=DATASET",
+                   help="read a study's frames from its own dataset instead of computing")
+    p = sub.add_parser("page", help="write index.html from scene.nc")
+    p.add_argument("dataset", type=Path)
+    p.add_argument("library", type=Path)
+    p.add_argument("out", type=Path)
+    m = sub.add_parser("media", help="write the animated WebP and the poster PNG")
+    m.add_argument("dataset", type=Path)
+    m.add_argument("animation", type=Path)
+    m.add_argument("poster", type=Path)
+    args = ap.parse_args(argv)
+    try:
+        if args.step == "library":
+            from creatio.scenes.assets import build_library
+
+            build_library(args.out)
+        elif args.step == "dataset":
+            from creatio.scenes.run import write_scene_dataset
+
+            write_scene_dataset(_config(args), args.out, dict(_pair(r) for r in args.reuse))
+        elif args.step == "page":
+            from creatio.scenes.run import write_page
+
+            write_page(args.dataset, args.out, args.library)
+        else:
+            from creatio.scenes.run import write_media
+
+            write_media(args.dataset, args.animation, args.poster)
+    except ConfigError as e:
+        print(f"creatio task scene: {e}", file=sys.stderr)
+        return 2
+    except RuntimeError as e:
+        print(f"creatio task scene: {e}", file=sys.stderr)
+        return 1
+    return 0
+
+
+def _pair(text: str) -> tuple[str, str]:
+    key, sep, value = text.partition("=")
+    if not sep or not key or not value:
+        raise ConfigError("--reuse", text, "must be STUDY=DATASET")
+    return key, value
+
+
+def _config(args: argparse.Namespace):
+    """The resolved scene config: YAML text, or conf/ with routed overrides."""
+    from creatio.scenes.config import resolve, route, validate
+
+    if args.config_yaml is None:
+        routed, used = route(args.scene, args.override)
+        unused = [o for o in args.override if o not in used]
+        if unused:
+            raise ConfigError("--override", unused, f"scene {args.scene} has no such key")
+        return resolve(args.scene, routed)
+    if args.override:
+        raise ConfigError("--override", args.override, "cannot be combined with a config")
+    import yaml
+
+    resolved = validate(yaml.safe_load(args.config_yaml))
+    if resolved.scene != args.scene:
+        raise ConfigError("--config-yaml", resolved.scene, f"is not scene {args.scene}")
+    return resolved

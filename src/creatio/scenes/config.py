@@ -1,0 +1,198 @@
+"""Scene configs: Hydra in, a validated :class:`SceneResolved` out; overrides routed per scene.
+
+The pipeline composes the ``study`` and ``analysis`` groups; this module is the small adapter
+that does the same for the ``scene`` group (``conf/scene.yaml`` + ``conf/scene/<id>.yaml``),
+with the pipeline's own schemas registered so that ``/study@bases.en02: en02`` pulls in the
+whole, typed EN-02 config. A scene's sphere studies are validated again on their own schema
+(:func:`creatio.pipeline.config.validate`): their canonical YAML and sha256 are exactly those
+of ``creatio run study=en02`` with the same overrides, which is how a scene finds a study
+dataset it can reuse.
+
+Overrides travel as for studies: ``sphere.mu=0.3`` is applied to every scene whose config has
+that key, either at its top level (``geometry.A`` of the kinematic scenes, ``scene.*``) or in a
+base (``bases.en02.sphere.mu``). A config-group override of a base (``solver=radau5``) is
+routed to that base's group (``solver@bases.en02.solver=radau5``).
+"""
+
+from __future__ import annotations
+
+import functools
+import hashlib
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from omegaconf import DictConfig, OmegaConf
+from omegaconf.errors import OmegaConfBaseException
+
+from creatio.errors import ConfigError
+from creatio.pipeline.config import CONF_DIR, Resolved
+from creatio.pipeline.config import validate as validate_study
+from creatio.scenes import registry
+
+__all__ = [
+    "SceneResolved",
+    "compose",
+    "output_root",
+    "resolve",
+    "route",
+    "validate",
+]
+
+#: The primary config of the scenes (conf/scene.yaml) and its config group (conf/scene/).
+PRIMARY = "scene"
+
+
+@dataclass(frozen=True)
+class SceneResolved:
+    """A validated scene config: typed tree, plain dict, canonical YAML and its sha256."""
+
+    scene: str
+    obj: Any
+    data: dict
+    yaml: str
+    sha256: str
+
+    @property
+    def key(self) -> str:
+        """Short config hash used to key output directories."""
+        return self.sha256[:12]
+
+    @property
+    def entry(self) -> registry.Scene:
+        """The registry entry of this scene."""
+        return registry.get(self.scene)
+
+    @functools.cached_property
+    def bases(self) -> dict[str, Resolved]:
+        """Each study config under ``bases``, resolved as the study itself would be."""
+        return {name: validate_study(cfg) for name, cfg in self.data.get("bases", {}).items()}
+
+
+def register_schemas() -> None:
+    """Put the study schemas (the pipeline's) and every scene schema in Hydra's ConfigStore
+    (``conf/scene/<id>.yaml`` pulls in ``/schema/scene_<id>@_here_``)."""
+    from hydra.core.config_store import ConfigStore
+
+    from creatio.pipeline.config import register_schemas as register_study_schemas
+
+    register_study_schemas()
+    cs = ConfigStore.instance()
+    for scene in registry.SCENES.values():
+        cs.store(group="schema", name=f"scene_{scene.id}", node=scene.schema,
+                 package="_global_")
+
+
+def compose(scene: str, overrides: Sequence[str] = ()) -> DictConfig:
+    """Compose conf/scene.yaml with ``scene=<id>`` and Hydra overrides (re-entrant)."""
+    from hydra import compose as hydra_compose
+    from hydra import initialize_config_dir
+    from hydra.core.global_hydra import GlobalHydra
+
+    registry.get(scene)
+    register_schemas()
+    gh = GlobalHydra.instance()
+    outer, gh.hydra = gh.hydra, None  # park a running Hydra app's instance while composing
+    try:
+        with initialize_config_dir(config_dir=str(CONF_DIR), version_base="1.3"):
+            return hydra_compose(config_name=PRIMARY, overrides=[f"scene={scene}", *overrides])
+    finally:
+        GlobalHydra.instance().hydra = outer
+
+
+def validate(cfg: DictConfig | dict) -> SceneResolved:
+    """Merge onto the scene's schema, check every rule, return the resolved config."""
+    cfg = OmegaConf.create(cfg) if isinstance(cfg, dict) else cfg
+    cfg = OmegaConf.masked_copy(cfg, [k for k in cfg if k != "hydra"])
+    scene = str(OmegaConf.select(cfg, "scene.id", default=""))
+    if scene not in registry.SCENES:
+        raise ConfigError("scene.id", scene, f"must be one of {', '.join(registry.SCENES)}")
+    try:
+        merged = OmegaConf.merge(OmegaConf.structured(registry.get(scene).schema), cfg)
+        data = OmegaConf.to_container(merged, resolve=True, enum_to_str=True,
+                                      throw_on_missing=True)
+        obj = OmegaConf.to_object(merged)
+    except OmegaConfBaseException as e:
+        key = getattr(e, "full_key", None) or "?"
+        msg = str(getattr(e, "msg", e)).splitlines()[0]
+        raise ConfigError(key, getattr(e, "value", None), msg) from None
+    obj.check()
+    text = OmegaConf.to_yaml(OmegaConf.create(data), sort_keys=True)
+    return SceneResolved(scene, obj, data, text, hashlib.sha256(text.encode()).hexdigest())
+
+
+@functools.lru_cache(maxsize=64)
+def _base_config(scene: str) -> DictConfig:
+    return compose(scene)
+
+
+def route(scene: str, overrides: Sequence[str]) -> tuple[list[str], list[str]]:
+    """(the overrides rewritten for this scene's config, the original ones that applied).
+
+    A key the scene has at its top level is kept; otherwise it goes to every base that has
+    it (``sphere.mu=0.3`` -> ``bases.en02.sphere.mu=0.3``); a key naming a config group of a
+    base (``solver=radau5``) overrides that base's group.
+    """
+    base = _base_config(scene)
+    missing = object()
+    routed: list[str] = []
+    used: list[str] = []
+    for ov in overrides:
+        key, sep, value = ov.partition("=")
+        prefix = key[: len(key) - len(key.lstrip("+~"))]
+        key = key.lstrip("+~")
+        if OmegaConf.select(base, key, default=missing, throw_on_missing=False) is not missing:
+            routed.append(ov)
+            used.append(ov)
+            continue
+        hit = False
+        for name in OmegaConf.select(base, "bases", default={}) or {}:
+            node = OmegaConf.select(base, f"bases.{name}.{key}", default=missing,
+                                    throw_on_missing=False)
+            if node is missing:
+                continue
+            hit = True
+            if isinstance(node, DictConfig) and (CONF_DIR / key).is_dir():
+                routed.append(f"{prefix}{key}@bases.{name}.{key}{sep}{value}")
+            else:
+                routed.append(f"{prefix}bases.{name}.{key}{sep}{value}")
+        if hit:
+            used.append(ov)
+    return routed, used
+
+
+def resolve(scene: str, overrides: Sequence[str] = ()) -> SceneResolved:
+    """Compose and validate one scene's config with (already routed) overrides, memoised."""
+    return _resolve(scene, tuple(str(o) for o in overrides))
+
+
+@functools.lru_cache(maxsize=256)
+def _resolve(scene: str, overrides: tuple[str, ...]) -> SceneResolved:
+    try:
+        cfg = compose(scene, overrides)
+    except KeyError:
+        raise ConfigError("scene", scene, f"must be one of {', '.join(registry.SCENES)}") from None
+    except Exception as e:  # Hydra refused an override: name the first culprit
+        raise _override_error(scene, overrides, e) from None
+    return validate(cfg)
+
+
+def _override_error(scene: str, overrides: Sequence[str], error: Exception) -> ConfigError:
+    for ov in overrides:
+        try:
+            compose(scene, [ov])
+        except Exception as e:  # noqa: BLE001 - any refusal pins the culprit
+            key, _, value = ov.partition("=")
+            reason = str(e.__cause__ or e).splitlines()[0]
+            if "not in struct" in reason or "Could not override" in reason:
+                reason = "unknown key (not in this scene's config)"
+            return ConfigError(key.lstrip("+~"), value, f"scene {scene}: {reason}")
+    return ConfigError("overrides", list(overrides), str(error).splitlines()[0])
+
+
+def output_root(resolved: SceneResolved, data_dir: str | Path = "data") -> Path:
+    """Default scene config -> ``data``; anything else -> ``data/runs/<config hash>``."""
+    default = resolve(resolved.scene)
+    data_dir = Path(data_dir)
+    return data_dir if default.sha256 == resolved.sha256 else data_dir / "runs" / resolved.key

@@ -1,0 +1,216 @@
+"""A scene's animation (animated WebP) and poster (PNG), drawn with matplotlib from scene.nc.
+
+matplotlib draws each frame (3D axes: the membrane from the frame's phases through
+creatio.model.surface, the sphere with its marker and band turned by the frame's quaternion,
+the trace so far coloured by time); Pillow, already installed with matplotlib, writes the
+frames as one animated WebP. The poster is the frame at ``media.poster_time``, larger.
+Nothing here computes physics: every number comes from the dataset.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import xarray as xr
+
+from creatio.model.laws import Law
+from creatio.model.surface import Frame, Motion, Surface
+from creatio.reports.common import plt
+
+__all__ = ["sphere_media", "surface_family_media", "velocity_normal_media"]
+
+
+def _surface(ds: xr.Dataset, run: int | None = None) -> Surface:
+    def get(name: str) -> float:
+        return float(ds[name].values[run] if run is not None else ds.attrs[name])
+    return Surface(get("R0"), get("dR"), get("A"), int(get("Kr")), int(get("Ka")))
+
+
+def surface_mesh(surface: Surface, phase_r: float, phase_a: float, gamma: float,
+                 n_alpha: int, n_R: int) -> tuple[np.ndarray, np.ndarray]:
+    """Positions (n_alpha, n_R, 3) and W / A of the surface at fixed phases (the model's)."""
+    motion = Motion(Law.constant(phase_r), Law.constant(phase_a), Law.constant(gamma))
+    alpha = np.linspace(0.0, 2.0 * math.pi, n_alpha)[:, None]
+    R = np.linspace(0.0, surface.dR, n_R)[None, :]
+    fr = Frame(surface, motion, alpha, R, 0.0)
+    w = fr.w.W / surface.A if surface.A > 0 else 0.0 * fr.w.W
+    return fr.position, w
+
+
+_HEIGHT = plt.matplotlib.colors.LinearSegmentedColormap.from_list(
+    "creatio_height", [(0.16, 0.35, 0.62), (0.86, 0.87, 0.85), (0.72, 0.45, 0.20)])
+
+
+def _draw_surface(ax, pos: np.ndarray, w: np.ndarray, alpha: float = 1.0) -> None:
+    ax.plot_surface(pos[..., 0], pos[..., 1], pos[..., 2], facecolors=_HEIGHT((w + 1) / 2),
+                    rstride=1, cstride=1, linewidth=0, edgecolor="none", antialiased=False,
+                    shade=True, alpha=alpha, zorder=1)
+
+
+def _frame_axes(fig, where: tuple[int, int], extent: float, title: str = ""):
+    """3D axes filling panel where = (index, count) of a row of panels, below the title."""
+    i, n = where
+    ax = fig.add_axes((i / n, 0.0, 1.0 / n, 0.9), projection="3d")
+    ax.set_xlim(-extent, extent)
+    ax.set_ylim(-extent, extent)
+    ax.set_zlim(-0.5 * extent, 0.5 * extent)
+    ax.set_box_aspect((1, 1, 0.5), zoom=1.3)
+    ax.view_init(elev=38, azim=-80)
+    ax.set_axis_off()
+    # Draw in the order of zorder (membrane, trace, sphere, marker), not by mean depth, which
+    # puts a sphere resting in a cavity behind the membrane around it.
+    ax.computed_zorder = False
+    if title:
+        ax.set_title(title, fontsize=8.5, y=0.93)
+    return ax
+
+
+def _rgb(fig) -> np.ndarray:
+    fig.canvas.draw()
+    return np.asarray(fig.canvas.buffer_rgba())[..., :3].copy()
+
+
+def _write(frames: Sequence[np.ndarray], animation: Path, poster_rgb: np.ndarray,
+           poster: Path, frame_ms: float, quality: int) -> None:
+    from PIL import Image
+
+    images = [Image.fromarray(f) for f in frames]
+    animation.parent.mkdir(parents=True, exist_ok=True)
+    images[0].save(animation, format="WEBP", save_all=True, append_images=images[1:],
+                   duration=max(20, round(frame_ms)), loop=0, quality=quality, method=4)
+    Image.fromarray(poster_rgb).save(poster, format="PNG", optimize=True)
+
+
+def _render(draw: Callable[[Any, int], None], indices: Sequence[int], poster_index: int,
+            media: Any, frame_ms: float, animation: Path, poster: Path) -> None:
+    """Draw each index into a fresh figure of the media size; the poster at twice the dpi."""
+    size = (media.width / 100, media.height / 100)
+    frames = []
+    for i in indices:
+        fig = plt.figure(figsize=size, dpi=100)
+        draw(fig, i)
+        frames.append(_rgb(fig))
+        plt.close(fig)
+    fig = plt.figure(figsize=size, dpi=200)
+    draw(fig, poster_index)
+    poster_rgb = _rgb(fig)
+    plt.close(fig)
+    _write(frames, animation, poster_rgb, poster, frame_ms, media.quality)
+
+
+def _quat_matrix(q: np.ndarray) -> np.ndarray:
+    w, x, y, z = q / np.linalg.norm(q)
+    return np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
+                     [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
+                     [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)]])
+
+
+# --------------------------------------------------------------------------- sphere scenes
+def sphere_media(ds: xr.Dataset, cfg: Any, animation: Path, poster: Path) -> None:
+    """Animation and poster of a sphere scene: one panel per run, one shared clock."""
+    s = cfg.scene
+    runs = [str(r) for r in ds.run.values]
+    times = ds.time.values
+    draw_set = {str(x) for x in s.draw}
+    n_alpha, n_R = max(24, s.mesh.n_alpha * 2 // 5), max(6, s.mesh.n_R // 2)
+    surfaces = [_surface(ds, r) for r in range(len(runs))]
+    cmap = plt.get_cmap("viridis")
+    u, v = np.meshgrid(np.linspace(0, 2 * np.pi, 16), np.linspace(0, np.pi, 9))
+    unit = np.stack([np.cos(u) * np.sin(v), np.sin(u) * np.sin(v), np.cos(v)], axis=-1)
+    ring = np.stack([np.cos(np.linspace(0, 2 * np.pi, 40)), np.sin(np.linspace(0, 2 * np.pi, 40)),
+                     np.zeros(40)], axis=-1)
+
+    def draw(fig, i: int) -> None:
+        t = float(times[i])
+        fig.suptitle(f"{ds.attrs.get('title', '')}   t = {t:5.1f} s", fontsize=10)
+        for r, name in enumerate(runs):
+            surf = surfaces[r]
+            direction = str(ds.direction.values[r]).replace(", ", "\n")
+            ax = _frame_axes(fig, (r, len(runs)), surf.R1 * 0.92,
+                             f"{name.upper()}\n{direction}")
+            k = min(i, int(ds.frames_run.values[r]) - 1)
+            ph = [float(ds[n].values[r, i]) for n in ("phase_r", "phase_a", "inclination")]
+            if "membrane" in draw_set:
+                pos, w = surface_mesh(surf, *ph, n_alpha, n_R)
+                _draw_surface(ax, pos, w, alpha=0.85)
+            c = ds.centre.values[r]
+            if "trace" in draw_set and k > 0:
+                ax.scatter(c[: k + 1, 0], c[: k + 1, 1], c[: k + 1, 2] + 0.01, s=3,
+                           c=cmap(times[: k + 1] / times[-1]), depthshade=False, zorder=2)
+            b = float(ds.sphere_radius.values[r])
+            rot = _quat_matrix(ds.quaternion.values[r, k]) if "quaternion" in ds else np.eye(3)
+            if "sphere" in draw_set:
+                ball = c[k] + b * unit
+                ax.plot_surface(ball[..., 0], ball[..., 1], ball[..., 2], color="0.88",
+                                linewidth=0, shade=True, zorder=3)
+            if "marker" in draw_set:
+                tip = c[k] + rot @ np.array([0.0, 0.0, 2.0 * b])
+                ax.plot(*zip(c[k], tip, strict=True), color="#d1342f", lw=2.2, zorder=4)
+            if "band" in draw_set:
+                band = c[k] + 1.01 * b * ring @ rot.T
+                ax.plot(band[:, 0], band[:, 1], band[:, 2], color="#1f6fd1", lw=1.8, zorder=4)
+
+    every = s.media.every
+    indices = list(range(0, times.size, every))
+    if indices[-1] != times.size - 1:
+        indices.append(times.size - 1)
+    poster_index = int(np.argmin(np.abs(times - s.media.poster_time)))
+    frame_ms = 1000.0 * every / s.playback.fps
+    _render(draw, indices, poster_index, s.media, frame_ms, animation, poster)
+
+
+# ----------------------------------------------------------------------- kinematic scenes
+def surface_family_media(ds: xr.Dataset, cfg: Any, animation: Path, poster: Path) -> None:
+    """The family swept from the first to the last inclination; poster at poster_time deg."""
+    s = cfg.scene
+    surf = _surface(ds)
+    incl = ds.inclination.values
+    pr, pa = float(ds.phase_r), float(ds.phase_a)
+    n_alpha, n_R = max(24, s.mesh.n_alpha // 2), max(6, s.mesh.n_R // 2)
+
+    def draw(fig, k: int) -> None:
+        ax = _frame_axes(fig, (0, 1), surf.R1 * 0.8)
+        ax.set_zlim(-0.2 * surf.R1, 0.8 * surf.R1)
+        pos, w = surface_mesh(surf, pr, pa, math.radians(float(incl[k])), n_alpha, n_R)
+        _draw_surface(ax, pos, w)
+        fig.suptitle(f"{ds.attrs.get('title', '')}\ngamma = {incl[k]:.0f} deg: "
+                     f"{ds.surface_class.values[k]}", fontsize=10)
+
+    indices = list(range(0, incl.size, s.media.every))
+    poster_index = int(np.argmin(np.abs(incl - s.media.poster_time)))
+    _render(draw, indices, poster_index, s.media, 1000.0 / 12, animation, poster)
+
+
+def velocity_normal_media(ds: xr.Dataset, cfg: Any, animation: Path, poster: Path) -> None:
+    """One panel per mode: the surface, the point, its normal (blue) and velocity (red)."""
+    s = cfg.scene
+    surf = _surface(ds)
+    modes = [str(m) for m in ds.mode.values]
+    times = ds.time.values
+    n_alpha, n_R = max(24, s.mesh.n_alpha // 2), max(6, s.mesh.n_R // 2)
+    scale = s.velocity_scale * s.magnification
+
+    def draw(fig, i: int) -> None:
+        fig.suptitle(f"{ds.attrs.get('title', '')}   t = {times[i]:4.2f} s   "
+                     f"(normal {s.normal_length} u; velocity x{s.magnification:g})", fontsize=10)
+        for m, mode in enumerate(modes):
+            ax = _frame_axes(fig, (m, len(modes)), surf.R1 * 0.8,
+                             f"{mode}: |c_t| = {float(ds.speed.values[m, i]):.3f} u/s")
+            ph = [float(ds[n].values[m, i]) for n in ("phase_r", "phase_a", "inclination")]
+            pos, w = surface_mesh(surf, *ph, n_alpha, n_R)
+            _draw_surface(ax, pos, w, alpha=0.6)
+            p = ds.position.values[m, i]
+            nv = p + s.normal_length * ds.normal.values[m, i]
+            vv = p + scale * ds.velocity.values[m, i]
+            ax.plot(*zip(p, nv, strict=True), color="#1f6fd1", lw=2.4, zorder=3)
+            ax.plot(*zip(p, vv, strict=True), color="#d1342f", lw=2.4, zorder=3)
+            ax.scatter(*p, color="k", s=12, depthshade=False, zorder=4)
+
+    indices = list(range(0, times.size, s.media.every))
+    poster_index = int(np.argmin(np.abs(times - s.media.poster_time)))
+    frame_ms = 1000.0 * (times[1] - times[0]) * s.media.every
+    _render(draw, indices, poster_index, s.media, frame_ms, animation, poster)

@@ -1,0 +1,112 @@
+"""A scene's ``index.html``: one self-contained file that opens offline.
+
+The page is the template ``web/page.html`` with everything inline: the style, the three.js
+bundle (:mod:`creatio.scenes.assets`), the viewer script and the scene's dataset as JSON
+(numeric arrays as base64 little-endian float64, so the page draws the dataset's own
+numbers). No request leaves the page: no CDN, no server, no font download.
+"""
+
+from __future__ import annotations
+
+import base64
+import html
+import json
+import re
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import xarray as xr
+
+import creatio
+from creatio.scenes.assets import web_file
+
+__all__ = ["MAX_BYTES", "page_data", "write_page"]
+
+#: The largest page the project ships (the issue's limit).
+MAX_BYTES = 5 * 1024 * 1024
+
+#: Dataset attributes the page needs (provenance is shown in the footer instead).
+PAGE_ATTRS = ("kind", "scene", "frame_interval", "playback_speed", "playback_fps", "draw",
+              "readouts", "mesh", "time", "alpha_deg", "R", "normal_length", "velocity_scale",
+              "magnification", "R0", "dR", "A", "Kr", "Ka")
+
+
+def _attr(value: Any) -> Any:
+    if isinstance(value, str) and value[:1] in "[{":
+        try:
+            return json.loads(value)
+        except json.JSONDecodeError:
+            return value
+    if isinstance(value, np.generic):
+        return value.item()
+    if isinstance(value, np.ndarray):
+        return value.tolist()
+    return value
+
+
+def page_data(ds: xr.Dataset) -> dict[str, Any]:
+    """The JSON the viewer reads: kind, attributes, coordinates, arrays, labels and units."""
+    arrays, strings, labels, units = {}, {}, {}, {}
+    for name, var in {**ds.coords, **ds.data_vars}.items():
+        if var.dtype.kind in "fiub":
+            values = np.ascontiguousarray(var.values, dtype="<f8")
+            arrays[name] = {"shape": list(values.shape),
+                            "b64": base64.b64encode(values.tobytes()).decode("ascii")}
+        else:
+            strings[name] = [str(v) for v in np.atleast_1d(var.values)]
+        if "long_name" in var.attrs:
+            labels[name] = str(var.attrs["long_name"])
+        if "units" in var.attrs:
+            units[name] = str(var.attrs["units"]).replace("degree", "deg")
+    attrs = {k: _attr(ds.attrs[k]) for k in PAGE_ATTRS if k in ds.attrs}
+    coords = {name: strings[name] for name in ("run", "mode") if name in strings}
+    return {"kind": attrs["kind"], "attrs": attrs, "coords": coords, "arrays": arrays,
+            "strings": strings, "labels": labels, "units": units}
+
+
+def _provenance(ds: xr.Dataset, library_sha: str) -> str:
+    a = ds.attrs
+    dirty = " (dirty)" if int(a.get("git_dirty", 0)) else ""
+    return html.escape(
+        f"scene {a.get('scene')} · config sha256 {str(a.get('config_sha256', ''))[:12]} · "
+        f"creatio {a.get('creatio_version')} · commit {str(a.get('git_commit', ''))[:10]}"
+        f"{dirty} · created {a.get('date_created')} · three.js bundle sha256 "
+        f"{library_sha[:12]}")
+
+
+def write_page(ds: xr.Dataset, out: str | Path, library: str | Path) -> Path:
+    """Write the scene's page to ``out`` from its dataset and the three.js bundle."""
+    from creatio.scenes.assets import digest
+
+    out = Path(out)
+    lib_text = Path(library).read_text(encoding="utf-8")
+    revision = re.search(r'REVISION:\(\)=>(\w+)', lib_text)
+    rev = ""
+    if revision:
+        value = re.search(rf'\b{revision.group(1)}="(\d+)"', lib_text)
+        rev = value.group(1) if value else ""
+    data = json.dumps(page_data(ds), separators=(",", ":"), allow_nan=False
+                      ).replace("</", "<\\/")
+    subtitle = ds.attrs.get("subtitle", "")
+    text = web_file("page.html")
+    for key, value in (("{{CSS}}", web_file("viewer.css")),
+                       ("{{VIEWER}}", web_file("viewer.js")),
+                       ("{{TITLE}}", html.escape(str(ds.attrs.get("title", "")))),
+                       ("{{SUBTITLE}}", html.escape(str(subtitle))),
+                       ("{{VERSION}}", creatio.__version__),
+                       ("{{PROVENANCE}}", _provenance(ds, digest(library))),
+                       ("{{THREE_REVISION}}", rev),
+                       ("{{DATA}}", data),
+                       ("{{THREE}}", lib_text.replace("</script", "<\\/script"))):
+        text = text.replace(key, value)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    tmp = out.with_name(f".{out.name}.tmp")
+    tmp.write_text(text, encoding="utf-8")
+    size = tmp.stat().st_size
+    if size > MAX_BYTES:
+        tmp.unlink()
+        raise ValueError(f"{out}: the page would be {size / 1e6:.1f} MB, above the "
+                         f"{MAX_BYTES / 2**20:.0f} MB limit: lower scene.mesh or the frame rate")
+    tmp.replace(out)
+    return out

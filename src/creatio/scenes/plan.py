@@ -1,0 +1,197 @@
+"""What a scene computes, planned from what it draws; and the Snakefile's scene planning.
+
+A sphere scene draws frames, not the 0.1 s history: each study it shows is run once, at its
+configured step, with histories written only at the frame times (``solver.output_interval``
+= playback speed / fps), no energy bookkeeping (no scene shows energy), no dt / refine
+partner, and rotation asked for only when the marker, the band or a spin readout is drawn
+(otherwise the core integrates it only where friction couples it to the path). Where the
+study's own dataset for the same resolved config already exists and holds every frame (its
+output interval divides the frame interval, and it integrated the rotation if that is
+needed), the scene reuses it instead of computing again.
+
+Planning imports neither xarray nor the compiler: reuse is decided from the dataset's path,
+which the study's resolved config determines; the scene job checks the file's config hash
+when it reads it.
+"""
+
+from __future__ import annotations
+
+import functools
+import sys
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from creatio.errors import ConfigError
+from creatio.model.numerics import steps_in
+from creatio.pipeline.config import Resolved
+from creatio.pipeline.config import output_root as study_root
+from creatio.scenes import registry
+from creatio.scenes.config import SceneResolved, output_root, resolve, route
+from creatio.studies import registry as studies
+from creatio.studies.schema import Output
+
+__all__ = ["RunNeed", "ScenePlan", "SceneRuns", "needs", "reusable"]
+
+
+@dataclass(frozen=True)
+class RunNeed:
+    """What one study of a sphere scene must provide: outputs, frame interval, step, span."""
+
+    study: str
+    outputs: tuple[str, ...]
+    interval: float
+    dt: float
+    duration: float
+
+    @property
+    def frames(self) -> int:
+        """Number of frame times, both ends included."""
+        return round(self.duration / self.interval) + 1
+
+    def changes(self) -> dict[str, Any]:
+        """The config changes that make a study run compute exactly this
+        (:func:`creatio.studies.schema.vary`)."""
+        return {"study.outputs": [Output(o) for o in self.outputs],
+                "solver.output_interval": self.interval}
+
+
+def needs(resolved: SceneResolved) -> list[RunNeed]:
+    """What each study of a sphere scene must provide (empty for the kinematic scenes)."""
+    if resolved.entry.kind is not registry.SPHERE:
+        return []
+    s = resolved.obj.scene
+    outputs = ("trajectory", "rotation") if s.rotation else ("trajectory",)
+    out = []
+    for name in s.studies:
+        base = resolved.obj.bases[name]
+        out.append(RunNeed(name, outputs, s.playback.interval, base.solver.dt,
+                           base.study.duration))
+    return out
+
+
+def _holds(base: Resolved, need: RunNeed) -> bool:
+    """Whether the study's own dataset (its configured dt) holds every frame the need asks
+    for: output interval dividing the frame interval, rotation integrated where needed."""
+    cfg = base.obj
+    if steps_in(need.interval, cfg.solver.output_interval) is None:
+        return False
+    if "rotation" in need.outputs and "rotation" not in [str(o) for o in cfg.study.outputs]:
+        return cfg.sphere_problem().rotation_integrated
+    return True
+
+
+def reusable(base: Resolved, need: RunNeed, data_dir: str | Path = "data") -> str | None:
+    """The study dataset a scene can read instead of computing, if it exists and holds the
+    need; else None. Path only (the job checks the file's config hash when it reads it)."""
+    if not _holds(base, need):
+        return None
+    entry = studies.get(base.study)
+    path = entry.datasets(str(study_root(base, data_dir)), base.obj)[0]
+    return path if Path(path).is_file() else None
+
+
+@dataclass(frozen=True)
+class ScenePlan:
+    """One scene's resolved config, the overrides that reached it, and its output root."""
+
+    scene: str
+    resolved: SceneResolved
+    overrides: tuple[str, ...]
+    root: str
+
+    @property
+    def entry(self) -> registry.Scene:
+        """The registry entry of the scene."""
+        return registry.get(self.scene)
+
+    @property
+    def files(self) -> list[str]:
+        """scene.nc, index.html, the animation and the poster."""
+        return self.entry.files(self.root)
+
+    def reuse(self, data_dir: str | Path = "data") -> dict[str, str]:
+        """{study: dataset path} of the study datasets this scene reads instead of computing."""
+        bases = self.resolved.bases
+        out = {}
+        for need in needs(self.resolved):
+            path = reusable(bases[need.study], need, data_dir)
+            if path is not None:
+                out[need.study] = path
+        return out
+
+
+class SceneRuns:
+    """The scenes of one workflow invocation, planned on first use (`snakemake scenes`).
+
+    Overrides reach every scene whose config has the key (see :func:`route`); an override
+    no selected scene has is refused, as for studies. Jobs look their config up by
+    (output root, scene); a job re-invoked on its own (a cluster node) plans the same again
+    from the same --config.
+    """
+
+    def __init__(self, overrides: Any, scenes: Any = None, data_dir: str = "data") -> None:
+        from creatio.pipeline.planning import as_list
+
+        self.overrides = as_list(overrides)
+        self.scenes = as_list(scenes) if scenes is not None else list(registry.SCENES)
+        self.data_dir = data_dir
+
+    @functools.cached_property
+    def plans(self) -> dict[str, ScenePlan]:
+        """Resolve every selected scene under the overrides."""
+        unknown = [s for s in self.scenes if s not in registry.SCENES]
+        if unknown:
+            raise ConfigError("scenes", unknown, f"must be among {', '.join(registry.SCENES)}")
+        used: set[str] = set()
+        out = {}
+        for scene in self.scenes:
+            routed, applied = route(scene, self.overrides)
+            used.update(applied)
+            resolved = resolve(scene, routed)
+            root = str(output_root(resolved, self.data_dir))
+            out[scene] = ScenePlan(scene, resolved, tuple(routed), root)
+            if routed:
+                print(f"creatio: scene {scene} {routed} -> {root}", file=sys.stderr)
+        unused = [o for o in self.overrides if o not in used]
+        if unused:
+            raise ConfigError("overrides", unused, "no selected scene has these keys")
+        return out
+
+    def targets(self) -> list[str]:
+        """Every file of every selected scene."""
+        return [f for p in self.plans.values() for f in p.files]
+
+    def built(self) -> list[str]:
+        """The files of the scenes whose every file exists (what a report can include)."""
+        return [f for p in self.plans.values() if all(Path(x).is_file() for x in p.files)
+                for f in p.files]
+
+    def get(self, root: str, scene: str) -> ScenePlan:
+        """The plan that writes ``<root>/scenes/<scene>/``: this invocation's, or the default
+        config's when the root is the data directory (a scene file asked for by path)."""
+        plan = self.plans.get(scene) if scene in self.scenes else None
+        if plan is not None and plan.root == str(root):
+            return plan
+        if str(root) == self.data_dir:
+            return ScenePlan(scene, resolve(scene), (), self.data_dir)
+        raise ConfigError("output", f"{root}/scenes/{scene}",
+                          "no scene configuration of this invocation writes there")
+
+    def yaml(self, root: str, scene: str) -> str:
+        """The canonical resolved YAML of a scene job (its only config parameter)."""
+        return self.get(root, scene).resolved.yaml
+
+    def reuse(self, root: str, scene: str) -> dict[str, str]:
+        """{study: dataset} a scene job reads instead of computing (its extra inputs)."""
+        return self.get(root, scene).reuse(self.data_dir)
+
+    def reuse_args(self, root: str, scene: str) -> str:
+        """``--reuse STUDY=PATH ...`` for `creatio task scene dataset`."""
+        return " ".join(f"--reuse {s}={p}" for s, p in self.reuse(root, scene).items())
+
+
+def scene_ids(scenes: Sequence[str] | None = None) -> str:
+    """A regex of the registered scene ids, for Snakemake wildcard constraints."""
+    return "|".join(scenes or registry.SCENES)

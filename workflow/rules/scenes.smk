@@ -1,0 +1,97 @@
+# Scenes: the notebook's viewers as products (creatio.scenes), planned from what they draw.
+#
+#   snakemake scenes -c 2                                       data/scenes/<scene>/
+#   snakemake scenes -c 2 --config 'overrides=["sphere.mu=0.3"]'  -> data/runs/<hash>/scenes/
+#   snakemake scenes -c 2 --config 'scenes=["en02"]'            a subset of the scenes
+#
+# Each scene writes scene.nc (exactly what it draws, with provenance), index.html (one offline
+# file), animation.webp and poster.png. A sphere scene reads a study dataset of the same
+# resolved config when one exists (its extra input), else computes its frames alone.
+from creatio.scenes.assets import library_inputs
+from creatio.scenes.plan import SceneRuns, scene_ids
+
+SCENES = SceneRuns(config.get("overrides"), config.get("scenes"))
+SCENE_LIBRARY = "data/scenes/lib/three.min.js"
+
+
+rule scenes:
+    input:
+        lambda wc: SCENES.targets(),
+
+
+rule scene_library:
+    input:
+        [str(p) for p in library_inputs()],
+    output:
+        SCENE_LIBRARY,
+    params:
+        creatio=CREATIO,
+    conda:
+        "../envs/scene-library.yaml"
+    log:
+        "data/logs/scenes/library.log",
+    shell:
+        "{params.creatio} task scene library {output} 2> {log}"
+
+
+rule scene_dataset:
+    input:
+        lambda wc: list(SCENES.reuse(wc.root, wc.scene).values()),
+    output:
+        "{root}/scenes/{scene}/scene.nc",
+    wildcard_constraints:
+        scene=scene_ids(),
+    params:
+        creatio=CREATIO,
+        config=lambda wc: SCENES.yaml(wc.root, wc.scene),
+        reuse=lambda wc: SCENES.reuse_args(wc.root, wc.scene),
+    conda:
+        "../envs/creatio.yaml"
+    benchmark:
+        "{root}/logs/scenes/{scene}_dataset.tsv"
+    log:
+        "{root}/logs/scenes/{scene}_dataset.log",
+    shell:
+        "{params.creatio} task scene dataset {wildcards.scene} {output} "
+        "--config-yaml {params.config:q} {params.reuse} 2> {log}"
+
+
+rule scene_page:
+    input:
+        nc="{root}/scenes/{scene}/scene.nc",
+        library=SCENE_LIBRARY,
+    output:
+        reported_scene("{root}/scenes/{scene}/index.html"),
+    wildcard_constraints:
+        scene=scene_ids(),
+    params:
+        creatio=CREATIO,
+    conda:
+        "../envs/creatio.yaml"
+    benchmark:
+        "{root}/logs/scenes/{scene}_page.tsv"
+    log:
+        "{root}/logs/scenes/{scene}_page.log",
+    shell:
+        "{params.creatio} task scene page {input.nc} {input.library} {output} 2> {log}"
+
+
+rule scene_media:
+    input:
+        "{root}/scenes/{scene}/scene.nc",
+    output:
+        animation=reported_scene("{root}/scenes/{scene}/animation.webp"),
+        poster=reported_scene("{root}/scenes/{scene}/poster.png"),
+    wildcard_constraints:
+        scene=scene_ids(),
+    params:
+        creatio=CREATIO,
+    conda:
+        "../envs/creatio.yaml"
+    benchmark:
+        "{root}/logs/scenes/{scene}_media.tsv"
+    log:
+        "{root}/logs/scenes/{scene}_media.log",
+    shell:
+        "{params.creatio} task scene media {input} {output.animation} {output.poster} "
+        "2> {log}"
