@@ -58,7 +58,7 @@ def _frame_axes(fig, where: tuple[int, int], extent: float, title: str = ""):
     ax.set_xlim(-extent, extent)
     ax.set_ylim(-extent, extent)
     ax.set_zlim(-0.5 * extent, 0.5 * extent)
-    ax.set_box_aspect((1, 1, 0.5), zoom=1.3)
+    ax.set_box_aspect((1, 1, 0.5), zoom=1.3 if n == 1 else 1.12)
     ax.view_init(elev=38, azim=-80)
     ax.set_axis_off()
     # Draw in the order of zorder (membrane, trace, sphere, marker), not by mean depth, which
