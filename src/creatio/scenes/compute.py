@@ -38,6 +38,9 @@ log = logging.getLogger("creatio")
 
 COMPONENTS = ["x", "y", "z"]
 
+#: The velocity/normal explorer's modes in the notebook's order.
+NOTEBOOK_MODES = ("angular", "radial", "oscillation")
+
 #: Each readout: (label, unit, how to take it from a study dataset).
 READOUTS: dict[Readout, tuple[str, str, Any]] = {
     Readout.time: ("time", "s", None),
@@ -268,7 +271,10 @@ def velocity_normal_scene(resolved: Any, reuse: Mapping[str, Any] | None = None)
     times = np.linspace(0.0, s.duration, s.frames)
     alpha = math.radians(s.alpha_deg)
     cols: dict[str, list] = {}
-    for phases in s.modes.values():
+    # The notebook's order first (a resolved config lists its modes sorted by name).
+    names = sorted(s.modes, key=lambda m: (NOTEBOOK_MODES.index(m) if m in NOTEBOOK_MODES
+                                           else len(NOTEBOOK_MODES), m))
+    for phases in (s.modes[m] for m in names):
         laws = phases.laws()
         fr = Frame(surface, Motion(*laws), alpha, s.R, times)
         cols.setdefault("position", []).append(fr.position)
@@ -288,7 +294,7 @@ def velocity_normal_scene(resolved: Any, reuse: Mapping[str, Any] | None = None)
          "speed": (("mode", "frame"), np.stack(cols["speed"]), {"units": "u s-1"}),
          **{name: (("mode", "frame"), np.stack(cols[name]), {"units": "rad"})
             for name in ("phase_r", "phase_a", "inclination")}},
-        coords={"mode": ("mode", list(s.modes)),
+        coords={"mode": ("mode", names),
                 "time": ("frame", times, {"standard_name": "time", "units": "s"}),
                 "component": ("component", COMPONENTS)},
     )
