@@ -6,6 +6,7 @@
     creatio diff A B                                     compare datasets, dirs or releases
     creatio task dataset|report|sweep|compare            one workflow step (the Snakefile's)
     creatio task scene library|dataset|page|media        one step of a scene (scenes.smk)
+    creatio --version
 """
 
 from __future__ import annotations
@@ -140,6 +141,14 @@ def _prevalidate(args: Sequence[str], config_name: str) -> None:
         return
     overrides = [a for a in args if not a.startswith("hydra")]
     try:
+        bare = [a for a in overrides if "=" not in a]
+        if bare:
+            from creatio.studies import registry
+
+            entry = registry.STUDIES.get(bare[0])
+            hint = (f"pick it with {entry.group}={bare[0]}" if entry is not None
+                    else "an override is KEY=VALUE, e.g. sphere.mu=0.3")
+            raise ConfigError(bare[0], "", hint)
         if config_name == "probe":
             try:
                 cfg = compose("", overrides, config_name="probe")
@@ -271,12 +280,15 @@ def _usage() -> str:
                         or "none", conf=CONF_DIR)
 
 
-def main(argv: Sequence[str] | None = None) -> int:
-    """Entry point of the `creatio` console script."""
-    argv = list(sys.argv[1:] if argv is None else argv)
-    logging.basicConfig(level=logging.INFO, format="%(message)s", stream=sys.stderr)
+def _dispatch(argv: list[str]) -> int:
+    """Run one command."""
     if not argv or argv[0] in ("-h", "--help", "help"):
         print(_usage())
+        return 0
+    if argv[0] in ("-V", "--version"):
+        from creatio import __version__
+
+        print(f"creatio {__version__}")
         return 0
     command, rest = argv[0], argv[1:]
     if command == "run" and ("-m" in rest or "--multirun" in rest):
@@ -303,9 +315,51 @@ def main(argv: Sequence[str] | None = None) -> int:
         from creatio.diff import main as diff_main
 
         return diff_main(rest)
-    print(f"creatio: unknown command {command!r}\n", file=sys.stderr)
-    print(_usage(), file=sys.stderr)
+    print(f"creatio: unknown command {command!r} (creatio --help lists them)", file=sys.stderr)
     return 2
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Entry point of the `creatio` console script: every failure is one line naming what
+    and why, with a non-zero status; CREATIO_DEBUG=1 shows the traceback instead."""
+    import os
+
+    argv = list(sys.argv[1:] if argv is None else argv)
+    logging.basicConfig(level=logging.INFO, format="%(message)s", stream=sys.stderr)
+    if os.environ.get("CREATIO_DEBUG"):
+        return _dispatch(argv)
+    try:
+        return _dispatch(argv)
+    except KeyboardInterrupt:
+        print("creatio: interrupted (nothing half-written is kept; rerun to finish)",
+              file=sys.stderr)
+        return 130
+    except ConfigError as e:
+        print(f"creatio: {e}", file=sys.stderr)
+        return 2
+    except OSError as e:
+        print(f"creatio: {_os_error(e)}", file=sys.stderr)
+        return 1
+    except Exception as e:  # noqa: BLE001 - one line, and how to see more
+        print(f"creatio: {type(e).__name__}: {str(e).splitlines()[0] if str(e) else ''} "
+              "(CREATIO_DEBUG=1 shows the traceback)", file=sys.stderr)
+        return 1
+
+
+def _os_error(e: OSError) -> str:
+    """An operating-system error as one line: the file, the cause, what to do."""
+    import errno
+
+    where = f"{e.filename}: " if e.filename else ""
+    cause = e.strerror or str(e)
+    hint = {
+        errno.ENOSPC: "free some space and rerun (no partial file was kept)",
+        errno.EDQUOT: "free some space and rerun (no partial file was kept)",
+        errno.EROFS: "write somewhere writable (snakemake -d DIR, or run from another directory)",
+        errno.EACCES: "check the permissions of the directory, or write elsewhere",
+        errno.ENOENT: "check the path (snakemake all makes the default outputs)",
+    }.get(e.errno or 0, "")
+    return f"{where}{cause}" + (f": {hint}" if hint else "")
 
 
 if __name__ == "__main__":

@@ -56,6 +56,11 @@ BAD = [
     ("en02", ["study.initial.R=1.8"], "study.initial.R", "[0, geometry.dR"),
     ("en02", ["study.duration=120.0007"], "study.duration", "integer multiple"),
     ("en02", ["geometry=nowhere"], "geometry", "Could not find"),
+    ("en02", ["sphere.muu=0.3"], "sphere.muu", "did you mean sphere.mu?"),
+    ("en02", ["+sphere.colour=1"], "sphere.colour", "unknown key"),
+    ("en02", ["sphere.mu=nan"], "sphere.mu", "finite"),
+    ("en02", ["sphere.m=inf"], "sphere.m", "finite"),
+    ("en02", ["solver.dt=-inf"], "solver.dt", "finite"),
 ]
 
 

@@ -25,7 +25,7 @@ def dataset(study: str = "en02", config: dict | None = None, n_time: int = 5) ->
     return xr.Dataset(
         {
             "centre": (("time", "component"), np.outer(np.cos(t), [1.0, 2.0, 3.0]),
-                       {"units": "m"}),
+                       {"units": "m", "long_name": "centre"}),
             "energy": ("time", 9.81 + np.sin(t), {"units": "J"}),
             "fd_error": (("derivative", "h"), [[1e-4, 1e-6, 1e-8], [2e-4, 2e-6, 2e-8]]),
             "label": ("derivative", ["first", "second"]),
@@ -181,6 +181,13 @@ def test_changed_attribute_is_reported_volatile_ones_only_when_asked(tmp_path, c
     names = {(x["variable"], x["name"]) for x in result["datasets"]["x.nc"]["attrs"]}
     assert names == {(None, "title"), ("centre", "long_name")}
     assert result["exit_code"] == 1
+    c = a.copy(deep=True)
+    c["energy"].attrs["long_name"] = "total energy"
+    pa, pc = write_pair(tmp_path, a, c)
+    gained = diff(pa, pc)
+    assert gained["exit_code"] == 0, "an attribute new since A is reported, not counted"
+    assert gained["datasets"]["x.nc"]["added"] == ["attribute energy:long_name = total energy"]
+    assert diff(pa, pc, strict_provenance=True)["exit_code"] == 1
 
 
 def test_numeric_attributes_use_the_tolerances(tmp_path):
@@ -262,7 +269,8 @@ def test_directories_pair_files_added_removed_unchanged(tmp_path):
     assert files["removed"] == ["reports/en01.json", "studies/en01/en01.nc"]
     assert files["changed"] == ["studies/ct02/ct02.nc"]
     assert files["unchanged"] == ["reports/ct02.json"]
-    assert result["counts"]["structure"] == 4 and result["exit_code"] == 1
+    assert result["counts"]["structure"] == 2 and result["exit_code"] == 1  # removed files
+    assert result["counts"]["added"] == 2  # new files (a new study) reported, not counted
     only = diff(str(a), str(b), studies=["ct02"])
     assert only["files"]["added"] == [] and only["files"]["removed"] == []
 
@@ -285,7 +293,7 @@ def test_json_output_shape(tmp_path, capsys):
     entry = data["datasets"]["studies/ct02/ct02.nc"]
     assert {"structure", "data", "config", "attrs", "provenance", "counts"} <= set(entry)
     assert set(data["counts"]) == {"structure", "data", "config", "attrs", "reports",
-                                   "provenance"}
+                                   "provenance", "added"}
     assert data["differences"] == sum(data["counts"][c] for c in data["counted"])
 
 

@@ -60,5 +60,5 @@ def test_write_is_atomic_and_leaves_no_partial_file(tmp_path, ct02_dataset):
 
 def test_read_missing_file_is_a_clear_error(tmp_path):
     """Reading a dataset that does not exist names the path."""
-    with pytest.raises(FileNotFoundError, match="no dataset at"):
+    with pytest.raises(FileNotFoundError, match="no dataset here"):
         read_dataset(tmp_path / "nope.nc")

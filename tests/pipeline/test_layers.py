@@ -4,6 +4,7 @@ libraries, and planning a workflow loads neither the compiler nor xarray."""
 from __future__ import annotations
 
 import ast
+import os
 import subprocess
 import sys
 from pathlib import Path
@@ -66,11 +67,13 @@ def test_imports_go_one_way_and_no_private_names_cross_packages():
 
 
 def _loaded_after(code: str) -> set[str]:
-    """Which of the heavy libraries a fresh interpreter has loaded after running code."""
+    """Which of the heavy libraries a fresh interpreter has loaded after running code (the
+    config cache off, so that planning really composes)."""
     probe = (f"{code}\nimport sys\nprint(' '.join(m for m in ('numba', 'xarray', 'matplotlib', "
              "'hydra', 'snakemake', 'scipy') if m in sys.modules))")
+    env = {**os.environ, "CREATIO_CONFIG_CACHE": "off"}
     out = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True,
-                         check=True).stdout
+                         check=True, env=env).stdout
     return set(out.split())
 
 

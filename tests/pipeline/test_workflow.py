@@ -94,6 +94,7 @@ def test_bad_override_fails_before_any_job(workdir):
     assert proc.returncode != 0
     out = proc.stdout + proc.stderr
     assert "geometry.A=0.9" in out and "0 <= A < R0" in out
+    assert "Traceback" not in out and "InputFunctionException" not in out
 
 
 def test_dynamic_study_runs_both_timesteps_into_its_hash_dir(tmp_path):

@@ -38,7 +38,7 @@ from creatio.pipeline.release import (
 __all__ = ["DiffError", "Tolerance", "compare_arrays", "diff", "main", "render_text"]
 
 FORMAT = "creatio-diff/1"
-CATEGORIES = ("structure", "data", "config", "attrs", "reports", "provenance")
+CATEGORIES = ("structure", "data", "config", "attrs", "reports", "provenance", "added")
 COUNTED = ("structure", "data", "config", "attrs", "reports")
 PROVENANCE_ATTRS = ("source", "creatio_version", "git_commit", "git_dirty")
 CONFIG_ATTRS = ("config_yaml", "config_sha256")
@@ -243,6 +243,8 @@ def _diff_attrs(a: dict, b: dict, var: str | None, tol: Tolerance, all_attrs: bo
         old, new = a.get(name, missing), b.get(name, missing)
         provenance = var is None and (name in PROVENANCE_ATTRS or name.startswith("version_"))
         category = "provenance" if provenance else "attrs"
+        if old is missing and not provenance:  # new since A: reported, not a difference
+            category = "added"
         if old is missing or new is missing:
             out.append(_attr_entry(var, name, None if old is missing else old,
                                    None if new is missing else new, True, category))
@@ -311,9 +313,13 @@ def diff_datasets(a: xr.Dataset, b: xr.Dataset, config_a: dict, config_b: dict,
     for name in sorted(names_a - names_b, key=str):
         what = "coordinate" if name in a.dims else "variable"
         structure.append(_structure(f"{what}_removed", name, f"{what} {name} removed"))
+    added: list[str] = []
     for name in sorted(names_b - names_a, key=str):
         what = "coordinate" if name in b.dims else "variable"
-        structure.append(_structure(f"{what}_added", name, f"{what} {name} added"))
+        if what == "variable" and all(d in a.dims for d in b[name].dims):
+            added.append(f"variable {name}")  # a new output on the same dimensions
+        else:
+            structure.append(_structure(f"{what}_added", name, f"{what} {name} added"))
     compared = 0
     for name in sorted(names_a & names_b, key=str):
         va, vb = a[name], b[name]
@@ -333,12 +339,12 @@ def diff_datasets(a: xr.Dataset, b: xr.Dataset, config_a: dict, config_b: dict,
         if index and va.shape != vb.shape:
             old, new = va.values.tolist(), vb.values.tolist()
             old_set, new_set = set(old), set(new)
-            added = [v for v in new if v not in old_set]
+            gained = [v for v in new if v not in old_set]
             removed = [v for v in old if v not in new_set]
             structure.append(_structure(
                 "coordinate_values", name,
                 f"coordinate {name}: {len(removed)} values removed {removed[:4]}, "
-                f"{len(added)} added {added[:4]}", removed, added))
+                f"{len(gained)} added {gained[:4]}", removed, gained))
             continue
         stats, reason = _compare_variable(name, va, vb, tol)
         if stats is None:
@@ -354,9 +360,14 @@ def diff_datasets(a: xr.Dataset, b: xr.Dataset, config_a: dict, config_b: dict,
             data[name] = stats
     global_attrs = _diff_attrs(a.attrs, b.attrs, None, tol, all_attrs, skip=CONFIG_ATTRS)
     attrs = global_attrs + attrs
-    config = _diff_config(config_a, config_b)
+    added += [f"attribute {x['variable'] + ':' if x['variable'] else ''}{x['name']} = "
+              f"{_val(x['new'], 30)}" for x in attrs if x["category"] == "added"]
+    config_all = _diff_config(config_a, config_b)
+    added += [f"config {c['key']} = {_val(c['new'], 30)}" for c in config_all
+              if c["change"] == "added"]
+    config = [c for c in config_all if c["change"] != "added"]
     sha_a, sha_b = a.attrs.get("config_sha256"), b.attrs.get("config_sha256")
-    if not config and sha_a != sha_b:
+    if not config_all and sha_a != sha_b:
         config.append({"key": "config_sha256", "old": sha_a, "new": sha_b, "change": "changed"})
     provenance = [x for x in attrs if x["category"] == "provenance"]
     result: dict[str, Any] = {
@@ -368,6 +379,7 @@ def diff_datasets(a: xr.Dataset, b: xr.Dataset, config_a: dict, config_b: dict,
         "config": config,
         "attrs": [x for x in attrs if x["category"] == "attrs"],
         "provenance": provenance,
+        "added": added,
     }
     result["counts"] = {
         "structure": len(structure),
@@ -376,6 +388,7 @@ def diff_datasets(a: xr.Dataset, b: xr.Dataset, config_a: dict, config_b: dict,
         "attrs": sum(1 for x in result["attrs"] if x["beyond"]),
         "reports": 0,
         "provenance": len(provenance),
+        "added": len(added),
     }
     return result
 
@@ -400,8 +413,9 @@ def diff_reports(a: dict, b: dict, tol: Tolerance) -> dict[str, Any]:
             entry["change"] = float(new) - float(old)
             entry["rel_change"] = _rel_change(float(old), float(new))
         figures.append(entry)
-    for f in figures:
-        f["category"] = "config" if f["key"] in CONFIG_ATTRS else "reports"
+    for f in figures:  # the config's hash: judged key by key in the datasets' comparison
+        f["category"] = ("provenance" if f["key"] in CONFIG_ATTRS
+                         else "added" if f["status"] == "added" else "reports")
     counts = dict.fromkeys(CATEGORIES, 0)
     for f in figures:
         counts[f["category"]] += f["beyond"]
@@ -580,9 +594,10 @@ def diff(
             continue
         result = _compare_files(pa, pb, kind, tol, all_attrs)
         (datasets if kind == "dataset" else reports)[rel] = result
-    counted = COUNTED + (("provenance",) if strict_provenance else ())
+    counted = COUNTED + (("provenance", "added") if strict_provenance else ())
     counts = dict.fromkeys(CATEGORIES, 0)
-    counts["structure"] = len(added) + len(removed)
+    counts["structure"] = len(removed)
+    counts["added"] = len(added)  # new files since A (a new study): reported, not counted
     changed, unchanged = [], list(identical)
     for rel, result in {**datasets, **reports}.items():
         for cat, n in result["counts"].items():
@@ -703,6 +718,9 @@ def _dataset_lines(rel: str, r: dict[str, Any], verbose: bool) -> list[str]:
                          f"{_num(s.get('max_rel')):>9}{_num(s.get('rms')):>9}"
                          f"{s['n_beyond']:>6}/{s['n']:<5} {at}{ab}{nan}")
         lines += more
+    if r.get("added"):
+        shown, more = _more(r["added"], verbose)
+        lines += [f"  added      {x} (new since A: not counted)" for x in shown] + more
     attrs = [x for x in r["attrs"] if verbose or x["beyond"]]
     if attrs:
         shown, more = _more(attrs, verbose)
@@ -716,13 +734,16 @@ def _dataset_lines(rel: str, r: dict[str, Any], verbose: bool) -> list[str]:
 
 
 def _report_lines(rel: str, r: dict[str, Any], verbose: bool) -> list[str]:
-    beyond = [f for f in r["figures"] if f["beyond"]]
+    beyond = [f for f in r["figures"] if f["beyond"] and f["category"] == "reports"]
     head = f"{rel}: {len(beyond)} figure(s) beyond tolerance"
     within = len(r["figures"]) - len(beyond)
     if within:
         head += f", {within} changed within tolerance"
     lines = [head]
     rows = r["figures"] if verbose else beyond
+    new = [f["key"] for f in r["figures"] if f["category"] == "added"]
+    if new:
+        lines.append(f"  added      {_val(', '.join(new), 70)} (new since A: not counted)")
     if rows:
         lines.append(f"  {'figure':<30}{'old':>24}{'new':>24}{'change':>10}{'rel':>10}")
         shown, more = _more(rows, verbose)
@@ -773,6 +794,11 @@ def render_text(result: dict[str, Any], verbose: bool = False) -> str:
             lines.append(f"  {p['name']}: {_val(p['old'], 30)} -> {_val(p['new'], 30)} "
                          f"({len(p['files'])} dataset(s))")
         lines += more
+    new = {rel: r for rel, r in {**result["datasets"], **result["reports"]}.items()
+           if r["counts"].get("added")}
+    if new and not verbose:
+        lines += ["", "new since A (not counted without --strict-provenance): "
+                  + "; ".join(f"{rel}: {_new_since(r)}" for rel, r in new.items())]
     for w in result["warnings"]:
         lines.append(f"warning: {w}")
     counts = result["counts"]
@@ -780,6 +806,15 @@ def render_text(result: dict[str, Any], verbose: bool = False) -> str:
     lines += ["", f"result: {result['differences']} difference(s) beyond tolerance"
               + (f" ({parts})" if parts else "") + f" -> exit {result['exit_code']}"]
     return "\n".join(lines) + "\n"
+
+
+def _new_since(r: dict[str, Any]) -> str:
+    """The names of what a file gained since A (variables, attributes, config keys, figures)."""
+    if r["kind"] == "report":
+        names = [f["key"] for f in r["figures"] if f["category"] == "added"]
+    else:
+        names = [x.split(" = ")[0].split(" ", 1)[1] for x in r["added"]]
+    return _val(", ".join(names), 80)
 
 
 # ------------------------------------------------------------------------------ CLI

@@ -12,10 +12,11 @@ from __future__ import annotations
 
 import functools
 import hashlib
+import math
 import os
 import pickle
 from collections.abc import Sequence
-from dataclasses import dataclass, fields, is_dataclass
+from dataclasses import MISSING, dataclass, fields, is_dataclass
 from enum import Enum
 from pathlib import Path
 from typing import Any
@@ -122,8 +123,9 @@ def validate(cfg: DictConfig | dict, schema: type | None = None, check: bool = T
     ``check=False`` skips the rules (types are still enforced): a base for
     creatio.studies.schema.vary, which checks the varied config.
     """
-    cfg = OmegaConf.create(cfg) if isinstance(cfg, dict) else cfg
-    cfg = OmegaConf.masked_copy(cfg, [k for k in cfg if k != "hydra"])
+    if not isinstance(cfg, dict):  # drop the composed types: every key meets the schema anew,
+        cfg = OmegaConf.to_container(cfg, resolve=False)  # a `+key=` addition included
+    cfg = OmegaConf.create({k: v for k, v in cfg.items() if k != "hydra"})
     study = str(OmegaConf.select(cfg, "study.id", default="probe"))
     if schema is None:
         if study not in registry.STUDIES:
@@ -137,11 +139,77 @@ def validate(cfg: DictConfig | dict, schema: type | None = None, check: bool = T
     except OmegaConfBaseException as e:
         key = getattr(e, "full_key", None) or "?"
         msg = str(getattr(e, "msg", e)).splitlines()[0]
-        raise ConfigError(key, getattr(e, "value", None), msg) from None
+        value = getattr(e, "value", None)
+        if "not in" in msg:
+            msg = "unknown key" + _nearest(schema, key)
+            value = OmegaConf.select(cfg, key, default=value, throw_on_missing=False)
+        raise ConfigError(key, value, msg) from None
+    check_finite(obj)
     if check:
         obj.check()
     text = OmegaConf.to_yaml(OmegaConf.create(data), sort_keys=True)
     return Resolved(study, obj, data, text, hashlib.sha256(text.encode()).hexdigest())
+
+
+def _keys(schema: Any, prefix: str = "") -> list[str]:
+    """Every dotted key of a schema (dataclass fields, recursively)."""
+    out = []
+    for f in fields(schema):
+        key = f"{prefix}{f.name}"
+        out.append(key)
+        kind = f.type if isinstance(f.type, type) else None
+        if kind is None and f.default_factory is not MISSING:  # a dataclass default
+            kind = type(f.default_factory())
+        if kind is not None and is_dataclass(kind):
+            out += _keys(kind, f"{key}.")
+    return out
+
+
+def _nearest(schema: type, key: str) -> str:
+    """'(did you mean sphere.mu?)' for a mistyped key, or nothing when nothing is close."""
+    import difflib
+
+    keys = _keys(schema)
+    parent, _, leaf = key.rpartition(".")
+    siblings = {k.rpartition(".")[2]: k for k in keys if k.rpartition(".")[0] == parent}
+    match = difflib.get_close_matches(leaf, list(siblings), n=1, cutoff=0.6)
+    if match:
+        return f" (did you mean {siblings[match[0]]}?)"
+    match = difflib.get_close_matches(key, keys, n=1, cutoff=0.85)
+    return f" (did you mean {match[0]}?)" if match else " (not in this study's config)"
+
+
+def check_finite(obj: Any, prefix: str = "") -> None:
+    """Refuse NaN and infinities in every number of a config tree (lists included): a
+    number that cannot be finite is never meaningful here. A field may accept infinity
+    where it means something (a fixed structure's inertia): it says so with the metadata
+    ``{"infinite": True}``, or by being infinite by default."""
+    for f in fields(obj):
+        value = getattr(obj, f.name)
+        key = f"{prefix}{f.name}"
+        if is_dataclass(value):
+            check_finite(value, f"{key}.")
+            continue
+        if isinstance(value, dict):
+            for name, item in value.items():
+                if is_dataclass(item):
+                    check_finite(item, f"{key}.{name}.")
+            continue
+        default = f.default if f.default is not MISSING else (
+            f.default_factory() if f.default_factory is not MISSING else None)
+        infinite_ok = f.metadata.get("infinite", False) or _has_inf(default)
+        items = value if isinstance(value, list) else [value]
+        for i, item in enumerate(items):
+            if isinstance(item, float) and not math.isfinite(item):
+                if math.isinf(item) and infinite_ok:
+                    continue
+                where = f"{key}[{i}]" if isinstance(value, list) else key
+                raise ConfigError(where, item, "must be a finite number")
+
+
+def _has_inf(default: Any) -> bool:
+    items = default if isinstance(default, list) else [default]
+    return any(isinstance(x, float) and math.isinf(x) for x in items)
 
 
 def applicable(study: str, overrides: Sequence[str]) -> list[str]:
@@ -251,9 +319,20 @@ def override_error(
         except Exception as e:  # noqa: BLE001 - any refusal pins the culprit
             key, _, value = ov.partition("=")
             cause = e.__cause__ or e
-            reason = str(cause).splitlines()[0]
-            if "not in struct" in reason or "Could not override" in reason:
-                reason = "unknown key (not in this study's config)"
+            lines = [ln.strip() for ln in str(cause).splitlines() if ln.strip()]
+            reason = lines[0]
+            if any("Available options" in ln for ln in lines):  # Hydra's list, on one line
+                start = next(i for i, ln in enumerate(lines) if "Available options" in ln)
+                options = []
+                for ln in lines[start + 1:]:
+                    if ln.startswith("Config search path"):
+                        break
+                    options.append(ln)
+                reason += f" (available: {', '.join(options)})"
+            if any(s in reason for s in ("not in struct", "Could not override", "not in '")):
+                schema = (registry.get(study).schema if study in registry.STUDIES
+                          else ProbeConfig)
+                reason = "unknown key" + _nearest(schema, key.lstrip("+~"))
             return ConfigError(key.lstrip("+~"), value, reason)
     return ConfigError("overrides", list(overrides), str(error).splitlines()[0])
 

@@ -7,14 +7,18 @@ tells exactly how it was made.
 
 from __future__ import annotations
 
+import contextlib
 import datetime as _dt
+import errno
 import functools
 import json
 import os
 import platform
+import re
+import shutil
 import subprocess
 import sys
-from collections.abc import Mapping
+from collections.abc import Iterator, Mapping
 from importlib.metadata import PackageNotFoundError, version
 from pathlib import Path
 from typing import Any
@@ -25,7 +29,16 @@ import yaml
 
 import creatio
 
-__all__ = ["atomic_path", "git_state", "provenance", "read_dataset", "write_dataset"]
+__all__ = [
+    "atomic_path",
+    "atomic_save",
+    "atomic_write",
+    "clean_stale",
+    "git_state",
+    "provenance",
+    "read_dataset",
+    "write_dataset",
+]
 
 REPO_ROOT = Path(__file__).resolve().parents[3]
 LIBRARIES = ("numpy", "scipy", "xarray", "netCDF4", "numba", "hydra-core", "snakemake")
@@ -91,6 +104,76 @@ def atomic_path(path: Path) -> Path:
     return path.with_name(f".{path.name}.tmp-{os.getpid()}")
 
 
+def clean_stale(path: Path) -> None:
+    """Remove temporary siblings of path left by a process that no longer runs (a kill)."""
+    for tmp in path.parent.glob(f".{path.name}.tmp-*"):
+        m = re.match(r".*\.tmp-(\d+)", tmp.name)
+        if m and int(m.group(1)) != os.getpid() and not _alive(int(m.group(1))):
+            with contextlib.suppress(OSError):
+                if tmp.is_dir():
+                    shutil.rmtree(tmp)
+                else:
+                    tmp.unlink()
+
+
+def _alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        return True
+    return True
+
+
+def _no_space(path: Path, error: Exception) -> OSError:
+    """The cause of a failed write where the library names none ("NetCDF: HDF error"): a
+    full disk is named as such."""
+    try:
+        free = shutil.disk_usage(path.parent).free
+    except OSError:
+        free = -1
+    if isinstance(error, OSError) and error.errno in (errno.ENOSPC, errno.EDQUOT):
+        return OSError(error.errno, os.strerror(error.errno), str(path))
+    if 0 <= free < 1 << 20:
+        return OSError(errno.ENOSPC, os.strerror(errno.ENOSPC), str(path))
+    return OSError(errno.EIO, f"could not be written ({error})", str(path))
+
+
+@contextlib.contextmanager
+def atomic_write(path: str | Path, mode: str = "w", **kwargs: Any) -> Iterator[Any]:
+    """Open a temporary sibling of path for writing and rename it over path when the block
+    ends without error: a killed or failed writer never leaves a partial or empty file."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    clean_stale(path)
+    tmp = atomic_path(path)
+    try:
+        with tmp.open(mode, **kwargs) as fh:
+            yield fh
+        os.replace(tmp, path)
+    finally:
+        if tmp.exists():
+            tmp.unlink()
+
+
+def atomic_save(path: str | Path, save: Any) -> Path:
+    """Call save(temporary path) (a figure's savefig, say) and rename the result over path."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    clean_stale(path)
+    tmp = path.with_name(f".{path.name}.tmp-{os.getpid()}{path.suffix}")  # keeps the format
+    try:
+        save(tmp)
+        if not tmp.is_file() or tmp.stat().st_size == 0:
+            raise OSError(errno.EIO, "nothing was written", str(path))
+        os.replace(tmp, path)
+    finally:
+        if tmp.exists():
+            tmp.unlink()
+    return path
+
+
 def _netcdf_attr(value: Any) -> Any:
     if isinstance(value, bool | np.bool_):
         return int(value)
@@ -116,9 +199,13 @@ def write_dataset(ds: xr.Dataset, path: str | Path) -> Path:
         for name, var in ds.variables.items()
         if var.dtype.kind in "fiub"
     }
+    clean_stale(path)
     tmp = atomic_path(path)
     try:
-        ds.to_netcdf(tmp, format="NETCDF4", engine="netcdf4", encoding=encoding)
+        try:
+            ds.to_netcdf(tmp, format="NETCDF4", engine="netcdf4", encoding=encoding)
+        except (OSError, RuntimeError) as e:  # netCDF4 reports a full disk as "HDF error"
+            raise _no_space(path, e) from None
         os.replace(tmp, path)
     finally:
         if tmp.exists():
@@ -130,7 +217,11 @@ def read_dataset(path: str | Path) -> tuple[xr.Dataset, dict]:
     """Load a dataset fully into memory and return it with its resolved config."""
     path = Path(path)
     if not path.is_file():
-        raise FileNotFoundError(f"no dataset at {path}")
-    ds = xr.load_dataset(path, engine="netcdf4")
-    config = yaml.safe_load(ds.attrs.get("config_yaml", "")) or {}
+        raise FileNotFoundError(errno.ENOENT, "no dataset here", str(path))
+    try:
+        ds = xr.load_dataset(path, engine="netcdf4")
+        config = yaml.safe_load(ds.attrs.get("config_yaml", "")) or {}
+    except Exception as e:  # noqa: BLE001 - truncated, not NetCDF, unreadable attrs
+        raise OSError(errno.EIO, f"not a readable creatio dataset ({type(e).__name__}): "
+                      "remove it and rerun the rule that makes it", str(path)) from None
     return ds, config

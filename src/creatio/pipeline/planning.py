@@ -9,6 +9,7 @@ Output roots: ``data`` for a study's default config, ``data/runs/<hash>`` otherw
 from __future__ import annotations
 
 import functools
+import os
 import shlex
 import sys
 from collections.abc import Callable, Mapping, Sequence
@@ -22,6 +23,7 @@ from creatio.studies import registry
 
 __all__ = [
     "JobConfigs",
+    "one_line_errors",
     "analysis_ids",
     "StudyPlan",
     "StudyRuns",
@@ -35,6 +37,25 @@ __all__ = [
     "workflow_outputs",
     "workflow_version",
 ]
+
+
+def one_line_errors(fn: Callable[..., Any]) -> Callable[..., Any]:
+    """For what the Snakefile calls: a bad config, sweep or release request ends Snakemake
+    with creatio's one-line message and exit status 2 instead of an InputFunctionException
+    and its traceback. (Planning happens before any job runs or any lock is taken.)"""
+
+    @functools.wraps(fn)
+    def wrapper(*args: Any, **kwargs: Any) -> Any:
+        from creatio.pipeline.release import ReleaseError
+
+        try:
+            return fn(*args, **kwargs)
+        except (ConfigError, ReleaseError) as e:
+            sys.stderr.write(f"creatio: {e}\n")
+            sys.stderr.flush()
+            os._exit(2)
+
+    return wrapper
 
 
 def as_list(value: Any) -> list[str]:
@@ -143,6 +164,7 @@ class JobConfigs:
         """Register the config that produces datasets under root (first one wins)."""
         self._by_root.setdefault((str(root), resolved.study), resolved)
 
+    @one_line_errors
     def get(self, root: str, study: str) -> Resolved:
         """The resolved config for (root, study)."""
         key = (str(root), study)
@@ -158,14 +180,17 @@ class JobConfigs:
             raise ConfigError("output", f"{root}/{study}",
                               "no configuration of this invocation writes there") from None
 
+    @one_line_errors
     def yaml(self, root: str, study: str) -> str:
         """The canonical resolved YAML (a dataset job's config parameter)."""
         return self.get(root, study).yaml
 
+    @one_line_errors
     def datasets(self, root: str, study: str) -> list[str]:
         """Dataset paths of (root, study), in the order of the study's parts."""
         return registry.get(study).datasets(root, self.get(root, study).obj)
 
+    @one_line_errors
     def part(self, root: str, study: str, name: str) -> str:
         """Check that (root, study) has a dataset part called name; return it."""
         try:
@@ -193,6 +218,7 @@ class StudyRuns:
                 print(f"creatio: {p.study} {list(p.overrides)} -> {p.root}", file=sys.stderr)
         return plans
 
+    @one_line_errors
     def targets(self) -> list[str]:
         """Every report of every selected study, plus the EN-02 / EN-02R comparison."""
         return [f for p in self.plans.values() for f in p.reports] + compare_targets(self.plans)
@@ -221,6 +247,7 @@ class SweepRegistry:
         # Planners to run on a miss (a job re-invoked alone, e.g. on a cluster node).
         self.fallbacks: list[Callable[[], Any]] = []
 
+    @one_line_errors
     def outputs(self, study: str, sweep: Any, overrides: Any, batch: Any = None,
                 max_points: Any = None) -> list[str]:
         """Plan a sweep (once) and return its aggregate files; its batches are its jobs."""
@@ -239,6 +266,7 @@ class SweepRegistry:
                   f"{s.batch_size} -> {s.outdir}", file=sys.stderr)
         return s.outputs
 
+    @one_line_errors
     def worked(self, name: str) -> list[str]:
         """The aggregate of a sweep defined in conf/sweeps/<name>.yaml."""
         import yaml
@@ -247,6 +275,7 @@ class SweepRegistry:
         return self.outputs(spec["study"], spec["sweep"], spec.get("overrides"),
                             spec.get("batch"))
 
+    @one_line_errors
     def __getitem__(self, name: str) -> Any:
         for fallback in self.fallbacks:
             if name in self.plans:
@@ -259,6 +288,7 @@ class SweepRegistry:
 
 
 # ------------------------------------------------------------------- releases and diffs
+@one_line_errors
 def workflow_outputs(plans: Mapping[str, Any], whole: bool = False) -> list[str]:
     """Every file `snakemake all` makes with the default configs; refuses overrides, and
     with whole (a release holds every study) a subset of the studies."""
@@ -276,6 +306,7 @@ def workflow_outputs(plans: Mapping[str, Any], whole: bool = False) -> list[str]
         compare_targets(plans)
 
 
+@one_line_errors
 def workflow_version(config: Mapping[str, Any], data_dir: str | Path = "data") -> str:
     """The version `snakemake release` makes: given, valid and not released yet."""
     from creatio.pipeline.release import ReleaseError, parse_version, releases_dir
@@ -290,6 +321,7 @@ def workflow_version(config: Mapping[str, Any], data_dir: str | Path = "data") -
     return version
 
 
+@one_line_errors
 def workflow_against(config: Mapping[str, Any], data_dir: str | Path = "data") -> str:
     """The release `snakemake diff` compares data/ with: a version or latest, which exists."""
     from creatio.pipeline.release import ReleaseError, find_release
@@ -300,6 +332,7 @@ def workflow_against(config: Mapping[str, Any], data_dir: str | Path = "data") -
     return find_release(against, data_dir).name
 
 
+@one_line_errors
 def workflow_diff_options(config: Mapping[str, Any], plans: Mapping[str, Any]) -> str:
     """`creatio diff` options from --config atol=, rtol=, tol=[...] and the selected studies."""
     opts = [f"--{k} {shlex.quote(str(config[k]))}" for k in ("atol", "rtol") if k in config]

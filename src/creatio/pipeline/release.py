@@ -115,16 +115,23 @@ def read_manifest(release: str | Path) -> dict[str, Any]:
         raise ReleaseError(f"cannot read {path}: {e}") from None
     if not isinstance(manifest, dict) or manifest.get("format") != FORMAT:
         raise ReleaseError(f"{path}: not a {FORMAT} manifest")
+    files = manifest.get("files")
+    if not isinstance(files, list) or not all(
+            isinstance(f, dict) and isinstance(f.get("path"), str)
+            and isinstance(f.get("sha256"), str) for f in files):
+        raise ReleaseError(f"{path}: damaged manifest (every file needs a path and a sha256): "
+                           "restore it from git")
+    name = Path(release).name
+    if is_version(name) and manifest.get("version") != name:
+        raise ReleaseError(f"{path}: says version {manifest.get('version')!r} but lies in "
+                           f"{name}/: restore it from git")
     return manifest
 
 
 def sha256_file(path: str | Path) -> str:
     """Hex sha256 of a file's bytes."""
-    h = hashlib.sha256()
     with open(path, "rb") as fh:
-        for block in iter(lambda: fh.read(1 << 20), b""):
-            h.update(block)
-    return h.hexdigest()
+        return hashlib.file_digest(fh, "sha256").hexdigest()
 
 
 # ------------------------------------------------------------------------------ layout
@@ -239,6 +246,12 @@ def make_release(
     kept += [(r, None) for r in layout.shared if Path(r).suffix in RELEASED_REPORTS]
 
     missing = [(rel, sf) for rel, sf in kept if not (data_dir / rel).is_file()]
+    empty = [rel for rel, _ in kept if (data_dir / rel).is_file()
+             and (data_dir / rel).stat().st_size == 0]
+    if empty:
+        raise ReleaseError(f"cannot release {version}: empty files in {data_dir} (a killed "
+                           f"writer?): {', '.join(empty)}: remove them and run "
+                           "`snakemake all -c 2`")
     if missing:
         raise ReleaseError(
             f"cannot release {version}: missing default outputs in {data_dir}:\n"

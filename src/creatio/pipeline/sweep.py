@@ -136,8 +136,11 @@ def parse_axes(sweep: Sequence[str]) -> list[tuple[str, list[str]]]:
         except Exception as e:  # noqa: BLE001 - Hydra's grammar errors, re-worded
             raise ConfigError("sweep", text, str(e).splitlines()[0]) from None
         key = ov.get_key_element()
-        values = list(ov.sweep_string_iterator()) if ov.is_sweep_override() else [
-            ov.get_value_element_as_str()]
+        try:
+            values = list(ov.sweep_string_iterator()) if ov.is_sweep_override() else [
+                ov.get_value_element_as_str()]
+        except Exception as e:  # noqa: BLE001 - a range Hydra cannot expand (step 0, ...)
+            raise ConfigError("sweep", text, f"cannot be expanded: {e}") from None
         if not values:
             raise ConfigError("sweep", text, "sweeps over no value")
         if key in [k for k, _ in axes]:

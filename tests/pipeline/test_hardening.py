@@ -1,0 +1,153 @@
+"""Failure paths a user meets: killed or failing writers, unreadable files, damaged release
+manifests, and the one-line messages (never a traceback) of the command line."""
+
+from __future__ import annotations
+
+import errno
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+import xarray as xr
+
+from creatio.errors import ConfigError
+from creatio.pipeline import io
+from creatio.pipeline.io import atomic_save, atomic_write, clean_stale, read_dataset
+from creatio.pipeline.release import (
+    FORMAT,
+    Layout,
+    ReleaseError,
+    StudyFiles,
+    make_release,
+    read_manifest,
+)
+from creatio.pipeline.sweep import parse_axes
+
+
+def _dead_pid() -> int:
+    """The pid of a process that has finished (a killed writer's)."""
+    proc = subprocess.Popen([sys.executable, "-c", "pass"])
+    proc.wait()
+    return proc.pid
+
+
+def test_a_failing_writer_keeps_the_old_file_and_leaves_no_temporary(tmp_path):
+    target = tmp_path / "report.json"
+    target.write_text('{"old": 1}')
+    with pytest.raises(ValueError), atomic_write(target) as fh:
+        fh.write('{"new": ')
+        raise ValueError("the writer failed half way")
+    assert target.read_text() == '{"old": 1}'
+    assert [p.name for p in tmp_path.iterdir()] == ["report.json"]
+    with atomic_write(target) as fh:
+        json.dump({"new": 2}, fh)
+    assert json.loads(target.read_text()) == {"new": 2}
+
+
+def test_a_save_that_writes_nothing_is_refused(tmp_path):
+    """atomic_save refuses an empty result (a figure that was never drawn) and keeps none."""
+    with pytest.raises(OSError, match="nothing was written"):
+        atomic_save(tmp_path / "fig.png", lambda p: Path(p).write_bytes(b""))
+    assert list(tmp_path.iterdir()) == []
+    atomic_save(tmp_path / "fig.png", lambda p: Path(p).write_bytes(b"\x89PNG"))
+    assert (tmp_path / "fig.png").read_bytes() == b"\x89PNG"
+
+
+def test_temporaries_of_killed_writers_are_cleaned_live_ones_kept(tmp_path):
+    target = tmp_path / "en02.nc"
+    dead = tmp_path / f".en02.nc.tmp-{_dead_pid()}"
+    live = tmp_path / f".en02.nc.tmp-{os.getppid()}"  # a running process (pytest's parent)
+    other = tmp_path / f".ct02.nc.tmp-{_dead_pid()}"  # another file's: not ours to clean
+    for p in (dead, live, other):
+        p.write_bytes(b"partial")
+    clean_stale(target)
+    assert not dead.exists() and live.exists() and other.exists()
+
+
+def test_a_truncated_dataset_is_named_with_what_to_do(tmp_path):
+    path = tmp_path / "en02.nc"
+    io.write_dataset(xr.Dataset({"x": ("n", np.arange(1000.0))}), path)
+    path.write_bytes(path.read_bytes()[:200])
+    with pytest.raises(OSError, match="not a readable creatio dataset") as info:
+        read_dataset(path)
+    assert info.value.filename == str(path) and "rerun" in str(info.value)
+
+
+def test_a_full_disk_is_named_as_such(tmp_path, monkeypatch):
+    """netCDF4 reports ENOSPC as 'NetCDF: HDF error'; the write names the full disk and keeps
+    no partial file."""
+    def full(self, *args, **kwargs):
+        Path(args[0]).write_bytes(b"half")
+        raise RuntimeError("NetCDF: HDF error")
+
+    monkeypatch.setattr(xr.Dataset, "to_netcdf", full)
+    monkeypatch.setattr(io.shutil, "disk_usage", lambda p: SimpleNamespace(free=0))
+    with pytest.raises(OSError) as info:
+        io.write_dataset(xr.Dataset({"x": ("n", np.arange(3.0))}), tmp_path / "a.nc")
+    assert info.value.errno == errno.ENOSPC
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_a_range_with_zero_step_is_refused():
+    with pytest.raises(ConfigError, match="cannot be expanded"):
+        parse_axes(["sphere.mu=range(0,1,0)"])
+
+
+def test_a_damaged_manifest_is_refused(tmp_path):
+    release = tmp_path / "releases" / "0.2.0"
+    release.mkdir(parents=True)
+    manifest = {"format": FORMAT, "version": "0.2.0",
+                "files": [{"path": "studies/ct02/ct02.nc", "sha256": None}]}
+    (release / "MANIFEST.json").write_text(json.dumps(manifest))
+    with pytest.raises(ReleaseError, match="damaged manifest"):
+        read_manifest(release)
+    manifest["files"][0]["sha256"] = "0" * 64
+    manifest["version"] = "0.1.0"
+    (release / "MANIFEST.json").write_text(json.dumps(manifest))
+    with pytest.raises(ReleaseError, match="says version '0.1.0' but lies in 0.2.0/"):
+        read_manifest(release)
+
+
+def test_an_empty_output_is_not_released(tmp_path):
+    """A zero-byte file (a killed writer of an older version) is refused by name."""
+    data = tmp_path / "data"
+    (data / "studies" / "ct02").mkdir(parents=True)
+    (data / "studies" / "ct02" / "ct02.nc").write_bytes(b"")
+    layout = Layout((StudyFiles("ct02", "0" * 64, ("studies/ct02/ct02.nc",), ()),), ())
+    with pytest.raises(ReleaseError, match=r"empty files .*ct02\.nc"):
+        make_release("0.2.0", data, layout=layout)
+
+
+def creatio(*args: str, cwd: Path | None = None) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, "-m", "creatio.cli", *args], capture_output=True,
+                          text=True, cwd=cwd, env={**os.environ, "CREATIO_DEBUG": ""})
+
+
+@pytest.mark.parametrize(("args", "code", "words"), [
+    (["run", "en02"], 2, "pick it with study=en02"),
+    (["run", "study=en02", "sphere.mu=nan"], 2, "sphere.mu=nan: must be a finite number"),
+    (["run", "study=en02", "sphere.muu=0.3"], 2, "did you mean sphere.mu?"),
+    (["run", "study=en02", "+sphere.colour=red"], 2, "unknown key"),
+    (["run", "study=nope"], 2, "must be one of ct02"),
+    (["diff", "/no/such/a", "/no/such/b"], 2, "no such file or directory"),
+    (["release", "verify", "9.9.9", "--data-dir", "/no/such/dir"], 2, "no release 9.9.9"),
+    (["frobnicate"], 2, "unknown command 'frobnicate'"),
+])
+def test_the_command_line_fails_in_one_line(args, code, words):
+    proc = creatio(*args)
+    assert proc.returncode == code, proc.stderr
+    assert words in proc.stderr, proc.stderr
+    assert "Traceback" not in proc.stderr
+    assert len(proc.stderr.strip().splitlines()) == 1, proc.stderr
+
+
+def test_version_is_printed():
+    from creatio import __version__
+
+    proc = creatio("--version")
+    assert proc.returncode == 0 and proc.stdout.strip() == f"creatio {__version__}"
