@@ -24,11 +24,14 @@ from creatio.pipeline.planning import (
     StudyRuns,
     SweepRegistry,
     analysis_ids,
+    check_workflow_config,
+    code_version,
     wildcard_pattern,
 )
 from creatio.studies.registry import KINDS
 
 min_version("9.0")
+check_workflow_config(config, workflow.source_path("workflow/schemas/config.schema.yaml"))
 
 CREATIO = f'"{sys.executable}" -m creatio.cli'
 STUDY_IDS = wildcard_pattern(folder="studies")
@@ -72,6 +75,7 @@ include: "workflow/rules/scenes.smk"
 # Cheap aggregation, reports and plots run where Snakemake runs, not as cluster jobs.
 localrules:
     all,
+    study_config,
     benchmarks,
     kinematic_report,
     sphere_report,

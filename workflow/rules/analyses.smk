@@ -16,6 +16,8 @@ rule benchmarks:
 
 
 rule analysis_dataset:
+    input:
+        config="{root}/configs/{study}.yaml",
     output:
         "{root}/benchmarks/{study}/{name}.nc",
     wildcard_constraints:
@@ -23,7 +25,7 @@ rule analysis_dataset:
     params:
         creatio=CREATIO,
         env=SINGLE_THREAD,
-        config=lambda wc: JOBS.yaml(wc.root, wc.study),
+        code=code_version("datasets"),
         part=lambda wc: JOBS.part(wc.root, wc.study, wc.name),
     threads: 1
     conda:
@@ -32,7 +34,7 @@ rule analysis_dataset:
         "{root}/logs/{study}/{name}.log",
     shell:
         "{params.env} {params.creatio} task dataset {wildcards.study} {output} "
-        "--part {params.part} --config-yaml {params.config:q} 2> {log}"
+        "--part {params.part} --config-file {input.config} 2> {log}"
 
 
 rule analysis_report:
@@ -44,6 +46,7 @@ rule analysis_report:
         study=ANALYSIS_IDS,
     params:
         creatio=CREATIO,
+        code=code_version("reports"),
     conda:
         "../envs/creatio.yaml"
     log:

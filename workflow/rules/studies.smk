@@ -1,17 +1,35 @@
 # Every study's datasets and reports, planned from the study registry (creatio.studies.registry).
-# A dataset job's only config parameter is its canonical resolved YAML, so it reruns exactly
-# when its resolved config changes, however the overrides that produced it were spelled; its
-# part (the file stem: en02_dt0.001, ...) selects which dataset of the study it computes.
+# A study's canonical resolved YAML is written to {root}/configs/<study>.yaml by a rule whose
+# only parameter is its sha256: it reruns exactly when the resolved config changes, however
+# the overrides that produced it were spelled, and its rerun reason is one line. The dataset
+# jobs read that file, and carry the hash of the code that computes them (CODE in
+# creatio.pipeline.planning): new code reruns them. A dataset's part (the file stem:
+# en02_dt0.001, ...) selects which dataset of the study it computes.
+
+
+rule study_config:
+    output:
+        "{root}/configs/{study}.yaml",
+    wildcard_constraints:
+        study=f"{STUDY_IDS}|{ANALYSIS_IDS}",
+    params:
+        config_sha256=lambda wc: JOBS.sha(wc.root, wc.study),
+    log:
+        "{root}/logs/{study}_config.log",
+    run:
+        JOBS.write(wildcards.root, wildcards.study, output[0], log[0])
 
 
 rule study_dataset:
+    input:
+        config="{root}/configs/{study}.yaml",
     output:
         "{root}/studies/{study}/{name}.nc",
     wildcard_constraints:
         study=STUDY_IDS,
     params:
         creatio=CREATIO,
-        config=lambda wc: JOBS.yaml(wc.root, wc.study),
+        code=code_version("datasets"),
         part=lambda wc: JOBS.part(wc.root, wc.study, wc.name),
     conda:
         "../envs/creatio.yaml"
@@ -19,7 +37,7 @@ rule study_dataset:
         "{root}/logs/{study}/{name}.log",
     shell:
         "{params.creatio} task dataset {wildcards.study} {output} --part {params.part} "
-        "--config-yaml {params.config:q} 2> {log}"
+        "--config-file {input.config} 2> {log}"
 
 
 rule kinematic_report:
@@ -31,6 +49,7 @@ rule kinematic_report:
         study=wildcard_pattern("kinematic"),
     params:
         creatio=CREATIO,
+        code=code_version("reports"),
     conda:
         "../envs/creatio.yaml"
     log:
@@ -48,6 +67,7 @@ rule sphere_report:
         study=wildcard_pattern("sphere"),
     params:
         creatio=CREATIO,
+        code=code_version("reports"),
     conda:
         "../envs/creatio.yaml"
     log:
@@ -70,6 +90,7 @@ rule compare:
                            "Comparison", "figure: both centre paths"),
     params:
         creatio=CREATIO,
+        code=code_version("reports"),
     conda:
         "../envs/creatio.yaml"
     log:

@@ -32,6 +32,7 @@ rule sweep_batch:
         batch=r"\d{5}",
     params:
         creatio=CREATIO,
+        code=code_version("datasets"),
         args=lambda wc: SWEEPS[wc.name].cli_args(),
     threads: 1
     conda:
@@ -54,6 +55,7 @@ rule sweep_aggregate:
                            "{name}: figure"),
     params:
         creatio=CREATIO,
+        code=code_version("reports"),
         args=lambda wc: SWEEPS[wc.name].cli_args(),
     conda:
         "../envs/creatio.yaml"

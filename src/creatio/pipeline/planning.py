@@ -23,6 +23,8 @@ from creatio.studies import registry
 
 __all__ = [
     "JobConfigs",
+    "check_workflow_config",
+    "code_version",
     "one_line_errors",
     "analysis_ids",
     "StudyPlan",
@@ -56,6 +58,36 @@ def one_line_errors(fn: Callable[..., Any]) -> Callable[..., Any]:
             os._exit(2)
 
     return wrapper
+
+
+@one_line_errors
+def check_workflow_config(config: Mapping[str, Any], schema: str | Path) -> None:
+    """Validate Snakemake's --config against workflow/schemas/config.schema.yaml with
+    snakemake.utils.validate; a refusal is creatio's one line (key, value, rule), not the
+    schema dump."""
+    import difflib
+
+    from snakemake.exceptions import WorkflowError
+    from snakemake.utils import validate
+
+    try:
+        validate(dict(config), str(schema), set_default=False)
+    except WorkflowError as e:
+        error = e.__context__ if hasattr(e.__context__, "validator") else None
+        if error is None:
+            raise ConfigError("--config", dict(config), str(e).splitlines()[0]) from None
+        if error.validator == "additionalProperties":
+            known = sorted(error.schema.get("properties", {}))
+            for key in sorted(set(config) - set(known)):
+                near = difflib.get_close_matches(key, known, n=1)
+                hint = f" (did you mean {near[0]}?)" if near else f" (known: {', '.join(known)})"
+                raise ConfigError(key, config[key], "unknown --config key" + hint) from None
+        key = ".".join(str(p) for p in error.absolute_path) or "--config"
+        rule = ("must be a string or a list of strings" if error.validator == "oneOf"
+                else error.message)  # oneOf: the schema's only one, #/$defs/strings
+        if error.schema.get("description"):
+            rule += f" ({error.schema['description']})"
+        raise ConfigError(key, error.instance, rule) from None
 
 
 def as_list(value: Any) -> list[str]:
@@ -105,6 +137,30 @@ def default_studies() -> list[str]:
 def analysis_ids() -> list[str]:
     """The analyses (`snakemake benchmarks`)."""
     return [s.id for s in registry.select(kind="analysis")]
+
+
+# The sources whose change changes a rule's outputs (relative to the package): a rule
+# carries their hash as a parameter, so new code reruns what it would compute differently.
+CODE = {
+    "datasets": ("model", "dynamics", "studies", "pipeline/run.py", "pipeline/io.py",
+                 "pipeline/cf.py", "pipeline/sweep.py"),
+    "reports": ("reports", "pipeline/run.py", "pipeline/io.py"),
+}
+
+
+@functools.cache
+def code_version(kind: str) -> str:
+    """A short hash of the sources that make one kind of output (see CODE)."""
+    import hashlib
+
+    package = Path(__file__).resolve().parents[1]
+    h = hashlib.sha256()
+    for part in CODE[kind]:
+        target = package / part
+        for path in sorted(target.rglob("*.py")) if target.is_dir() else [target]:
+            if path.is_file():
+                h.update(str(path.relative_to(package)).encode() + b"\0" + path.read_bytes())
+    return h.hexdigest()[:12]
 
 
 def wildcard_pattern(kind: str | None = None, folder: str | None = None) -> str:
@@ -179,6 +235,25 @@ class JobConfigs:
         except KeyError:
             raise ConfigError("output", f"{root}/{study}",
                               "no configuration of this invocation writes there") from None
+
+    @one_line_errors
+    def sha(self, root: str, study: str) -> str:
+        """The sha256 of (root, study)'s canonical resolved YAML: the config file rule's only
+        parameter, so that it reruns exactly when the resolved config changes and says so
+        in one line."""
+        return self.get(root, study).sha256
+
+    @one_line_errors
+    def write(self, root: str, study: str, path: str | Path, log: str | Path) -> None:
+        """Write (root, study)'s canonical resolved YAML to path (temporary, then renamed)
+        and its hash to the log."""
+        resolved = self.get(root, study)
+        for target, text in ((Path(path), resolved.yaml),
+                             (Path(log), f"{study} config sha256 {resolved.sha256}\n")):
+            target.parent.mkdir(parents=True, exist_ok=True)
+            tmp = target.with_name(f".{target.name}.tmp-{os.getpid()}")
+            tmp.write_text(text)
+            os.replace(tmp, target)
 
     @one_line_errors
     def yaml(self, root: str, study: str) -> str:
