@@ -191,6 +191,17 @@ class Browser:
             raise RuntimeError(f"{expression}: {result['exceptionDetails']}")
         return result["result"].get("value")
 
+    def wait_for(self, expression: str, timeout: float = 30.0) -> Any:
+        """Poll a JavaScript expression until it is truthy (TimeoutError after timeout s)."""
+        end = time.monotonic() + timeout
+        while True:
+            value = self.evaluate(expression)
+            if value:
+                return value
+            if time.monotonic() > end:
+                raise TimeoutError(f"still false after {timeout} s: {expression}")
+            time.sleep(0.25)
+
     def screenshot(self, path: str | Path | None = None) -> bytes:
         """A PNG of the viewport (written to path if given)."""
         data = base64.b64decode(self.call("Page.captureScreenshot", {"format": "png"})["data"])

@@ -173,10 +173,12 @@ def test_the_snakemake_report_opens_without_errors(browser):
     if path is None:
         pytest.skip("no report: snakemake --report data/report.html (or set CREATIO_REPORT)")
     browser.messages.clear()
-    browser.open(path.resolve().as_uri(), settle=2.0)
+    browser.open(path.resolve().as_uri(), settle=0.5)
+    # the report's app renders after its data (tens of MB with the scenes) are decoded
+    text = browser.wait_for("document.body.innerText.includes('RESULTS') && "
+                            "document.body.innerText", timeout=90)
     assert not browser.errors(), "\n".join(map(str, browser.errors()))
-    text = browser.evaluate("document.body.innerText")
-    assert "creatio" in text
+    assert "creatio" in text and "CT-02" in text
     from PIL import Image
 
     img = np.asarray(Image.open(io.BytesIO(browser.screenshot())).convert("L"), float)

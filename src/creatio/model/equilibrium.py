@@ -20,13 +20,17 @@ from dataclasses import dataclass
 from creatio.model.cavity import cavity_cell_offsets, in_cavity_cell
 from creatio.model.offset import offset_jets
 
-__all__ = ["NEWTON_MAX_ITER", "NEWTON_TOL", "Equilibrium", "height_derivatives",
-           "static_equilibrium"]
+__all__ = ["NEWTON_FLOOR", "NEWTON_MAX_ITER", "NEWTON_TOL", "Equilibrium", "equilibrium_limit",
+           "height_derivatives", "static_equilibrium"]
 
 #: Newton stops when its next correction is below this, relative to max(1, |q|): the
 #: correction is then at rounding level and is not applied (so a start that already
 #: solves the equation to rounding, like EN-02's cavity bottom at gamma = 0, is kept as is).
 NEWTON_TOL = 2.0**-50
+#: Below this relative correction, a correction that no longer halves means the iteration
+#: has reached the rounding floor of the gradient (near the limit inclination the Hessian is
+#: small, so gradient rounding makes corrections of a few 1e-15): converged, not applied.
+NEWTON_FLOOR = 1e-9
 #: Newton iterations before the search is declared failed.
 NEWTON_MAX_ITER = 50
 
@@ -77,8 +81,9 @@ def static_equilibrium(R0: float, k: float, A: float, Ka: float, b: float, phi_r
     """Newton's method on grad X_z = 0 from the bottom (R_c, alpha_c) of cavity (n, m) of
     the surface frozen at the given phases and inclination (docs/model.md s.8.1).
 
-    A correction below NEWTON_TOL (relative to max(1, |q|)) ends the iteration without being
-    applied. The result records whether the iteration converged, whether the point is a
+    A correction below NEWTON_TOL (relative to max(1, |q|)), or below NEWTON_FLOOR and no
+    smaller than half the previous one (the rounding floor), ends the iteration without
+    being applied. The result records whether the iteration converged, whether the point is a
     minimum (Hessian positive definite) and whether it is inside the cell of cavity (n, m)
     (creatio.model.cavity.cavity_cell_offsets).
     """
@@ -86,6 +91,7 @@ def static_equilibrium(R0: float, k: float, A: float, Ka: float, b: float, phi_r
     alpha = (math.pi - phi_a + 2.0 * math.pi * m) / Ka
     converged = False
     iterations = 0
+    previous = math.inf
     _, gR, ga, hRR, hRa, haa = height_derivatives(R, alpha, R0, k, A, Ka, b, phi_r, phi_a,
                                                   gamma)
     while iterations < NEWTON_MAX_ITER:
@@ -97,10 +103,11 @@ def static_equilibrium(R0: float, k: float, A: float, Ka: float, b: float, phi_r
         da = (hRR * ga - hRa * gR) / det
         if not (math.isfinite(dR) and math.isfinite(da)):
             break
-        if abs(dR) <= NEWTON_TOL * max(1.0, abs(R)) and abs(da) <= NEWTON_TOL * max(1.0,
-                                                                                   abs(alpha)):
+        size = max(abs(dR) / max(1.0, abs(R)), abs(da) / max(1.0, abs(alpha)))
+        if size <= NEWTON_TOL or (size <= NEWTON_FLOOR and size > 0.5 * previous):
             converged = True
             break
+        previous = size
         R -= dR
         alpha -= da
         _, gR, ga, hRR, hRa, haa = height_derivatives(R, alpha, R0, k, A, Ka, b, phi_r,
@@ -109,3 +116,27 @@ def static_equilibrium(R0: float, k: float, A: float, Ka: float, b: float, phi_r
     du, dv = cavity_cell_offsets(R, alpha, phi_r, phi_a, k, Ka, n, m)
     return Equilibrium(R, alpha, converged, bool(minimum), bool(in_cavity_cell(du, dv)),
                        iterations, (gR, ga), (hRR, hRa, haa))
+
+
+def equilibrium_limit(R0: float, k: float, A: float, Ka: float, b: float, phi_r: float,
+                      phi_a: float, n: int, m: int, tol: float = 1e-10) -> float:
+    """The largest constant inclination (rad, in [0, pi/2]) at which cavity (n, m) of the
+    frozen surface holds the sphere in an acceptable equilibrium, by bisection on gamma to
+    tol: where the minimum of the height meets the saddle on the cell's edge and both
+    vanish. NaN if gamma = 0 has none; pi/2 if the cylinder still has one. Presumes, as the
+    bisection must, that the equilibria that exist form one interval starting at 0."""
+    def holds(gamma: float) -> bool:
+        return static_equilibrium(R0, k, A, Ka, b, phi_r, phi_a, gamma, n, m).acceptable
+
+    lo, hi = 0.0, 0.5 * math.pi
+    if not holds(lo):
+        return math.nan
+    if holds(hi):
+        return hi
+    while hi - lo > tol:
+        mid = 0.5 * (lo + hi)
+        if holds(mid):
+            lo = mid
+        else:
+            hi = mid
+    return lo

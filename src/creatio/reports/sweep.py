@@ -28,11 +28,27 @@ def figure_label(name: str) -> str:
     return name.replace("_", " ")
 
 
+#: What the commonly swept keys mean, for axis labels (the key itself is kept beside it).
+KEY_LABELS = {
+    "sphere.mu": "friction coefficient mu",
+    "sphere.eps": "friction regularisation eps (m/s)",
+    "sphere.b": "sphere radius b (m)",
+    "sphere.m": "sphere mass m (kg)",
+    "phases.T": "cycle duration T (s)",
+    "solver.dt": "timestep dt (s)",
+    "geometry.A": "corrugation amplitude A (m)",
+    "study.initial.R": "initial contact radius R (m)",
+}
+
+
 def axis_label(ds: xr.Dataset, dim: str) -> str:
-    """A swept key as an axis label: its config key (``sphere.mu``) and units if known."""
-    name = str(ds[dim].attrs.get("long_name", dim.replace("__", ".")))
+    """A swept key as an axis label: what it means, if known, and its config key
+    (``friction coefficient mu (sphere.mu)``)."""
+    key = str(ds[dim].attrs.get("long_name", dim.replace("__", ".")))
     units = ds[dim].attrs.get("units")
-    return f"{name} ({units})" if units else name
+    if key in KEY_LABELS:
+        return f"{KEY_LABELS[key]} ({key})"
+    return f"{key} ({units})" if units else key
 
 
 SWEEP_FIGURES = {

@@ -18,7 +18,14 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from creatio.studies import published
-from creatio.studies.schema import Ct02Config, DynamicConfig, En01Config
+from creatio.studies.schema import (
+    Ct02Config,
+    DynamicConfig,
+    En01Config,
+    En02gConfig,
+    En03Config,
+    En03mConfig,
+)
 
 __all__ = ["KINDS", "STUDIES", "Kind", "Part", "Study", "get", "select"]
 
@@ -64,6 +71,13 @@ def _timestep_parts(study_id: str) -> Callable[[Any], list[Part]]:
                         for dt in cfg.solver.timesteps()]
 
 
+def _en03_parts(cfg: Any) -> list[Part]:
+    """EN-03's datasets: the single run at each timestep, then the inertia sweep at each."""
+    return _timestep_parts("en03")(cfg) + [
+        Part(f"en03_inertia_dt{float(dt)!r}", {"dt": float(dt), "sweep": True})
+        for dt in cfg.solver.timesteps()]
+
+
 @dataclass(frozen=True)
 class Study:
     """One study: its id, kind, config schema and group, and what it runs and reports.
@@ -81,6 +95,7 @@ class Study:
     group: str = "study"
     published: Mapping[str, Any] = field(default_factory=dict)
     in_all: bool = True
+    summary: str = ""
 
     @property
     def schema(self) -> type:
@@ -100,6 +115,11 @@ class Study:
     def report_function(self) -> Callable[..., Any]:
         """The function (datasets, outdir) -> {name: path} (imported on first use)."""
         return _load(self.report)
+
+    def summary_function(self) -> Callable[..., Any] | None:
+        """The function dataset -> JSON summary of this study's own (the scalar figures a
+        sweep aggregates), or None where its kind's summary applies."""
+        return _load(self.summary) if self.summary else None
 
     def dataset_dir(self, root: str) -> str:
         """Where the datasets of this study live under an output root."""
@@ -145,6 +165,16 @@ STUDIES: dict[str, Study] = {
               "creatio.reports.sphere:write_report", _timestep_parts("en02r")),
         Study("en02v", SPHERE, DynamicConfig, "creatio.studies.sphere:run",
               "creatio.reports.sphere:write_report", _timestep_parts("en02v")),
+        # Beyond the notebook (docs/studies.md): outside `all`, built by `snakemake beyond`
+        Study("en02g", SPHERE, En02gConfig, "creatio.studies.en02g:run",
+              "creatio.reports.beyond:write_en02g", _timestep_parts("en02g"), in_all=False,
+              summary="creatio.reports.beyond:en02g_summary"),
+        Study("en03", SPHERE, En03Config, "creatio.studies.en03:run",
+              "creatio.reports.beyond:write_en03", _en03_parts, in_all=False,
+              summary="creatio.reports.beyond:en03_summary"),
+        Study("en03m", SPHERE, En03mConfig, "creatio.studies.en03m:run",
+              "creatio.reports.beyond:write_en03m", _timestep_parts("en03m"), in_all=False,
+              summary="creatio.reports.beyond:en03m_summary"),
         *(Study(name, ANALYSIS, f"creatio.studies.{name}:{schema}", f"creatio.studies.{name}:run",
                 f"creatio.reports.{name}:write_report", f"creatio.studies.{name}:parts",
                 group="analysis", in_all=False)

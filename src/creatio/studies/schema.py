@@ -9,6 +9,7 @@ is computed. Nothing here composes configs or imports Hydra: the schemas are pla
 from __future__ import annotations
 
 import copy
+import dataclasses
 import math
 import sys
 from collections.abc import Mapping, Sequence
@@ -25,18 +26,25 @@ from creatio.model.surface import Surface
 
 __all__ = [
     "AngleUnit",
+    "BisectionConfig",
+    "Confinement",
     "Ct02Config",
     "DynamicConfig",
     "En01Config",
+    "En02gConfig",
+    "En03Config",
+    "En03mConfig",
     "GeometryConfig",
     "LawConfig",
     "MISSING",
     "Method",
+    "OscillationConfig",
     "Output",
     "PhasesConfig",
     "ProbeConfig",
     "SolverConfig",
     "SphereConfig",
+    "StructureConfig",
     "require",
     "vary",
 ]
@@ -594,3 +602,234 @@ class ProbeConfig:
         for name in ("alpha", "R", "t"):
             v = getattr(self, name)
             require(math.isfinite(v), name, v, "must be a finite number")
+
+
+# ---------------------------------------------- beyond the notebook (EN-02G, EN-03, EN-03M)
+class Confinement(StrEnum):
+    """What holds the sphere on the membrane besides gravity (docs/model.md s.10)."""
+
+    none = "none"
+    normal = "normal"
+    base = "base"
+
+
+def _check_inertia(path: str, value: float) -> None:
+    require(value > 0.0, path, value, "must be > 0 kg m^2 (.inf: a fixed structure)")
+
+
+@dataclass
+class StructureConfig:
+    """The structure that carries the membrane (docs/model.md s.9-10): its moment of inertia
+    about z (``.inf``: fixed, as in EN-02) and a confining force of constant magnitude."""
+
+    inertia: float = math.inf
+    confinement: Confinement = Confinement.none
+    force: float = 0.0
+
+    def check(self, path: str) -> None:
+        """inertia > 0 (inf allowed), force finite and >= 0, a force only with a confinement."""
+        _check_inertia(f"{path}.inertia", self.inertia)
+        require(math.isfinite(self.force) and self.force >= 0.0, f"{path}.force", self.force,
+                "must be finite and >= 0 N")
+        require(self.confinement is not Confinement.none or self.force == 0.0, f"{path}.force",
+                self.force, f"needs {path}.confinement=normal or base")
+
+    def problem_fields(self) -> dict[str, Any]:
+        """The SphereProblem fields of this structure."""
+        return {"structure_inertia": float(self.inertia), "confinement": self.confinement.value,
+                "confining_force": float(self.force)}
+
+
+@dataclass
+class OscillationConfig:
+    """EN-02G's oscillating inclination gamma(t) = gamma0 + G sin(Omega t), at each gamma0."""
+
+    gamma0_deg: list[float] = field(default_factory=lambda: [0.0, 10.0, 20.0])
+    amplitude_deg: float = 10.0
+    omega: float = 0.7
+
+    def check(self, path: str) -> None:
+        """G >= 0, Omega finite, |gamma0| + G <= 90 deg for each gamma0."""
+        require(self.amplitude_deg >= 0.0, f"{path}.amplitude_deg", self.amplitude_deg,
+                "must be >= 0")
+        require(math.isfinite(self.omega), f"{path}.omega", self.omega, "must be finite")
+        for i, g0 in enumerate(self.gamma0_deg):
+            require(abs(g0) + self.amplitude_deg <= 90.0, f"{path}.gamma0_deg[{i}]", g0,
+                    f"|gamma0| + amplitude_deg ({self.amplitude_deg}) must be <= 90 degrees")
+
+
+@dataclass
+class En02gStudy(DynamicStudy):
+    """EN-02G: EN-02 at each constant inclination, and under the oscillating law, each run
+    started at the static equilibrium of the cavity nearest study.initial."""
+
+    inclinations_deg: list[float] = MISSING
+    oscillation: OscillationConfig = field(default_factory=OscillationConfig)
+
+    def check(self, path: str) -> None:
+        """The EN-02 rules, inclinations in [-90, 90], the oscillation law in range."""
+        super().check(path)
+        _check_inclinations(f"{path}.inclinations_deg", self.inclinations_deg)
+        self.oscillation.check(f"{path}.oscillation")
+
+
+@dataclass
+class En02gConfig(DynamicConfig):
+    """Root schema of EN-02G (docs/studies.md): the inclination is set per run by the study,
+    so phases.gamma stays at its default (constant 0)."""
+
+    study: En02gStudy = field(default_factory=En02gStudy)
+
+    def check(self) -> None:
+        """phases.gamma untouched, then the rules of the sphere studies over every run."""
+        gamma = self.phases.gamma
+        require(gamma.kind is LawKind.constant and gamma.phi0 == 0.0, "phases.gamma",
+                f"{gamma.kind.value}, phi0 = {gamma.phi0}",
+                "EN-02G sets the inclination of each run (study.inclinations_deg, "
+                "study.oscillation): leave phases.gamma constant at 0")
+        super().check()
+
+    def run_problems(self, dt: float | None = None
+                     ) -> list[tuple[str, float, SphereProblem]]:
+        """(kind, inclination or gamma0 in degrees, problem) of every run: "constant" at each
+        inclination, then "oscillating" at each gamma0; all start at the equilibrium."""
+        base = self.sphere_problem(dt)
+        T = self.phases.T
+        osc = self.study.oscillation
+        out = []
+        for g in self.study.inclinations_deg:
+            law = (math.radians(g), 0.0, 0.0, T, 0.0, 0.0)
+            out.append(("constant", float(g), dataclasses.replace(
+                base, law_gamma=law, equilibrium_start=True)))
+        for g0 in osc.gamma0_deg:
+            law = (math.radians(g0), 0.0, 0.0, T, math.radians(osc.amplitude_deg), osc.omega)
+            out.append(("oscillating", float(g0), dataclasses.replace(
+                base, law_gamma=law, equilibrium_start=True)))
+        return out
+
+    def step_limit(self) -> float:
+        """The smallest stability limit over every run of the study."""
+        return min(stability_limit(p) for _, _, p in self.run_problems())
+
+
+@dataclass
+class En03Study(DynamicStudy):
+    """EN-03: the single run at structure.inertia, the inertia sweep, and the I_s -> inf
+    limit check (a run at limit_inertia against the fixed structure)."""
+
+    inertia_sweep: list[float] = MISSING
+    limit_inertia: float = 1.0e12
+
+    def check(self, path: str) -> None:
+        """The EN-02 rules; every inertia > 0."""
+        super().check(path)
+        require(len(self.inertia_sweep) >= 1, f"{path}.inertia_sweep", self.inertia_sweep,
+                "needs at least 1 value")
+        for i, v in enumerate(self.inertia_sweep):
+            _check_inertia(f"{path}.inertia_sweep[{i}]", v)
+        _check_inertia(f"{path}.limit_inertia", self.limit_inertia)
+
+
+@dataclass
+class En03Config(DynamicConfig):
+    """Root schema of EN-03 (docs/studies.md): EN-02 on a structure free to yaw."""
+
+    study: En03Study = field(default_factory=En03Study)
+    structure: StructureConfig = field(default_factory=StructureConfig)
+
+    def check(self) -> None:
+        """The structure group, then the rules of the sphere studies over every run."""
+        self.structure.check("structure")
+        super().check()
+
+    def sphere_problem(self, dt: float | None = None) -> SphereProblem:
+        """The single run: the sphere study's problem on this structure."""
+        return dataclasses.replace(super().sphere_problem(dt), **self.structure.problem_fields())
+
+    def sweep_problems(self, dt: float | None = None) -> list[tuple[float, SphereProblem]]:
+        """(I_s, problem) of the inertia sweep, then of the limit check (limit_inertia and
+        the fixed structure, inf)."""
+        base = self.sphere_problem(dt)
+        inertias = [*self.study.inertia_sweep, self.study.limit_inertia, math.inf]
+        return [(float(v), dataclasses.replace(base, structure_inertia=float(v)))
+                for v in inertias]
+
+    def step_limit(self) -> float:
+        """The smallest stability limit over every run (the smallest I_s sets it)."""
+        problems = [self.sphere_problem()] + [p for _, p in self.sweep_problems()]
+        return min(stability_limit(p) for p in problems)
+
+
+@dataclass
+class BisectionConfig:
+    """EN-03M's search for the smallest carrying force: a scan up the decades, then bisection."""
+
+    decades: list[int] = field(default_factory=lambda: [-4, -3, -2, -1, 0, 1])
+    rtol: float = 1.0e-3
+
+    def check(self, path: str) -> None:
+        """At least one decade; 0 < rtol < 1."""
+        require(len(self.decades) >= 1, f"{path}.decades", self.decades,
+                "needs at least 1 value")
+        require(0.0 < self.rtol < 1.0, f"{path}.rtol", self.rtol, "must lie in (0, 1)")
+
+
+@dataclass
+class En03mStudy(DynamicStudy):
+    """EN-03M: for each confinement and structure inertia, the smallest confining force that
+    carries the sphere through the cycle, then a run at figure_factor times it."""
+
+    reference_gravity: float = 9.81
+    confinements: list[Confinement] = field(
+        default_factory=lambda: [Confinement.normal, Confinement.base])
+    inertias: list[float] = field(default_factory=lambda: [10.0, math.inf])
+    max_force_factor: float = 100.0
+    bisection: BisectionConfig = field(default_factory=BisectionConfig)
+    figure_factor: float = 2.0
+    fallback_force: float = 9.81
+
+    def check(self, path: str) -> None:
+        """The EN-02 rules, confinements normal/base, inertias > 0, factors positive."""
+        super().check(path)
+        require(self.reference_gravity > 0.0, f"{path}.reference_gravity",
+                self.reference_gravity, "must be > 0")
+        require(len(self.confinements) >= 1, f"{path}.confinements",
+                [c.value for c in self.confinements], "needs at least 1 value")
+        for i, c in enumerate(self.confinements):
+            require(c is not Confinement.none, f"{path}.confinements[{i}]", c.value,
+                    "must be normal or base")
+        require(len(self.inertias) >= 1, f"{path}.inertias", self.inertias,
+                "needs at least 1 value")
+        for i, v in enumerate(self.inertias):
+            _check_inertia(f"{path}.inertias[{i}]", v)
+        require(self.max_force_factor > 0.0, f"{path}.max_force_factor",
+                self.max_force_factor, "must be > 0")
+        self.bisection.check(f"{path}.bisection")
+        require(self.figure_factor >= 1.0, f"{path}.figure_factor", self.figure_factor,
+                "must be >= 1")
+        require(self.fallback_force > 0.0, f"{path}.fallback_force", self.fallback_force,
+                "must be > 0")
+
+
+@dataclass
+class En03mConfig(DynamicConfig):
+    """Root schema of EN-03M (docs/studies.md): microgravity with a confining force."""
+
+    study: En03mStudy = field(default_factory=En03mStudy)
+
+    def force_problem(self, confinement: Confinement, inertia: float, force: float,
+                      dt: float | None = None, stop_on_leaving: bool = False) -> SphereProblem:
+        """The run of one confinement, structure inertia and force P at timestep dt (default
+        solver.dt), its fixed step refined to stay inside the friction stability limit:
+        dt / ceil(dt / limit) for a fixed-step explicit method (docs/studies.md EN-03M)."""
+        p = dataclasses.replace(self.sphere_problem(dt), structure_inertia=float(inertia),
+                                confinement=confinement.value, confining_force=float(force),
+                                stop_on_leaving_cavity=stop_on_leaving)
+        limit = stability_limit(p)
+        if p.dt > limit and not p.allow_unstable:
+            p = dataclasses.replace(p, dt=p.dt / math.ceil(p.dt / limit * (1.0 + 1e-12)))
+        return p
+
+    def step_limit(self) -> float:
+        """inf: the study refines the step of each run to its own limit (force_problem)."""
+        return math.inf

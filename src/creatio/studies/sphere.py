@@ -2,7 +2,8 @@
 
 The numeric work is one compiled run (creatio.dynamics.simulate); this module maps the
 validated config to a SphereProblem and the result to a dataset with named dimensions,
-CF-style units, and every all-step extremum as an attribute.
+CF-style units, and every all-step extremum as an attribute. :func:`result_dataset` is the
+mapping itself, shared by the studies beyond the notebook (EN-02G, EN-03, EN-03M).
 """
 
 from __future__ import annotations
@@ -10,22 +11,39 @@ from __future__ import annotations
 import numpy as np
 import xarray as xr
 
-from creatio.dynamics import simulate
+from creatio.dynamics import SimulationResult, SphereProblem, simulate
 from creatio.model.cavity import pattern_angle
-from creatio.model.surface import Motion
+from creatio.model.laws import Law
+from creatio.model.surface import Motion, Surface
 from creatio.studies.schema import DynamicConfig
 
+__all__ = ["COMPONENTS", "pattern", "result_dataset", "run"]
+
 COMPONENTS = ["x", "y", "z"]
+
+
+def pattern(prob: SphereProblem, t: np.ndarray) -> np.ndarray:
+    """Pattern angle (rad) of a problem's phases at times t, measured from the initial
+    contact angle alpha_init (docs/model.md s.3.1)."""
+    surface = Surface(prob.R0, prob.dR, prob.A, prob.Kr, prob.Ka)
+    laws = (Law(*prob.law_r[:6]), Law(*prob.law_a[:6]), Law(*prob.law_gamma[:6]))
+    return pattern_angle(surface, Motion(*laws), t, prob.alpha_init)[0]
 
 
 def run(cfg: DynamicConfig, dt: float) -> xr.Dataset:
     """Simulate at timestep dt and return the time-history dataset."""
     prob = cfg.sphere_problem(dt)
-    res = simulate(prob)
+    return result_dataset(prob, simulate(prob))
+
+
+def result_dataset(prob: SphereProblem, res: SimulationResult) -> xr.Dataset:
+    """The EN-02 time-history dataset of one run: histories, extrema as attributes, and the
+    cavity-cell check (docs/model.md s.8.2) as ``left_cavity_time`` (NaN: never left) and
+    ``carried``."""
     t = res.t
+    dt = prob.dt
     # The pattern angle starts at the initial contact angle and turns at -phi_a' / Ka.
-    motion = Motion(*cfg.phases.laws())
-    pattern = pattern_angle(cfg.geometry.surface(), motion, t, prob.alpha_init)[0]
+    pattern_t = pattern(prob, t)
     rho = np.hypot(res.X[:, 0], res.X[:, 1])
     vec = ("time", "component")
     coords = {
@@ -56,10 +74,10 @@ def run(cfg: DynamicConfig, dt: float) -> xr.Dataset:
         "quaternion": (("time", "quaternion_component"), res.Q,
                        {"long_name": "orientation, unit quaternion, scalar first"}),
         "marker": (vec, res.marker, {"long_name": "body marker, starts at (0, 0, 1)"}),
-        "pattern_angle": ("time", np.degrees(pattern),
+        "pattern_angle": ("time", np.degrees(pattern_t),
                           {"long_name": "pattern angle from the initial contact angle",
                            "units": "degree"}),
-        "angular_lag": ("time", np.degrees(res.azimuth) - np.degrees(pattern),
+        "angular_lag": ("time", np.degrees(res.azimuth) - np.degrees(pattern_t),
                         {"long_name": "centre azimuth minus pattern angle", "units": "degree"}),
         "cavity_R": ("time", res.cavity_R, {"long_name": "radial coordinate of the cavity",
                                             "units": "m"}),
@@ -97,5 +115,7 @@ def run(cfg: DynamicConfig, dt: float) -> xr.Dataset:
         "jacobians": res.jacobians,
         "warnings": "\n".join(res.warnings),
         "comment": "extrema (min_*, max_*) are taken over every integration step",
+        "left_cavity_time": res.left_cavity_time,
+        "carried": int(res.carried),
     })
     return ds

@@ -1,0 +1,128 @@
+"""EN-03M (docs/model.md s.10): microgravity with a confining force.
+
+The confinement work closes the energy balance for both kinds; the base pull at P = m g on
+a fixed structure is EN-02; the search for the smallest carrying force brackets the outcome
+(below: contact lost or cavity left; above: carried); the normal preload carries at no
+force; the study's dataset and report.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import math
+
+import numpy as np
+import pytest
+
+from creatio.dynamics import SphereProblem, simulate, stability_limit
+from creatio.pipeline.config import resolve
+from creatio.studies.en03m import probe, round_up, search
+from creatio.studies.schema import Confinement
+
+
+def _micro(p: SphereProblem, kind: str, P: float, T: float, I_s: float = 10.0
+           ) -> SphereProblem:
+    return dataclasses.replace(p, g=0.0, structure_inertia=I_s, confinement=kind,
+                               confining_force=P, law_a=(0.0, 0.0, 12 * math.pi, T, 0.0, 0.0),
+                               t_end=T)
+
+
+def test_base_pull_closes_the_energy_balance_like_gravity(en02_problem) -> None:
+    """base: F_c has the potential P z_X, so E - E0 = W_surface - D_friction, to rounding."""
+    res = simulate(_micro(en02_problem, "base", 0.5, 30.0))
+    assert res.status == "ok" and res.carried
+    assert np.abs(res.energy - res.energy[0]).max() > 0.1
+    assert res.max_energy_residual < 1e-12  # 5.3e-14 J
+    assert np.all(res.confinement_work == 0.0)  # no preload: no confinement work
+    assert res.max_hz_drift < 1e-13
+
+
+def test_normal_preload_work_closes_the_energy_balance(en02_problem) -> None:
+    """normal: E - E0 = W_surface - D_friction + W_confine, W_confine = integral of
+    -P n . c_t; the residual is the scheme's error (4th order), W_confine is O(1 J)."""
+    p = _micro(en02_problem, "normal", 5.0, 30.0)
+    res = simulate(p)
+    half = simulate(dataclasses.replace(p, dt=0.001))
+    assert res.status == "ok"
+    without = res.energy - res.energy[0] - res.surface_work + res.friction_dissipation
+    np.testing.assert_allclose(res.energy_residual, without - res.confinement_work, atol=1e-14)
+    assert np.abs(res.confinement_work).max() > 1.0
+    assert res.max_energy_residual < 1e-7 and half.max_energy_residual < 1e-8
+    assert res.max_energy_residual / half.max_energy_residual > 10.0  # ~2^4
+    # the preload's reaction acts on the structure: H_z stays conserved to the same order
+    assert res.max_hz_drift < 1e-6 and res.max_hz_drift / half.max_hz_drift > 10.0
+
+
+def test_base_at_m_g_on_a_fixed_structure_is_en02(en02_problem) -> None:
+    en02 = simulate(en02_problem)
+    base = simulate(dataclasses.replace(en02_problem, g=0.0, confinement="base",
+                                        confining_force=9.81))
+    assert not base.structure_free  # a fixed structure and a pull along -z: EN-02's path
+    for name in ("X", "N", "f", "omega", "energy", "energy_residual"):
+        np.testing.assert_array_equal(getattr(base, name), getattr(en02, name))
+    # the same through the structure path (I_s = inf, so 1 / I_s = 0): to rounding
+    path = simulate(dataclasses.replace(en02_problem, confinement="normal", confining_force=0.0))
+    assert np.abs(path.X - en02.X).max() < 1e-13
+
+
+def test_the_normal_preload_does_not_carry(en02_problem) -> None:
+    """A force along -n has no tangential part: it only adds friction, which pins the sphere
+    to membrane points that move along the normal; the cavity passes it at any P."""
+    for P in (0.01, 1.0, 100.0):
+        p = dataclasses.replace(_micro(en02_problem, "normal", P, 120.0, math.inf),
+                                stop_on_leaving_cavity=True)
+        limit = stability_limit(p)
+        p = dataclasses.replace(p, dt=p.dt / math.ceil(p.dt / limit))
+        res = simulate(p)
+        assert res.status == "left_cavity" and 20.0 < res.stop_time < 21.0
+        assert abs(math.degrees(res.azimuth[-1] - res.azimuth[0])) < 4.0
+
+
+def test_search_brackets_the_smallest_carrying_force() -> None:
+    cfg = resolve("en03m", ["phases.T=30.0", "study.confinements=[base]",
+                            "study.inertias=[inf]"]).obj
+    probes, lo, hi = search(cfg, Confinement.base, math.inf, 0.002)
+    assert 0.0 < lo < hi and hi - lo <= 1e-3 * hi
+    assert [q.carried for q in probes if q.force == hi] == [True]
+    below = probe(cfg, Confinement.base, math.inf, lo, 0.002)
+    above = probe(cfg, Confinement.base, math.inf, round_up(hi), 0.002)
+    assert not below.carried and below.status in ("left_cavity", "contact_lost")
+    assert above.carried and above.status == "ok"
+    # monotone over the scan: nothing below the bracket carries
+    assert not any(q.carried for q in probes if q.force <= lo)
+
+
+def test_force_problem_refines_the_step_to_its_stability_limit() -> None:
+    cfg = resolve("en03m").obj
+    p = cfg.force_problem(Confinement.normal, 10.0, 981.0)
+    assert p.dt < stability_limit(p) * (1 + 1e-12) and 0.002 / p.dt == round(0.002 / p.dt)
+    assert cfg.force_problem(Confinement.base, 10.0, 0.05).dt == 0.002
+
+
+def test_round_up_keeps_three_digits() -> None:
+    assert round_up(0.023080809612548745) == 0.0231
+    assert round_up(981.0) == 981.0 and round_up(0.99951) == 1.0
+
+
+def test_en03m_study_dataset_and_report(tmp_path) -> None:
+    from creatio.pipeline.io import write_dataset
+    from creatio.pipeline.run import run_study
+
+    cfg = resolve("en03m", ["phases.T=20.0", "study.bisection.decades=[-2,-1]",
+                            "study.max_force_factor=1.0", "study.bisection.rtol=0.05"])
+    paths = [write_dataset(run_study(cfg, q.name), tmp_path / f"{q.name}.nc")
+             for q in cfg.entry.parts(cfg.obj)]
+    files = cfg.entry.report_function()(paths, tmp_path)
+    report = json.loads(files["json"].read_text())
+    for key in ("status", "timestep_difference_m", "energy_residual_J"):
+        assert key in report
+    for kind in ("normal", "base"):
+        for key in ("min_confining_force_N", "carried_angle_deg", "structure_rotation_deg",
+                    "confinement_work_J"):
+            assert key in report[kind]
+        assert set(report[kind]["by_structure_inertia"]) == {"10", "inf"}
+    assert report["normal"]["min_confining_force_N"] is None  # none up to m g carries
+    assert report["normal"]["figure_force_N"] == pytest.approx(9.81)
+    assert report["base"]["min_confining_force_N"] > 0.0
+    assert report["base"]["by_structure_inertia"]["inf"]["structure_rotation_deg"] == 0.0
