@@ -78,6 +78,7 @@ include: "workflow/rules/beyond.smk"
 localrules:
     all,
     study_config,
+    scene_config,
     benchmarks,
     kinematic_report,
     sphere_report,

@@ -46,12 +46,35 @@ Studies: {studies}. Configs live in {conf}.
 
 
 # ------------------------------------------------------------------------------ hydra apps
+# The groups a user picks options from (conf/<group>/<option>.yaml), per command; schema,
+# scene and sweeps are the pipeline's own and stay out of --help.
+USER_GROUPS = {
+    "creatio run": ("study", "analysis", "solver", "geometry", "phases", "sphere", "structure"),
+    "creatio probe": ("geometry", "phases"),
+}
+
+
+def _groups_help(app: str) -> str:
+    """The user-selectable config groups of a command and their options, for --help."""
+    from creatio.pipeline.config import CONF_DIR
+
+    lines = []
+    for group in USER_GROUPS.get(app, USER_GROUPS["creatio run"]):
+        options = sorted(p.stem for p in (CONF_DIR / group).glob("*.yaml"))
+        if options:
+            lines.append(f"{group}: {', '.join(options)}")
+    return "\n".join(lines)
+
+
 def _hydra_app(config_name: str, task, study: str | None = None) -> None:
     import hydra
+    from omegaconf import OmegaConf
 
     from creatio.pipeline.config import CONF_DIR, register_schemas
 
     register_schemas(*([study] if study else []))
+    if not OmegaConf.has_resolver("creatio_groups"):
+        OmegaConf.register_new_resolver("creatio_groups", _groups_help)
     hydra.main(config_path=str(CONF_DIR), config_name=config_name, version_base="1.3")(task)()
 
 
@@ -280,6 +303,32 @@ def _usage() -> str:
                         or "none", conf=CONF_DIR)
 
 
+def _completion(argv: list[str]) -> int:
+    """Shell completion through Hydra's plugins: `creatio -sc install=bash` prints the hook;
+    a query completes the command word, then the run or probe app's groups and keys."""
+    import os
+
+    line = os.environ.get("COMP_LINE", "")
+    words = line.split()
+    commands = ("run", "probe", "release", "diff", "task")
+    if any(a.startswith("query") for a in argv[1:]):
+        command = words[1] if len(words) > 1 else ""
+        if command not in ("run", "probe") or (len(words) == 2 and not line.endswith(" ")):
+            print(" ".join(c for c in commands if c.startswith(command)))
+            return 0
+        os.environ["COMP_LINE"] = " ".join([words[0], *words[2:]]) + (
+            " " if line.endswith(" ") else "")
+        rest = words[2:]
+    else:
+        command, rest = "run", []
+    config_name = _primary(rest) if command == "run" else "probe"
+    sys.argv = ["creatio", *argv]
+    study = _selected([a for a in rest if not a.startswith("-")])[0]
+    _hydra_app(config_name, _run_task if command == "run" else _probe_task,
+               study if command == "run" and study in _study_ids() else None)
+    return 0
+
+
 def _dispatch(argv: list[str]) -> int:
     """Run one command."""
     if not argv or argv[0] in ("-h", "--help", "help"):
@@ -290,10 +339,14 @@ def _dispatch(argv: list[str]) -> int:
 
         print(f"creatio {__version__}")
         return 0
+    if argv[0] in ("-sc", "--shell-completion"):
+        return _completion(argv)
     command, rest = argv[0], argv[1:]
+    if command not in ("run", "probe") or "-m" in rest or "--multirun" in rest:
+        logging.basicConfig(level=logging.INFO, format="%(message)s", stream=sys.stderr)
     if command == "run" and ("-m" in rest or "--multirun" in rest):
         return _multirun(rest)
-    if command in ("run", "probe"):
+    if command in ("run", "probe"):  # Hydra apps: Hydra configures logging (--info once)
         config_name = _primary(rest) if command == "run" else "probe"
         _prevalidate(rest, config_name)
         sys.argv = [f"creatio {command}", *rest]
@@ -325,11 +378,13 @@ def main(argv: Sequence[str] | None = None) -> int:
     import os
 
     argv = list(sys.argv[1:] if argv is None else argv)
-    logging.basicConfig(level=logging.INFO, format="%(message)s", stream=sys.stderr)
     if os.environ.get("CREATIO_DEBUG"):
         return _dispatch(argv)
     try:
         return _dispatch(argv)
+    except BrokenPipeError:  # `creatio run --help | head`: the reader left; so do we
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return 141
     except KeyboardInterrupt:
         print("creatio: interrupted (nothing half-written is kept; rerun to finish)",
               file=sys.stderr)

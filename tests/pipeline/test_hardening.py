@@ -151,3 +151,31 @@ def test_version_is_printed():
 
     proc = creatio("--version")
     assert proc.returncode == 0 and proc.stdout.strip() == f"creatio {__version__}"
+
+
+def test_run_help_presents_creatio_and_only_the_groups_a_user_picks():
+    out = creatio("run", "--help").stdout
+    assert out.startswith("creatio run:") and "powered by Hydra" not in out
+    groups = out.split("== Configuration groups ==")[1].split("==")[0]
+    assert "solver: dop853, dopri5, radau5, rk4" in groups
+    assert "schema:" not in groups and "scene:" not in groups and "sweeps:" not in groups
+    probe = creatio("probe", "--help").stdout
+    assert probe.startswith("creatio probe:") and "solver:" not in probe
+
+
+def test_info_prints_once():
+    out = creatio("run", "--info", "defaults").stdout
+    assert out.count("Defaults List") == 1, out
+
+
+@pytest.mark.parametrize(("line", "expected"), [
+    ("creatio r", {"run", "release"}),
+    ("creatio run solver=", {"solver=dop853", "solver=dopri5", "solver=radau5", "solver=rk4"}),
+    ("creatio run study=en02 sphere.m", {"sphere.m=", "sphere.mu="}),
+    ("creatio probe geometry.K", {"geometry.Ka=", "geometry.Kr="}),
+])
+def test_shell_completion_completes_commands_groups_and_keys(line, expected):
+    proc = subprocess.run([sys.executable, "-m", "creatio.cli", "-sc", "query=bash"],
+                          capture_output=True, text=True, env={**os.environ, "COMP_LINE": line})
+    assert proc.returncode == 0, proc.stderr
+    assert set(proc.stdout.split()) == expected

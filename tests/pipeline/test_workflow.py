@@ -97,6 +97,55 @@ def test_bad_override_fails_before_any_job(workdir):
     assert "Traceback" not in out and "InputFunctionException" not in out
 
 
+def test_jobs_read_their_config_from_a_file_and_reasons_stay_short(workdir):
+    """Each study's resolved config is a file that its dataset jobs read; no job parameter
+    carries the YAML, so a rerun reason (which prints changed parameters) stays one line."""
+    assert (workdir / "data" / "configs" / "ct02.yaml").read_text() == resolve("ct02").yaml
+    dry = snakemake(workdir, "all", "-n", "-p", "--config", 'studies=["ct02"]',
+                    'overrides=["study.feature_h=3e-4"]')
+    assert dry.returncode == 0, dry.stderr[-2000:]
+    key = resolve("ct02", ["study.feature_h=3e-4"]).key
+    out = dry.stdout + dry.stderr
+    assert f"--config-file data/runs/{key}/configs/ct02.yaml" in out
+    assert max(len(line) for line in out.splitlines()) < 400
+    assert "feature_h: 0.0003" not in out
+
+
+@pytest.mark.parametrize(("config", "words"), [
+    ("studie=x", "studie='x': unknown --config key (did you mean studies?)"),
+    ("sweep_batch=0", "sweep_batch=0: 0 is less than the minimum of 1"),
+    ("atol=abc", "atol='abc': 'abc' is not of type 'number'"),
+    ("tol=3", "tol=3: must be a string or a list of strings"),
+])
+def test_the_workflow_config_is_validated_against_its_schema(tmp_path, config, words):
+    proc = snakemake(tmp_path, "all", "-n", "--config", config)
+    assert proc.returncode == 2
+    assert words in proc.stderr and "Traceback" not in proc.stderr
+
+
+def test_code_versions_follow_the_sources_of_each_kind_of_output(tmp_path):
+    """A rule's code parameter changes when, and only when, a source it depends on changes."""
+    import shutil
+
+    from creatio.pipeline.planning import code_version
+
+    package = tmp_path / "creatio"
+    shutil.copytree(Path(__file__).resolve().parents[2] / "src" / "creatio", package,
+                    ignore=shutil.ignore_patterns("__pycache__"))
+    before = {k: code_version(k, package) for k in ("datasets", "reports", "scenes")}
+    assert before["datasets"] == code_version("datasets")  # location-independent
+    with (package / "reports" / "common.py").open("a") as fh:
+        fh.write("# changed\n")
+    code_version.cache_clear()
+    after = {k: code_version(k, package) for k in before}
+    assert after["reports"] != before["reports"]
+    assert after["datasets"] == before["datasets"] and after["scenes"] == before["scenes"]
+    with (package / "model" / "surface.py").open("a") as fh:
+        fh.write("# changed\n")
+    code_version.cache_clear()
+    assert code_version("datasets", package) != before["datasets"]
+
+
 def test_dynamic_study_runs_both_timesteps_into_its_hash_dir(tmp_path):
     """A 2 s EN-02 cycle: dt and dt/3 jobs (an inexact dt), then the report's contract."""
     override = ["phases.T=2.0", "solver.refine=3"]

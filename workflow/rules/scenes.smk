@@ -34,16 +34,30 @@ rule scene_library:
         "{params.creatio} task scene library {output} 2> {log}"
 
 
+rule scene_config:
+    output:
+        "{root}/scenes/{scene}/config.yaml",
+    wildcard_constraints:
+        scene=scene_ids(),
+    params:
+        config_sha256=lambda wc: SCENES.sha(wc.root, wc.scene),
+    log:
+        "{root}/logs/scenes/{scene}_config.log",
+    run:
+        SCENES.write(wildcards.root, wildcards.scene, output[0], log[0])
+
+
 rule scene_dataset:
     input:
         lambda wc: list(SCENES.reuse(wc.root, wc.scene).values()),
+        config="{root}/scenes/{scene}/config.yaml",
     output:
         "{root}/scenes/{scene}/scene.nc",
     wildcard_constraints:
         scene=scene_ids(),
     params:
         creatio=CREATIO,
-        config=lambda wc: SCENES.yaml(wc.root, wc.scene),
+        code=code_version("datasets") + code_version("scenes"),
         reuse=lambda wc: SCENES.reuse_args(wc.root, wc.scene),
     conda:
         "../envs/creatio.yaml"
@@ -53,7 +67,7 @@ rule scene_dataset:
         "{root}/logs/scenes/{scene}_dataset.log",
     shell:
         "{params.creatio} task scene dataset {wildcards.scene} {output} "
-        "--config-yaml {params.config:q} {params.reuse} 2> {log}"
+        "--config-file {input.config} {params.reuse} 2> {log}"
 
 
 rule scene_page:
@@ -66,6 +80,7 @@ rule scene_page:
         scene=scene_ids(),
     params:
         creatio=CREATIO,
+        code=code_version("scenes"),
     conda:
         "../envs/creatio.yaml"
     benchmark:
@@ -86,6 +101,7 @@ rule scene_media:
         scene=scene_ids(),
     params:
         creatio=CREATIO,
+        code=code_version("scenes"),
     conda:
         "../envs/creatio.yaml"
     benchmark:

@@ -25,6 +25,7 @@ __all__ = [
     "JobConfigs",
     "check_workflow_config",
     "code_version",
+    "write_config_file",
     "one_line_errors",
     "analysis_ids",
     "StudyPlan",
@@ -145,15 +146,17 @@ CODE = {
     "datasets": ("model", "dynamics", "studies", "pipeline/run.py", "pipeline/io.py",
                  "pipeline/cf.py", "pipeline/sweep.py"),
     "reports": ("reports", "pipeline/run.py", "pipeline/io.py"),
+    "scenes": ("scenes", "pipeline/io.py"),
 }
 
 
 @functools.cache
-def code_version(kind: str) -> str:
-    """A short hash of the sources that make one kind of output (see CODE)."""
+def code_version(kind: str, package: Path | None = None) -> str:
+    """A short hash of the sources that make one kind of output (see CODE), read from the
+    installed package or from package."""
     import hashlib
 
-    package = Path(__file__).resolve().parents[1]
+    package = package or Path(__file__).resolve().parents[1]
     h = hashlib.sha256()
     for part in CODE[kind]:
         target = package / part
@@ -202,6 +205,17 @@ def compare_targets(plans: dict[str, StudyPlan]) -> list[str]:
     return []
 
 
+def write_config_file(path: str | Path, log: str | Path, name: str, text: str,
+                      sha256: str) -> None:
+    """A config rule's job: the canonical resolved YAML to path and its hash to the log,
+    each written to a temporary sibling and renamed (a kill leaves no partial file)."""
+    for target, body in ((Path(path), text), (Path(log), f"{name} config sha256 {sha256}\n")):
+        target.parent.mkdir(parents=True, exist_ok=True)
+        tmp = target.with_name(f".{target.name}.tmp-{os.getpid()}")
+        tmp.write_text(body)
+        os.replace(tmp, target)
+
+
 class JobConfigs:
     """Which resolved config writes under (output root, study), for every job of this run.
 
@@ -248,12 +262,7 @@ class JobConfigs:
         """Write (root, study)'s canonical resolved YAML to path (temporary, then renamed)
         and its hash to the log."""
         resolved = self.get(root, study)
-        for target, text in ((Path(path), resolved.yaml),
-                             (Path(log), f"{study} config sha256 {resolved.sha256}\n")):
-            target.parent.mkdir(parents=True, exist_ok=True)
-            tmp = target.with_name(f".{target.name}.tmp-{os.getpid()}")
-            tmp.write_text(text)
-            os.replace(tmp, target)
+        write_config_file(path, log, study, resolved.yaml, resolved.sha256)
 
     @one_line_errors
     def yaml(self, root: str, study: str) -> str:

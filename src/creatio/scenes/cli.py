@@ -1,7 +1,7 @@
 """`creatio task scene ...`: the steps of the scene rules (workflow/rules/scenes.smk).
 
     creatio task scene library OUT.js                       bundle three.js (npm ci + esbuild)
-    creatio task scene dataset SCENE OUT.nc [--config-yaml Y | --override K=V ...]
+    creatio task scene dataset SCENE OUT.nc [--config-file F | --config-yaml Y | --override K=V]
                                             [--reuse STUDY=DATASET.nc ...]
     creatio task scene page SCENE.nc LIBRARY.js OUT.html
     creatio task scene media SCENE.nc ANIMATION.webp POSTER.png
@@ -31,6 +31,8 @@ def main(argv: Sequence[str]) -> int:
     d.add_argument("scene", choices=list(registry.SCENES))
     d.add_argument("out", type=Path)
     d.add_argument("--config-yaml", default=None, help="the resolved scene config (YAML)")
+    d.add_argument("--config-file", type=Path, default=None,
+                   help="a file holding the resolved scene config (the workflow's)")
     d.add_argument("--override", action="append", default=[], metavar="KEY=VALUE",
                    help="a Hydra override, routed to the scene (sphere.mu reaches its bases)")
     d.add_argument("--reuse", action="append", default=[], metavar="STUDY=DATASET",
@@ -81,6 +83,8 @@ def _config(args: argparse.Namespace):
     """The resolved scene config: YAML text, or conf/ with routed overrides."""
     from creatio.scenes.config import resolve, route, validate
 
+    if args.config_file is not None:
+        args.config_yaml = args.config_file.read_text()
     if args.config_yaml is None:
         routed, used = route(args.scene, args.override)
         unused = [o for o in args.override if o not in used]

@@ -179,6 +179,18 @@ class SceneRuns:
         raise ConfigError("output", f"{root}/scenes/{scene}",
                           "no scene configuration of this invocation writes there")
 
+    def sha(self, root: str, scene: str) -> str:
+        """The sha256 of a scene's canonical resolved YAML (its config rule's parameter)."""
+        return self.get(root, scene).resolved.sha256
+
+    def write(self, root: str, scene: str, path: str | Path, log: str | Path) -> None:
+        """Write a scene's canonical resolved YAML to path (temporary, then renamed) and its
+        hash to the log."""
+        from creatio.pipeline.planning import write_config_file
+
+        resolved = self.get(root, scene).resolved
+        write_config_file(path, log, scene, resolved.yaml, resolved.sha256)
+
     def yaml(self, root: str, scene: str) -> str:
         """The canonical resolved YAML of a scene job (its only config parameter)."""
         return self.get(root, scene).resolved.yaml
