@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import os
 import re
 import subprocess
 import sys
@@ -95,6 +96,23 @@ def test_bad_override_fails_before_any_job(workdir):
     out = proc.stdout + proc.stderr
     assert "geometry.A=0.9" in out and "0 <= A < R0" in out
     assert "Traceback" not in out and "InputFunctionException" not in out
+
+
+def test_a_dataset_lost_behind_its_report_is_made_again(workdir):
+    """A killed forced rerun deletes the outputs of the jobs it started while their reports
+    stay: the datasets are targets themselves, so the next run makes them again."""
+    lost = workdir / "data" / "studies" / "en01" / "en01.nc"
+    kept, stat = lost.read_bytes(), lost.stat()
+    lost.unlink()
+    try:
+        dry = snakemake(workdir, "all", "-n", "--config", 'studies=["ct02","en01"]')
+        out = dry.stdout + dry.stderr
+        assert dry.returncode == 0, out[-2000:]
+        assert re.search(r"study_dataset\s+1\n", out) and "Missing output files: " \
+            "data/studies/en01/en01.nc" in out
+    finally:  # as it was, times included (the tests after this one expect nothing to do)
+        lost.write_bytes(kept)
+        os.utime(lost, ns=(stat.st_atime_ns, stat.st_mtime_ns))
 
 
 def test_jobs_read_their_config_from_a_file_and_reasons_stay_short(workdir):

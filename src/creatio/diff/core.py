@@ -25,7 +25,7 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
-from creatio.pipeline.io import VOLATILE_ATTRS
+from creatio.pipeline.io import VOLATILE_ATTRS, atomic_write
 from creatio.pipeline.release import (
     MANIFEST,
     ReleaseError,
@@ -923,8 +923,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         as_json = json.dumps(result, indent=2) + "\n"
         for path, content in ((args.text_out, text), (args.json_out, as_json)):
             if path is not None:
-                path.parent.mkdir(parents=True, exist_ok=True)
-                path.write_text(content)
+                with atomic_write(path) as fh:
+                    fh.write(content)
     except DiffError as e:
         print(f"creatio diff: {e}", file=sys.stderr)
         return 2

@@ -304,8 +304,12 @@ class StudyRuns:
 
     @one_line_errors
     def targets(self) -> list[str]:
-        """Every report of every selected study, plus the EN-02 / EN-02R comparison."""
-        return [f for p in self.plans.values() for f in p.reports] + compare_targets(self.plans)
+        """Every dataset and report of every selected study, plus the EN-02 / EN-02R
+        comparison. The datasets are targets, not only the reports' inputs: Snakemake does
+        not remake a missing input of an up-to-date job (a dataset deleted by a killed forced
+        rerun would otherwise stay missing behind its report)."""
+        return [f for p in self.plans.values() for f in (*p.datasets, *p.reports)] + \
+            compare_targets(self.plans)
 
 
 def _positive_int(key: str, value: Any) -> int | None:

@@ -13,7 +13,7 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
-from creatio.reports.common import fmt, plt, strict_json, table
+from creatio.reports.common import fmt, plt, save_figure, strict_json, table, write_text
 
 __all__ = ["figure", "summary", "write_report"]
 
@@ -213,7 +213,7 @@ def figure(datasets: Sequence[xr.Dataset], path: str | Path) -> Path:
                    title="dots: status of the recorded run; bottom ticks: status at the "
                          "nominal dt", title_fontsize=9)
     path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=80)
+    save_figure(fig, path, dpi=80)
     plt.close(fig)
     return path
 
@@ -232,7 +232,7 @@ def write_report(datasets: Sequence[Path], outdir: str | Path) -> dict[str, Path
     outdir.mkdir(parents=True, exist_ok=True)
     paths = {"json": outdir / f"{study}.json", "md": outdir / f"{study}.md",
              "png": outdir / f"{study}.png"}
-    paths["json"].write_text(strict_json(summary(runs)))
+    write_text(paths["json"], strict_json(summary(runs)))
     figure(runs, paths["png"])
-    paths["md"].write_text(_markdown(runs, title, paths["png"].name))
+    write_text(paths["md"], _markdown(runs, title, paths["png"].name))
     return paths

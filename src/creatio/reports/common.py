@@ -9,6 +9,7 @@ from __future__ import annotations
 import json
 import math
 from collections.abc import Sequence
+from pathlib import Path
 from typing import Any
 
 import matplotlib
@@ -16,6 +17,8 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
+
+from creatio.pipeline.io import atomic_save, atomic_write  # noqa: E402
 
 __all__ = ["cell", "fmt", "h_key", "nested", "plt", "readable_y", "strict_json", "table"]
 
@@ -83,3 +86,16 @@ def readable_y(ax: Any, y: Any) -> None:
     if scale > 0 and hi - lo <= 1e-6 * scale:
         pad = 1e-3 * scale
         ax.set_ylim(lo - pad, hi + pad)
+
+
+def write_text(path: Path, text: str) -> Path:
+    """Write a report file through a temporary sibling and a rename: a killed report job
+    leaves the previous file or none, never a partial one."""
+    with atomic_write(path) as fh:
+        fh.write(text)
+    return Path(path)
+
+
+def save_figure(fig: Any, path: Path, **kwargs: Any) -> Path:
+    """Save a matplotlib figure the same way (format from the suffix)."""
+    return atomic_save(path, lambda tmp: fig.savefig(tmp, **kwargs))

@@ -17,7 +17,8 @@ import numpy as np
 import xarray as xr
 
 from creatio.model.numerics import observed_order
-from creatio.reports.common import h_key, nested, plt, strict_json, table
+from creatio.pipeline.io import atomic_write
+from creatio.reports.common import h_key, nested, plt, save_figure, strict_json, table, write_text
 from creatio.studies import registry
 
 __all__ = ["PATTERN_LABELS", "kinematic_summary", "write_report"]
@@ -119,7 +120,7 @@ def _convergence_figure(summary: dict, study: str, path: Path) -> None:
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(fontsize=8)
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    save_figure(fig, path, dpi=110)
     plt.close(fig)
 
 
@@ -134,14 +135,14 @@ def write_report(datasets: Sequence[Path], outdir: str | Path) -> dict[str, Path
     summary = kinematic_summary(ds)
     paths = {ext: outdir / f"{study}.{ext}" for ext in ("json", "md", "png")}
     paths["csv"] = outdir / f"{study}_fd_error.csv"
-    paths["json"].write_text(strict_json(summary))
+    write_text(paths["json"], strict_json(summary))
     header, rows = _fd_rows(summary, study)
-    with paths["csv"].open("w", newline="") as fh:
+    with atomic_write(paths["csv"], newline="") as fh:
         w = csv.writer(fh)
         w.writerow(header)
         w.writerows(rows)
     _convergence_figure(summary, study, paths["png"])
-    paths["md"].write_text(_kinematic_markdown(ds, summary, header, rows, paths))
+    write_text(paths["md"], _kinematic_markdown(ds, summary, header, rows, paths))
     return paths
 
 

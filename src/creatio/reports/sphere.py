@@ -14,7 +14,8 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
-from creatio.reports.common import fmt, plt, readable_y, strict_json, table
+from creatio.pipeline.io import atomic_write
+from creatio.reports.common import fmt, plt, readable_y, save_figure, strict_json, table, write_text
 from creatio.studies import registry
 
 __all__ = ["dynamic_summary", "timestep_difference", "write_comparison", "write_report"]
@@ -121,7 +122,7 @@ def _history_figure(ds: xr.Dataset, path: Path) -> None:
     fig.suptitle(f"{ds.attrs.get('title', '')}: time histories (dt = {ds.attrs['dt']:g} s, "
                  f"status {ds.attrs['status']})")
     fig.tight_layout()
-    fig.savefig(path, dpi=100)
+    save_figure(fig, path, dpi=100)
     plt.close(fig)
 
 
@@ -147,7 +148,7 @@ def _trajectory_figure(runs: Sequence[tuple[str, xr.Dataset]], config: dict, pat
     ax.legend(loc="upper right", fontsize=8)
     ax.set_title("centre path in top view over the surface height at t = 0", fontsize=9)
     fig.tight_layout()
-    fig.savefig(path, dpi=100)
+    save_figure(fig, path, dpi=100)
     plt.close(fig)
 
 
@@ -170,7 +171,7 @@ def _convergence_figure_dynamic(datasets: Sequence[xr.Dataset], path: Path) -> N
     for ax in (ax1, ax2):
         ax.grid(alpha=0.3, which="both")
     fig.tight_layout()
-    fig.savefig(path, dpi=100)
+    save_figure(fig, path, dpi=100)
     plt.close(fig)
 
 
@@ -184,7 +185,7 @@ def _history_csv(ds: xr.Dataset, path: Path) -> None:
         elif var.dims[0] == "time" and var.ndim == 2:
             for j, c in enumerate(var[var.dims[1]].values):
                 cols[f"{name}_{c}{suffix}"] = var.values[:, j]
-    with path.open("w", newline="") as fh:
+    with atomic_write(path, newline="") as fh:
         w = csv.writer(fh)
         w.writerow(list(cols))
         w.writerows(zip(*(np.asarray(v).tolist() for v in cols.values()), strict=True))
@@ -225,7 +226,7 @@ def write_report(datasets: Sequence[Path], outdir: str | Path) -> dict[str, Path
         "trajectory": outdir / f"{study}_trajectory.png",
         "convergence": outdir / f"{study}_convergence.png",
     }
-    paths["json"].write_text(strict_json(s))
+    write_text(paths["json"], strict_json(s))
     _history_figure(ds, paths["png"])
     _trajectory_figure([(study, ds)], config, paths["trajectory"])
     _convergence_figure_dynamic(runs, paths["convergence"])
@@ -263,7 +264,7 @@ def write_report(datasets: Sequence[Path], outdir: str | Path) -> dict[str, Path
     lines += [f"![time histories]({paths['png'].name})", "",
               f"![trajectory]({paths['trajectory'].name})", "",
               f"![convergence]({paths['convergence'].name})", ""]
-    paths["md"].write_text("\n".join(lines))
+    write_text(paths["md"], "\n".join(lines))
     return paths
 
 
@@ -284,5 +285,5 @@ def write_comparison(datasets: Sequence[Path], outdir: str | Path) -> dict[str, 
              "Both centre paths in top view on shared time (colour), over the surface height "
              "at t = 0.", "", f"![paths]({paths['png'].name})", ""]
     lines += table(["figure", *names], rows)
-    paths["md"].write_text("\n".join(lines) + "\n")
+    write_text(paths["md"], "\n".join(lines) + "\n")
     return paths

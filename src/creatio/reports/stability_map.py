@@ -16,7 +16,7 @@ import numpy as np
 import xarray as xr
 
 from creatio.model.sphere import STABILITY_MARGIN
-from creatio.reports.common import fmt, plt, strict_json, table
+from creatio.reports.common import fmt, plt, save_figure, strict_json, table, write_text
 
 __all__ = ["figure", "method_colors", "summary", "write_report"]
 
@@ -188,7 +188,7 @@ def figure(sets: xr.Dataset | Sequence[xr.Dataset], path: str | Path) -> Path:
     fig.tight_layout()
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=110)
+    save_figure(fig, path, dpi=110)
     plt.close(fig)
     return path
 
@@ -287,7 +287,7 @@ def write_report(datasets: Sequence[Path], outdir: str | Path) -> dict[str, Path
     outdir = Path(outdir)
     outdir.mkdir(parents=True, exist_ok=True)
     paths = {k: outdir / f"{STUDY}.{k}" for k in ("json", "md", "png")}
-    paths["json"].write_text(strict_json(summary(sets)))
-    paths["md"].write_text(markdown(sets, title))
+    write_text(paths["json"], strict_json(summary(sets)))
+    write_text(paths["md"], markdown(sets, title))
     figure(sets, paths["png"])
     return paths

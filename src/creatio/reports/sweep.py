@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 import xarray as xr
 
-from creatio.reports.common import plt, readable_y, table
+from creatio.reports.common import plt, readable_y, save_figure, table, write_text
 
 __all__ = ["axis_label", "figure_label", "write_sweep_report"]
 
@@ -106,7 +106,7 @@ def write_sweep_report(ds: xr.Dataset, outdir: str | Path) -> dict[str, Path]:
              "run; stopped runs keep their status.", "", "![sweep](sweep.png)", ""]
     lines += table(header, rows)
     md = outdir / "sweep.md"
-    md.write_text("\n".join(lines) + "\n")
+    write_text(md, "\n".join(lines) + "\n")
     png = outdir / "sweep.png"
     ncol = min(3, len(names)) or 1
     nrow = max(1, math.ceil(len(names) / ncol))
@@ -152,6 +152,6 @@ def write_sweep_report(ds: xr.Dataset, outdir: str | Path) -> dict[str, Path]:
         axes.flat[0].legend(fontsize=7)
     fig.suptitle(ds.attrs.get("title", ""))
     fig.tight_layout()
-    fig.savefig(png, dpi=100)
+    save_figure(fig, png, dpi=100)
     plt.close(fig)
     return {"md": md, "png": png}

@@ -17,7 +17,7 @@ from typing import Any
 
 import numpy as np
 
-from creatio.reports.common import fmt, plt, strict_json, table
+from creatio.reports.common import fmt, plt, save_figure, strict_json, table, write_text
 
 __all__ = ["fastest", "overlap", "summary", "write_report"]
 
@@ -228,7 +228,7 @@ def _figure(runs: Sequence[dict], path: Path) -> None:
             ax.grid(True, which="both", alpha=0.3)
             ax.legend(fontsize=8, ncol=2 if len(methods) > 8 else 1)
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    save_figure(fig, path, dpi=110)
     plt.close(fig)
 
 
@@ -262,7 +262,7 @@ def write_report(datasets: Sequence[Path], outdir: str | Path) -> dict[str, Path
               "time_spread": SPREAD, "noise": "two times whose ranges [min, max] overlap",
               "machine": machine, "jit": jit, "levels_m": levels, "studies": studies,
               "entries": runs}
-    paths["json"].write_text(strict_json(report))
-    paths["md"].write_text(_markdown(studies, runs, machine, jit, levels, factor))
+    write_text(paths["json"], strict_json(report))
+    write_text(paths["md"], _markdown(studies, runs, machine, jit, levels, factor))
     _figure(runs, paths["png"])
     return paths

@@ -19,6 +19,7 @@ import xarray as xr
 
 from creatio.model.laws import Law
 from creatio.model.surface import Frame, Motion, Surface
+from creatio.pipeline.io import atomic_save
 from creatio.reports.common import plt
 
 __all__ = ["sphere_media", "surface_family_media", "velocity_normal_media"]
@@ -79,10 +80,11 @@ def _write(frames: Sequence[np.ndarray], animation: Path, poster_rgb: np.ndarray
     from PIL import Image
 
     images = [Image.fromarray(f) for f in frames]
-    animation.parent.mkdir(parents=True, exist_ok=True)
-    images[0].save(animation, format="WEBP", save_all=True, append_images=images[1:],
-                   duration=max(20, round(frame_ms)), loop=0, quality=quality, method=4)
-    Image.fromarray(poster_rgb).save(poster, format="PNG", optimize=True)
+    atomic_save(animation, lambda tmp: images[0].save(
+        tmp, format="WEBP", save_all=True, append_images=images[1:],
+        duration=max(20, round(frame_ms)), loop=0, quality=quality, method=4))
+    atomic_save(poster, lambda tmp: Image.fromarray(poster_rgb).save(
+        tmp, format="PNG", optimize=True))
 
 
 def _render(draw: Callable[[Any, int], None], indices: Sequence[int], poster_index: int,

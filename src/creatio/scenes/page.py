@@ -19,6 +19,7 @@ import numpy as np
 import xarray as xr
 
 import creatio
+from creatio.pipeline.io import atomic_save
 from creatio.scenes.assets import web_file
 
 __all__ = ["MAX_BYTES", "page_data", "write_page"]
@@ -100,13 +101,8 @@ def write_page(ds: xr.Dataset, out: str | Path, library: str | Path) -> Path:
                        ("{{DATA}}", data),
                        ("{{THREE}}", lib_text.replace("</script", "<\\/script"))):
         text = text.replace(key, value)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    tmp = out.with_name(f".{out.name}.tmp")
-    tmp.write_text(text, encoding="utf-8")
-    size = tmp.stat().st_size
+    size = len(text.encode("utf-8"))
     if size > MAX_BYTES:
-        tmp.unlink()
         raise ValueError(f"{out}: the page would be {size / 1e6:.1f} MB, above the "
                          f"{MAX_BYTES / 2**20:.0f} MB limit: lower scene.mesh or the frame rate")
-    tmp.replace(out)
-    return out
+    return atomic_save(out, lambda tmp: tmp.write_text(text, encoding="utf-8"))
