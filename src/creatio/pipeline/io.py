@@ -1,4 +1,4 @@
-"""NetCDF dataset I/O: atomic writes, CF-style global attributes, full provenance.
+"""NetCDF dataset I/O: atomic writes, CF-1.10 metadata (creatio.pipeline.cf), full provenance.
 
 Every dataset carries the resolved config (YAML) and its sha256, the package version, the
 git commit and dirty flag, library versions and the creation time, so that reading it back
@@ -28,6 +28,7 @@ import xarray as xr
 import yaml
 
 import creatio
+from creatio.pipeline import cf
 
 __all__ = [
     "atomic_path",
@@ -184,21 +185,34 @@ def _netcdf_attr(value: Any) -> Any:
     return value
 
 
+def _encoding(ds: xr.Dataset) -> dict[Any, dict[str, Any]]:
+    """Storage of each variable: CF's (text as character arrays, coordinates without
+    _FillValue), and compression for what is large; small variables are stored
+    contiguously (chunk indexes and compression headers would cost more than they save)."""
+    encoding = cf.encoding(ds)
+    for name, var in ds.variables.items():
+        if var.dtype.kind not in "fiub" and not cf.is_string(var):
+            continue
+        size = var.nbytes
+        if cf.is_string(var):
+            size = var.size * max((len(str(v).encode()) for v in np.ravel(var.values)),
+                                  default=1)
+        encoding[name].update({"zlib": True, "complevel": 4} if size > SMALL_BYTES
+                              else {"contiguous": True})
+    return encoding
+
+
 def write_dataset(ds: xr.Dataset, path: str | Path) -> Path:
-    """Write ds as compressed NetCDF4 atomically (temp file, then rename)."""
+    """Write ds as compressed CF-1.10 NetCDF4 atomically (temp file, then rename); the
+    metadata are made CF-conformant here, once for every dataset (creatio.pipeline.cf)."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     ds = ds.copy()
     ds.attrs = {k: _netcdf_attr(v) for k, v in ds.attrs.items()}
     for var in ds.variables.values():
         var.attrs = {k: _netcdf_attr(v) for k, v in var.attrs.items()}
-    # Compress what is large; store small variables contiguously (chunk indexes and
-    # compression headers would cost more than they save).
-    encoding = {
-        name: {"zlib": True, "complevel": 4} if var.nbytes > SMALL_BYTES else {"contiguous": True}
-        for name, var in ds.variables.items()
-        if var.dtype.kind in "fiub"
-    }
+    ds = cf.conform(ds)
+    encoding = _encoding(ds)
     clean_stale(path)
     tmp = atomic_path(path)
     try:
@@ -214,12 +228,14 @@ def write_dataset(ds: xr.Dataset, path: str | Path) -> Path:
 
 
 def read_dataset(path: str | Path) -> tuple[xr.Dataset, dict]:
-    """Load a dataset fully into memory and return it with its resolved config."""
+    """Load a dataset fully into memory and return it with its resolved config, as its
+    study made it: the units it stated and text labels as strings (cf.restore)."""
     path = Path(path)
     if not path.is_file():
         raise FileNotFoundError(errno.ENOENT, "no dataset here", str(path))
     try:
-        ds = xr.load_dataset(path, engine="netcdf4")
+        # Times stay seconds (CF's reference date is a placeholder: docs/datasets.md).
+        ds = cf.restore(xr.load_dataset(path, engine="netcdf4", decode_times=False))
         config = yaml.safe_load(ds.attrs.get("config_yaml", "")) or {}
     except Exception as e:  # noqa: BLE001 - truncated, not NetCDF, unreadable attrs
         raise OSError(errno.EIO, f"not a readable creatio dataset ({type(e).__name__}): "
