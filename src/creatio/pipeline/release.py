@@ -31,6 +31,7 @@ from pathlib import Path
 from typing import Any
 
 __all__ = [
+    "released_studies",
     "MANIFEST",
     "Layout",
     "ReleaseError",
@@ -126,6 +127,11 @@ def read_manifest(release: str | Path) -> dict[str, Any]:
         raise ReleaseError(f"{path}: says version {manifest.get('version')!r} but lies in "
                            f"{name}/: restore it from git")
     return manifest
+
+
+def released_studies(spec: str = "latest", data_dir: str | Path = "data") -> list[str]:
+    """The studies a release holds (a version or latest), in its manifest's order."""
+    return list(read_manifest(find_release(spec, data_dir))["studies"])
 
 
 def sha256_file(path: str | Path) -> str:
