@@ -32,8 +32,9 @@ def source_hash() -> str:
 
 
 def cache_dir() -> Path:
-    """Where the compiled loops of this source tree are cached."""
-    if "NUMBA_CACHE_DIR" in os.environ and "CREATIO_NUMBA_CACHE" not in os.environ:
+    """Where the compiled loops of this source tree are cached (an empty variable counts as
+    unset: numba would otherwise cache into the working directory)."""
+    if os.environ.get("NUMBA_CACHE_DIR") and not os.environ.get("CREATIO_NUMBA_CACHE"):
         return Path(os.environ["NUMBA_CACHE_DIR"])
     root = os.environ.get("CREATIO_NUMBA_CACHE") or Path(
         os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "creatio" / "numba"
