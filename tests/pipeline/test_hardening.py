@@ -3,6 +3,7 @@ manifests, and the one-line messages (never a traceback) of the command line."""
 
 from __future__ import annotations
 
+import ast
 import errno
 import json
 import os
@@ -179,3 +180,42 @@ def test_shell_completion_completes_commands_groups_and_keys(line, expected):
                           capture_output=True, text=True, env={**os.environ, "COMP_LINE": line})
     assert proc.returncode == 0, proc.stderr
     assert set(proc.stdout.split()) == expected
+
+
+WRITERS = {"write_text", "write_bytes", "savefig", "to_netcdf", "to_csv"}
+
+
+def _writes(tree: ast.AST):
+    """(line, call) of every call that writes a file: Path.write_*, savefig, to_netcdf,
+    to_csv, and open / Path.open with a write, append or exclusive mode."""
+    for node in ast.walk(tree):
+        if not isinstance(node, ast.Call):
+            continue
+        func = node.func
+        name = func.attr if isinstance(func, ast.Attribute) else getattr(func, "id", "")
+        if name in WRITERS and isinstance(func, ast.Attribute):
+            yield node
+        elif name == "open":
+            modes = [a for a in node.args if isinstance(a, ast.Constant)]
+            modes += [k.value for k in node.keywords if k.arg == "mode"]
+            if any(isinstance(m, ast.Constant) and isinstance(m.value, str)
+                   and set(m.value) & set("wax") for m in modes):
+                yield node
+
+
+def test_every_file_the_package_writes_goes_through_a_temporary_and_a_rename():
+    """A write straight to its final path leaves a partial file when the job is killed; the
+    package writes to temporaries (names containing tmp) and renames, or through
+    creatio.pipeline.io's helpers."""
+    src = Path(io.__file__).parents[1]
+    direct = []
+    for path in sorted(src.rglob("*.py")):
+        if path.relative_to(src).as_posix() == "pipeline/io.py":
+            continue
+        tree = ast.parse(path.read_text())
+        for call in _writes(tree):
+            target = call.func.value if isinstance(call.func, ast.Attribute) else call.args[0]
+            text = ast.unparse(target) + " " + ast.unparse(call)
+            if "tmp" not in text:
+                direct.append(f"{path.relative_to(src)}:{call.lineno}: {ast.unparse(call)[:70]}")
+    assert direct == []

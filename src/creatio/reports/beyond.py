@@ -20,7 +20,8 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
-from creatio.reports.common import fmt, plt, strict_json, table
+from creatio.pipeline.io import atomic_write
+from creatio.reports.common import fmt, plt, save_figure, strict_json, table, write_text
 
 __all__ = ["en02g_summary", "en03_summary", "en03m_summary", "run_difference",
            "write_en02g", "write_en03", "write_en03m"]
@@ -93,7 +94,7 @@ def _header(ds: xr.Dataset, runs: Sequence[xr.Dataset], study: str) -> list[str]
 
 
 def _write_csv(path: Path, header: Sequence[str], rows: Sequence[Sequence[Any]]) -> None:
-    with path.open("w", newline="") as fh:
+    with atomic_write(path, newline="") as fh:
         w = csv.writer(fh)
         w.writerow(list(header))
         w.writerows([[v if not isinstance(v, float | np.floating) else float(v) for v in row]
@@ -116,7 +117,7 @@ def _load(datasets: Sequence[Path]) -> tuple[list[xr.Dataset], dict]:
 
 def _finish(fig: Any, path: Path) -> None:
     fig.tight_layout()
-    fig.savefig(path, dpi=100)
+    save_figure(fig, path, dpi=100)
     plt.close(fig)
 
 
@@ -303,7 +304,7 @@ def write_en02g(datasets: Sequence[Path], outdir: str | Path) -> dict[str, Path]
     outdir.mkdir(parents=True, exist_ok=True)
     s = en02g_summary(runs)
     paths = _paths(outdir, s["study"])
-    paths["json"].write_text(strict_json(s))
+    write_text(paths["json"], strict_json(s))
     _en02g_figure(ds, s, paths["png"])
     _en02g_trajectory(ds, paths["trajectory"])
     _en02g_convergence(runs, paths["convergence"])
@@ -344,7 +345,7 @@ def write_en02g(datasets: Sequence[Path], outdir: str | Path) -> dict[str, Path]
               f"![per inclination]({paths['png'].name})", "",
               f"![paths and lag]({paths['trajectory'].name})", "",
               f"![convergence]({paths['convergence'].name})", ""]
-    paths["md"].write_text("\n".join(lines))
+    write_text(paths["md"], "\n".join(lines))
     return paths
 
 
@@ -554,7 +555,7 @@ def write_en03(datasets: Sequence[Path], outdir: str | Path) -> dict[str, Path]:
     outdir.mkdir(parents=True, exist_ok=True)
     s = en03_summary(runs)
     paths = _paths(outdir, s["study"])
-    paths["json"].write_text(strict_json(s))
+    write_text(paths["json"], strict_json(s))
     _en03_figure(runs, s, paths["png"])
     _paths_figure([(f"I_s = {s['structure_inertia_kg_m2']:g} kg m^2", ds)],
                   paths["trajectory"], "EN-03: the sphere's centre relative to the structure "
@@ -602,7 +603,7 @@ def write_en03(datasets: Sequence[Path], outdir: str | Path) -> dict[str, Path]:
               f"![histories]({paths['png'].name})", "",
               f"![paths]({paths['trajectory'].name})", "",
               f"![convergence]({paths['convergence'].name})", ""]
-    paths["md"].write_text("\n".join(lines))
+    write_text(paths["md"], "\n".join(lines))
     return paths
 
 
@@ -785,7 +786,7 @@ def write_en03m(datasets: Sequence[Path], outdir: str | Path) -> dict[str, Path]
     outdir.mkdir(parents=True, exist_ok=True)
     s = en03m_summary(runs)
     paths = _paths(outdir, s["study"])
-    paths["json"].write_text(strict_json(s))
+    write_text(paths["json"], strict_json(s))
     _en03m_figure(ds, s, paths["png"])
     named = []
     for i, kind in enumerate(ds.confinement.values):
@@ -834,5 +835,5 @@ def write_en03m(datasets: Sequence[Path], outdir: str | Path) -> dict[str, Path]
               f"![search and figure runs]({paths['png'].name})", "",
               f"![paths]({paths['trajectory'].name})", "",
               f"![convergence]({paths['convergence'].name})", ""]
-    paths["md"].write_text("\n".join(lines))
+    write_text(paths["md"], "\n".join(lines))
     return paths
