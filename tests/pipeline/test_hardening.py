@@ -99,6 +99,17 @@ def test_a_range_with_zero_step_is_refused():
         parse_axes(["sphere.mu=range(0,1,0)"])
 
 
+@pytest.mark.parametrize("override", ["sphere.b=1e300", "sphere.b=1e-300"])
+def test_a_sphere_outside_the_numeric_range_is_refused_at_validation(override):
+    """b**2 overflows, or the inertia 2/5 m b^2 underflows to zero: refused with the sphere's
+    values instead of an OverflowError / ZeroDivisionError from the stability estimate."""
+    from creatio.pipeline.config import resolve
+
+    with pytest.raises(ConfigError, match="numeric range") as err:
+        resolve("en02", [override])
+    assert "b=1e" in str(err.value)
+
+
 def test_a_damaged_manifest_is_refused(tmp_path):
     release = tmp_path / "releases" / "0.2.0"
     release.mkdir(parents=True)
