@@ -395,6 +395,14 @@ def main(argv: Sequence[str] | None = None) -> int:
     except OSError as e:
         print(f"creatio: {_os_error(e)}", file=sys.stderr)
         return 1
+    except ArithmeticError as e:  # a value the validation let through still overflowed
+        import traceback
+
+        frame = traceback.extract_tb(e.__traceback__)[-1]
+        print(f"creatio: the computation failed ({type(e).__name__}: {e}) at "
+              f"{Path(frame.filename).name}:{frame.lineno}: a config value is outside the "
+              "model's numeric range (CREATIO_DEBUG=1 shows the traceback)", file=sys.stderr)
+        return 1
     except Exception as e:  # noqa: BLE001 - one line, and how to see more
         print(f"creatio: {type(e).__name__}: {str(e).splitlines()[0] if str(e) else ''} "
               "(CREATIO_DEBUG=1 shows the traceback)", file=sys.stderr)

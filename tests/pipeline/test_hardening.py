@@ -6,6 +6,7 @@ from __future__ import annotations
 import ast
 import errno
 import json
+import math
 import os
 import subprocess
 import sys
@@ -97,17 +98,6 @@ def test_a_full_disk_is_named_as_such(tmp_path, monkeypatch):
 def test_a_range_with_zero_step_is_refused():
     with pytest.raises(ConfigError, match="cannot be expanded"):
         parse_axes(["sphere.mu=range(0,1,0)"])
-
-
-@pytest.mark.parametrize("override", ["sphere.b=1e300", "sphere.b=1e-300"])
-def test_a_sphere_outside_the_numeric_range_is_refused_at_validation(override):
-    """b**2 overflows, or the inertia 2/5 m b^2 underflows to zero: refused with the sphere's
-    values instead of an OverflowError / ZeroDivisionError from the stability estimate."""
-    from creatio.pipeline.config import resolve
-
-    with pytest.raises(ConfigError, match="numeric range") as err:
-        resolve("en02", [override])
-    assert "b=1e" in str(err.value)
 
 
 def test_a_damaged_manifest_is_refused(tmp_path):
@@ -230,3 +220,37 @@ def test_every_file_the_package_writes_goes_through_a_temporary_and_a_rename():
             if "tmp" not in text:
                 direct.append(f"{path.relative_to(src)}:{call.lineno}: {ast.unparse(call)[:70]}")
     assert direct == []
+
+
+def test_an_overflow_past_validation_is_one_line_naming_where(monkeypatch, capsys):
+    """The safety net behind the range rule: an ArithmeticError inside a run is one line with
+    the file and line where it happened, status 1, no traceback."""
+    from creatio import cli
+
+    def overflow(argv):
+        return math.exp(1e4)
+
+    monkeypatch.setattr(cli, "_dispatch", overflow)
+    monkeypatch.delenv("CREATIO_DEBUG", raising=False)
+    assert cli.main(["run", "study=en02"]) == 1
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "Traceback" not in err
+    assert "OverflowError" in err and "test_hardening.py:" in err and "numeric range" in err
+
+
+@pytest.mark.parametrize("study, override, key", [
+    ("ct02", "geometry.dR=1e-300", "geometry.dR"),
+    ("ct02", "study.h=[0.01,1e300]", "study.h[1]"),
+    ("en02", "phases.r.omega=-1e300", "phases.r.omega"),
+    ("en02", "sphere.b=1e300", "sphere.b"),
+    ("en02", "sphere.b=1e-300", "sphere.b"),
+])
+def test_magnitudes_that_overflow_the_model_are_refused(study, override, key):
+    """Found by running every numeric key at 0, -1, nan, +-inf, 1e300, 1e-300 and 'abc':
+    these were accepted and then overflowed (k = 2 pi Kr / dR squared, h**2, omega**2, the
+    sphere's inertia 2/5 m b^2 in the friction's stability estimate)."""
+    from creatio.pipeline.config import resolve
+
+    with pytest.raises(ConfigError, match="in magnitude") as err:
+        resolve(study, [override])
+    assert str(err.value).startswith(f"invalid config: {key}=")

@@ -179,10 +179,15 @@ def _nearest(schema: type, key: str) -> str:
     return f" (did you mean {match[0]}?)" if match else " (not in this study's config)"
 
 
+#: Magnitudes a config number may take (besides 0): squares and products of a few of them stay
+#: finite in double precision, so a validated value never overflows inside the model.
+TINY, HUGE = 1e-30, 1e15
+
+
 def check_finite(obj: Any, prefix: str = "") -> None:
-    """Refuse NaN and infinities in every number of a config tree (lists included): a
-    number that cannot be finite is never meaningful here. A field may accept infinity
-    where it means something (a fixed structure's inertia): it says so with the metadata
+    """Refuse NaN and infinities in every number of a config tree (lists included), and
+    magnitudes outside [TINY, HUGE]: a number that cannot be finite is never meaningful here.
+    A field may accept infinity where it means something (a fixed structure's inertia): it says so with the metadata
     ``{"infinite": True}``, or by being infinite by default."""
     for f in fields(obj):
         value = getattr(obj, f.name)
@@ -200,11 +205,16 @@ def check_finite(obj: Any, prefix: str = "") -> None:
         infinite_ok = f.metadata.get("infinite", False) or _has_inf(default)
         items = value if isinstance(value, list) else [value]
         for i, item in enumerate(items):
+            where = f"{key}[{i}]" if isinstance(value, list) else key
             if isinstance(item, float) and not math.isfinite(item):
                 if math.isinf(item) and infinite_ok:
                     continue
-                where = f"{key}[{i}]" if isinstance(value, list) else key
                 raise ConfigError(where, item, "must be a finite number")
+            if isinstance(item, int | float) and not isinstance(item, bool) and item != 0 and (
+                    not TINY <= abs(item) <= HUGE):
+                raise ConfigError(where, item, f"must be 0 or between {TINY:g} and {HUGE:g} "
+                                  "in magnitude (beyond, the model's squares and products "
+                                  "overflow or divide by zero)")
 
 
 def _has_inf(default: Any) -> bool:
