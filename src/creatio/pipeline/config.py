@@ -187,8 +187,8 @@ TINY, HUGE = 1e-30, 1e15
 def check_finite(obj: Any, prefix: str = "") -> None:
     """Refuse NaN and infinities in every number of a config tree (lists included), and
     magnitudes outside [TINY, HUGE]: a number that cannot be finite is never meaningful here.
-    A field may accept infinity where it means something (a fixed structure's inertia): it says so with the metadata
-    ``{"infinite": True}``, or by being infinite by default."""
+    A field may accept infinity where it means something (a fixed structure's inertia): it
+    says so with the metadata ``{"infinite": True}``, or by being infinite by default."""
     for f in fields(obj):
         value = getattr(obj, f.name)
         key = f"{prefix}{f.name}"
