@@ -84,7 +84,11 @@ def foot_point(X1, X2, X3, R, a, R0, k, A, Ka, b, pr, pr1, pr2, pa, pa1, pa2, gm
                 daq = (a11 * F2 - H12 * F1) / det
                 tn = _foot_terms(X1, X2, X3, R + dRq, a + daq, R0, k, A, Ka, b, pr, pr1, pr2,
                                  pa, pa1, pa2, gm, g1, g2)
-                if tn[0] <= phi * (1.0 + 1e-15) + 1e-300:
+                # descend on phi; near the foot its decrease (|F|^2 / H) falls below the
+                # rounding of phi, so a step that shrinks the residual is taken as well
+                res_old = F1 * F1 / E + F2 * F2 / G
+                res_new = tn[1] * tn[1] / tn[6] + tn[2] * tn[2] / tn[7]
+                if tn[0] <= phi * (1.0 + 1e-12) or res_new < res_old:
                     R += dRq
                     a += daq
                     t = tn

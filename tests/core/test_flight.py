@@ -1,0 +1,145 @@
+"""Separation, flight and impact (docs/model.md s.11): closed forms and the hybrid loop.
+
+The drop test on a flat, still surface has closed forms (first impact at sqrt(2 h / g),
+apex ratio e^2, no spin, no loss at e = 1 with mu = 0); on the moving membrane the event
+times converge with dt at RK4's order, the energy balance closes with the impact losses,
+and a run that never separates is the driver's run bit for bit.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+import pytest
+
+from creatio.dynamics import SphereProblem, simulate
+from creatio.dynamics.solvers.hybrid import EV_HEIGHT, EV_KIND, EV_LOSS, EV_T, EV_IMPACT
+from creatio.model.flight import foot_point
+
+FLAT = (0.0, 0.0, 0.0, 1.0, 0.0, 0.0)
+
+
+def drop(e: float, h: float = 0.1, mu: float = 0.0, **kw) -> SphereProblem:
+    """A sphere dropped at rest from gap h onto the flat, still surface (A = 0)."""
+    return SphereProblem(
+        R0=0.68, dR=1.72, A=0.0, Kr=1, Ka=6, law_r=FLAT, law_a=FLAT, law_gamma=FLAT,
+        m=1.0, b=0.12, g=9.81, mu=mu, eps=0.01, R_init=0.86, alpha_init=0.5,
+        t_end=kw.pop("t_end", 1.0), dt=kw.pop("dt", 1e-3), output_interval=0.01,
+        flight=True, restitution=e, start_height=h, **kw)  # fmt: skip
+
+
+def impacts(res) -> np.ndarray:
+    return res.events[res.events[:, EV_KIND] == EV_IMPACT]
+
+
+@pytest.fixture(scope="module")
+def bouncing():
+    return simulate(drop(0.5, mu=0.3))
+
+
+def test_first_impact_time_and_apex_ratio(bouncing) -> None:
+    imp = impacts(bouncing)
+    assert bouncing.status == "ok"
+    assert abs(imp[0, EV_T] - math.sqrt(2 * 0.1 / 9.81)) < 1e-9
+    heights = imp[:6, EV_HEIGHT]
+    assert np.allclose(heights[1:] / heights[:-1], 0.25, rtol=1e-8, atol=0.0)
+    # the sequence ends in contact once the rebound is below the resumption speed
+    assert bouncing.events[-1, EV_KIND] == 2
+    assert not bouncing.ends_in_flight
+
+
+def test_drop_has_no_spin_and_balance_closes(bouncing) -> None:
+    assert np.abs(bouncing.omega).max() < 1e-12  # rounding of v_s in the final contact
+    assert bouncing.max_energy_residual < 1e-12
+    # the losses: (1 - e^2) of the kinetic energy at each impact, m g h in total at the end
+    total = impacts(bouncing)[:, EV_LOSS].sum()
+    assert total == pytest.approx(9.81 * 0.1, rel=1e-6)
+
+
+def test_elastic_frictionless_drop_loses_nothing() -> None:
+    res = simulate(drop(1.0, h=0.05, t_end=0.5))
+    imp = impacts(res)
+    assert len(imp) >= 2
+    assert np.abs(res.events[:, EV_LOSS]).max() < 1e-12
+    assert np.allclose(imp[:, EV_HEIGHT], 0.05, rtol=1e-9)
+    assert res.max_energy_residual < 1e-12
+
+
+def test_foot_point_on_a_corrugated_surface() -> None:
+    """Newton returns the perpendicular foot: X - c(q*) is along n with length gap + b."""
+    args = (0.68, 2 * math.pi / 1.72, 0.18, 6.0, 0.12, 0.0, 0.0, 0.0, 0.3, 0.5, 0.0, 0.0,
+            0.0, 0.0)
+    X = (0.9 * math.cos(0.6), 0.9 * math.sin(0.6), 0.35)
+    found, R, a, gap, n1, n2, n3, *_ = foot_point(*X, 0.3, 0.55, *args)
+    assert found
+    _, R2, a2, gap2, *_ = foot_point(*X, 0.2, 0.7, *args)
+    assert R2 == pytest.approx(R, abs=1e-10) and a2 == pytest.approx(a, abs=1e-10)
+    assert gap2 == pytest.approx(gap, abs=1e-12)
+
+
+@pytest.fixture(scope="module")
+def fling(en02_problem: SphereProblem) -> SphereProblem:
+    """EN-02 with a 4 s cycle: the sphere separates (the boundary is near 6.9 s); dt = 1 ms
+    keeps RK4 inside the friction stability limit at the normal reactions after impacts."""
+    return dataclasses.replace(
+        en02_problem, law_a=(0.0, 0.0, 12.0 * math.pi, 4.0, 0.0, 0.0), t_end=1.7,
+        output_interval=0.1, dt=0.001)
+
+
+def test_contact_lost_without_flight_and_ok_with(fling: SphereProblem) -> None:
+    """Flight takes the run past the contact_lost stop: separation, impact, contact."""
+    off = simulate(fling)
+    on = simulate(dataclasses.replace(fling, flight=True))
+    assert off.status == "contact_lost"
+    assert on.status == "ok" and on.stop_time == fling.t_end
+    assert list(on.events[:, EV_KIND]) == [0, 1, 2]
+    assert on.events[0, EV_T] == pytest.approx(off.stop_time, abs=fling.dt)
+    # before the first separation the hybrid loop is the driver, bit for bit
+    n = int(np.searchsorted(off.t, on.events[0, EV_T]))
+    assert n > 10
+    assert np.array_equal(on.X[:n], off.X[:n])
+    assert np.array_equal(on.omega[:n], off.omega[:n])
+    assert np.array_equal(on.energy_residual[:n], off.energy_residual[:n])
+
+
+def test_flight_energy_balance_closes_with_losses(fling: SphereProblem) -> None:
+    """With bounces (e = 0.5) the residual including the impact losses is the contact
+    phases' RK4 error: it falls by more than 2^3 when dt halves, to 1e-7 J."""
+    res = []
+    for dt in (0.001, 0.0005):
+        on = simulate(dataclasses.replace(fling, flight=True, restitution=0.5, dt=dt))
+        assert on.status == "ok"
+        assert np.sum(on.events[:, EV_KIND] == EV_IMPACT) > 5
+        res.append(on.max_energy_residual)
+    assert res[1] < res[0] / 8 and res[1] < 1e-7
+
+
+def test_separation_time_converges_at_fourth_order(fling: SphereProblem) -> None:
+    times = []
+    for dt in (0.004, 0.002, 0.001):
+        res = simulate(dataclasses.replace(fling, flight=True, dt=dt, t_end=1.6))
+        times.append(res.events[0, EV_T])
+    d1 = abs(times[0] - times[1])
+    d2 = abs(times[1] - times[2])
+    assert d2 < d1
+    assert math.log2(d1 / d2) > 3.3
+
+
+def test_flight_disabled_is_the_driver(en02_problem: SphereProblem) -> None:
+    """flight=False never enters the hybrid loop: no events, the driver's result."""
+    p = dataclasses.replace(en02_problem, t_end=2.0)
+    a = simulate(p)
+    assert a.events.shape == (0, 11) and not a.flight
+    b = simulate(dataclasses.replace(p, restitution=0.7, impact_cap=5.0))
+    assert np.array_equal(a.X, b.X) and np.array_equal(a.energy_residual, b.energy_residual)
+
+
+def test_flight_settings_refused() -> None:
+    with pytest.raises(ValueError, match="restitution"):
+        drop(1.5)
+    with pytest.raises(ValueError, match="explicit method"):
+        drop(0.5, method="radau5")
+    with pytest.raises(ValueError, match="needs flight"):
+        dataclasses.replace(drop(0.5), flight=False)
