@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 from creatio.dynamics import SphereProblem, simulate
-from creatio.dynamics.solvers.hybrid import EV_HEIGHT, EV_KIND, EV_LOSS, EV_T, EV_IMPACT
+from creatio.dynamics.solvers.hybrid import EV_HEIGHT, EV_IMPACT, EV_KIND, EV_LOSS, EV_T
 from creatio.model.flight import foot_point
 
 FLAT = (0.0, 0.0, 0.0, 1.0, 0.0, 0.0)

@@ -138,7 +138,7 @@ def cycle_boundary(cfg: En02fConfig, dt: float, restitution: float, flight: bool
         return dataclasses.replace(base, **laws, t_end=T)
 
     verdict = {T: _returns(at(T)) for T in sorted(probs)}
-    pairs = [(a, b) for a, b in zip(sorted(verdict), sorted(verdict)[1:])
+    pairs = [(a, b) for a, b in zip(sorted(verdict), sorted(verdict)[1:], strict=False)
              if not verdict[a] and verdict[b]]
     if not pairs:
         return math.nan, math.nan
@@ -192,9 +192,12 @@ def run(cfg: En02fConfig, dt: float | None = None, drop: bool = False) -> xr.Dat
     out["boundary_cycle_ok"] = ("boundary_restitution", brackets[:, 1], {
         "long_name": "smallest cycle length found at which it does", "units": "s"})
     stop = cycle_boundary(cfg, dt, es[0], False) if es else (math.nan, math.nan)
+    default = [i for i, (T, e, _) in enumerate(problems)
+               if T == cfg.phases.T and e == cfg.flight.restitution]
     out.attrs.update({
         "dt": dt,
         "method": str(cfg.solver.method),
+        "default_case": default[0] if default else 0,
         "resume_speed": cfg.flight.resume_speed,
         "impact_cap": cfg.flight.impact_cap,
         "boundary_cycle_no_flight_fail": stop[0],
