@@ -9,6 +9,7 @@ and a run that never separates is the driver's run bit for bit.
 from __future__ import annotations
 
 import dataclasses
+import json
 import math
 
 import numpy as np
@@ -143,3 +144,53 @@ def test_flight_settings_refused() -> None:
         drop(0.5, method="radau5")
     with pytest.raises(ValueError, match="needs flight"):
         dataclasses.replace(drop(0.5), flight=False)
+
+
+def test_adaptive_method_locates_the_same_events(fling: SphereProblem) -> None:
+    """dopri5 under error control: the drop test's closed form, and EN-02's separation and
+    impact times within 1e-7 s of RK4 at dt = 0.5 ms."""
+    d = simulate(drop(0.5, method="dopri5", t_end=0.3))
+    assert abs(impacts(d)[0, EV_T] - math.sqrt(2 * 0.1 / 9.81)) < 1e-9
+    rk = simulate(dataclasses.replace(fling, flight=True, dt=0.0005))
+    dp = simulate(dataclasses.replace(fling, flight=True, method="dopri5", rtol=1e-10,
+                                      atol=1e-12))
+    assert dp.status == "ok"
+    assert list(dp.events[:, EV_KIND]) == list(rk.events[:, EV_KIND])
+    assert np.abs(dp.events[:, EV_T] - rk.events[:, EV_T]).max() < 1e-7
+
+
+def test_impact_cap_turns_bounces_into_contact() -> None:
+    """With e = 0.9 the bounces shorten geometrically; a cap of 5 per second ends them."""
+    free = simulate(drop(0.9, h=0.02))
+    capped = simulate(drop(0.9, h=0.02, impact_cap=5.0))
+    assert len(impacts(capped)) < len(impacts(free))
+    assert capped.events[-1, EV_KIND] == 2 and abs(capped.events[-1, 2]) > 1e-4
+    assert capped.max_energy_residual < 1e-12
+
+
+def test_en02f_builds_its_datasets_and_report(tmp_path) -> None:
+    """EN-02F through its study function and report writer, on a short sweep."""
+    from creatio.pipeline.config import resolve
+    from creatio.pipeline.io import write_dataset
+    from creatio.reports.flight import write_en02f
+    from creatio.studies import en02f
+    from creatio.studies.schema import vary
+
+    cfg = vary(resolve("en02f").obj, {"study.cycles_s": [8.0, 6.0], "study.restitutions": [0.0],
+                                     "phases.T": 6.0, "study.duration": 6.0})
+    paths = [write_dataset(en02f.run(cfg, dt), tmp_path / f"en02f_dt{dt!r}.nc")
+             for dt in cfg.solver.timesteps()]
+    paths.append(write_dataset(en02f.run(cfg, drop=True), tmp_path / "en02f_drop.nc"))
+    out = write_en02f(paths, tmp_path / "reports")
+    s = json.loads(out["json"].read_text())
+    for key in ("status", "flights", "impacts", "flight_time_s", "max_flight_height_m",
+                "impact_loss_J", "energy_residual_J", "ends_in_cavity",
+                "timestep_difference_m"):
+        assert key in s
+    assert s["drop_test"]["first_impact_time_error_s"] < 1e-9
+    assert s["drop_test"]["apex_ratio_error"] < 1e-8
+    assert s["cases"]["8_0"]["ends_in_cavity"] and s["cases"]["8_0"]["flights"] == 0
+    assert s["flights"] >= 1
+    lo, hi = s["boundary"]["with_flight"]["0"]
+    assert 6.0 <= lo < hi <= 8.0
+    assert all(p.is_file() for p in out.values())
