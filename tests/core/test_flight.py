@@ -17,7 +17,7 @@ import pytest
 
 from creatio.dynamics import SphereProblem, simulate
 from creatio.dynamics.solvers.hybrid import EV_HEIGHT, EV_IMPACT, EV_KIND, EV_LOSS, EV_T
-from creatio.model.flight import foot_point
+from creatio.model.flight import _foot_terms, foot_point
 
 FLAT = (0.0, 0.0, 0.0, 1.0, 0.0, 0.0)
 
@@ -68,14 +68,21 @@ def test_elastic_frictionless_drop_loses_nothing() -> None:
     assert res.max_energy_residual < 1e-12
 
 
-def test_foot_point_on_a_corrugated_surface() -> None:
-    """Newton returns the perpendicular foot: X - c(q*) is along n with length gap + b."""
+@pytest.mark.parametrize("X, guess", [
+    ((0.9 * math.cos(0.6), 0.9 * math.sin(0.6), 0.35), (0.3, 0.55)),
+    # above a cavity wall, guessed from the cavity bottom across it
+    ((1.1 * math.cos(0.8), 1.1 * math.sin(0.8), 0.25), (0.43, math.pi / 6)),
+])
+def test_foot_point_is_the_perpendicular_foot(X, guess) -> None:
+    """Newton returns the foot: X - c(q*) is along n, |X - c| = gap + b, from any guess."""
     args = (0.68, 2 * math.pi / 1.72, 0.18, 6.0, 0.12, 0.0, 0.0, 0.0, 0.3, 0.5, 0.0, 0.0,
             0.0, 0.0)
-    X = (0.9 * math.cos(0.6), 0.9 * math.sin(0.6), 0.35)
-    found, R, a, gap, n1, n2, n3, *_ = foot_point(*X, 0.3, 0.55, *args)
+    found, R, a, gap, *_ = foot_point(*X, *guess, *args)
     assert found
-    _, R2, a2, gap2, *_ = foot_point(*X, 0.2, 0.7, *args)
+    terms = _foot_terms(*X, R, a, *args)
+    assert math.hypot(terms[8], terms[9], terms[10]) == pytest.approx(gap + 0.12, abs=1e-12)
+    assert math.hypot(terms[1] / math.sqrt(terms[6]), terms[2] / math.sqrt(terms[7])) < 1e-12
+    _, R2, a2, gap2, *_ = foot_point(*X, R + 0.05, a - 0.05, *args)
     assert R2 == pytest.approx(R, abs=1e-10) and a2 == pytest.approx(a, abs=1e-10)
     assert gap2 == pytest.approx(gap, abs=1e-12)
 
