@@ -1,5 +1,6 @@
-# Beyond the notebook (EN-02G, EN-03, EN-03M: docs/studies.md): sphere studies outside `all`,
-# since together they compute for about a minute and compile the structure path of the core.
+# Beyond the notebook (EN-02G, EN-03, EN-03M, EN-02F: docs/studies.md): sphere studies outside
+# `all`, since together they compute for about a minute and compile the structure path and the
+# hybrid contact/flight loop of the core.
 #
 #   snakemake beyond -c 2                                          data/reports/en02g.* ...
 #   snakemake beyond -c 2 --config 'overrides=["sphere.mu=0.3"]'   -> data/runs/<hash>/

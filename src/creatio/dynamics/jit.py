@@ -58,8 +58,8 @@ _configure()
 from numba import njit  # noqa: E402
 from numba.extending import register_jitable  # noqa: E402
 
-from creatio.model import cavity, laws, offset, sphere, structure  # noqa: E402
+from creatio.model import cavity, flight, laws, offset, sphere, structure  # noqa: E402
 
 for _fn in (laws.law_eval, *offset.SCALAR_KERNELS, *sphere.SCALAR_KERNELS,
-            *cavity.SCALAR_KERNELS, *structure.SCALAR_KERNELS):
+            *cavity.SCALAR_KERNELS, *structure.SCALAR_KERNELS, *flight.SCALAR_KERNELS):
     register_jitable(_fn)

@@ -81,6 +81,9 @@ COL_CONFINE = 42        # W_confine, the normal preload's work (free path only)
 COL_WORLD_AZIMUTH = 43  # centre azimuth in the world frame: relative azimuth + theta
 NCOL = 44
 
+#: Columns of the event table of a run with flight (creatio.dynamics.solvers.hybrid).
+NEV = 11
+
 
 class UnstableStepError(ValueError):
     """dt lies beyond the RK4 stability limit of the regularised friction (docs/model.md s.6)."""
@@ -125,6 +128,12 @@ class SphereProblem:
     or the normal preload takes the structure path of the core (theta, Theta and the
     preload's work in the state). ``stop_on_leaving_cavity`` turns leaving the starting
     cavity's cell from a recorded time into a stop (status left_cavity).
+
+    ``flight`` (docs/model.md s.11) continues a run through separations and impacts
+    instead of stopping it with contact_lost: restitution e in [0, 1], contact resumes
+    after an impact leaving at less than ``resume_speed`` (m/s) or when more than
+    ``impact_cap`` impacts fall within one second. Flight needs an explicit method, the
+    fixed structure, rotation and energy bookkeeping (rotation defaults to on with it).
     """
 
     R0: float
@@ -160,6 +169,11 @@ class SphereProblem:
     confining_force: float = 0.0
     equilibrium_start: bool = False
     stop_on_leaving_cavity: bool = False
+    flight: bool = False
+    restitution: float = 0.0
+    resume_speed: float = 1e-4
+    impact_cap: float = 100.0
+    start_height: float = 0.0
 
     @property
     def adaptive(self) -> bool:
@@ -210,9 +224,35 @@ class SphereProblem:
             raise ValueError(f"confining_force must be finite and >= 0, got {P}")
         if self.confinement == "none" and P != 0.0:
             raise ValueError(f"confining_force = {P} N needs a confinement (normal or base)")
+        self._check_flight()
         if self.equilibrium_start and not self.vertical_pull > 0.0:
             raise ValueError("equilibrium_start needs a pull along -z (g > 0 or a base "
                              "confinement with P > 0): the equilibrium minimises the height")
+
+    def _check_flight(self) -> None:
+        """Refuse flight settings out of range, or flight where the hybrid loop does not run."""
+        e = self.restitution
+        if not (math.isfinite(e) and 0.0 <= e <= 1.0):
+            raise ValueError(f"restitution must be in [0, 1], got {e}")
+        if not (math.isfinite(self.resume_speed) and self.resume_speed >= 0.0):
+            raise ValueError(f"resume_speed must be finite and >= 0, got {self.resume_speed}")
+        if not (math.isfinite(self.impact_cap) and self.impact_cap >= 1.0):
+            raise ValueError(f"impact_cap must be finite and >= 1 per second, got "
+                             f"{self.impact_cap}")
+        if not (math.isfinite(self.start_height) and self.start_height >= 0.0):
+            raise ValueError(f"start_height must be finite and >= 0, got {self.start_height}")
+        if not self.flight:
+            if self.start_height > 0.0:
+                raise ValueError(f"start_height = {self.start_height} m needs flight")
+            return
+        if solvers.get(self.method).stepper != solvers.EXPLICIT:
+            raise ValueError(f"flight needs an explicit method (rk4, dopri5, dop853), got "
+                             f"{self.method!r}")
+        if self.structure_free:
+            raise ValueError("flight needs the fixed structure without a normal preload")
+        if self.rotation is False or not self.energy:
+            raise ValueError("flight needs rotation and energy bookkeeping (rotation: None "
+                             "or True, energy: True)")
 
     @property
     def structure_free(self) -> bool:
@@ -257,7 +297,7 @@ class SphereProblem:
     def rotation_integrated(self) -> bool:
         """Whether the spin and orientation are integrated (auto: mu > 0 or a nonzero spin)."""
         if self.rotation is None:
-            return self.mu > 0.0 or any(w != 0.0 for w in self.omega_init)
+            return self.flight or self.mu > 0.0 or any(w != 0.0 for w in self.omega_init)
         return bool(self.rotation)
 
     @property
@@ -332,6 +372,14 @@ class SphereProblem:
             "free": self.structure_free,
         }
         return args, kwargs
+
+    def flight_arguments(self) -> tuple[np.ndarray, np.ndarray]:
+        """The hybrid loop's extra arguments: an empty event table sized for the impact cap
+        over the run, and (restitution, resumption speed, impact cap, start height)."""
+        rows = int(3 * self.impact_cap * self.t_end) + 64
+        return (np.full((rows, NEV), math.nan),
+                np.array([self.restitution, self.resume_speed, self.impact_cap,
+                          self.start_height]))
 
     def compiled_call(self):
         """A zero-argument call of the compiled run with every argument prepared, for
@@ -423,6 +471,10 @@ class SimulationResult:
     start_R: float = math.nan
     start_alpha: float = math.nan
     equilibrium_message: str = ""
+    flight: bool = False
+    events: NDArray[np.float64] = field(default_factory=lambda: np.empty((0, NEV)))
+    max_flight_height: float = math.nan
+    ends_in_flight: bool = False
 
     @property
     def carried(self) -> bool:

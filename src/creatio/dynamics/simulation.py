@@ -44,6 +44,7 @@ from creatio.dynamics.problem import (
     COL_WORK,
     COL_WORLD_AZIMUTH,
     COL_X,
+    NEV,
     SimulationResult,
     SphereProblem,
     UnstableStepError,
@@ -52,6 +53,7 @@ from creatio.dynamics.problem import (
     stability_limit,
 )
 from creatio.dynamics.solvers.driver import run
+from creatio.dynamics.solvers.hybrid import FLIGHT, X_MAX_GAP, run_flight
 from creatio.dynamics.sphere import (
     E_E0,
     E_LEFT,
@@ -97,8 +99,24 @@ def simulate(problem: SphereProblem) -> SimulationResult:
     en = bool(problem.energy)
     args, kwargs = problem.driver_arguments()
     out = args[4]
-    (status, steps, rows, evals, ext, rejected, jacobians, factorisations, stop_time) = run(
-        *args, **kwargs)
+    events = np.empty((0, NEV))
+    max_height = math.nan
+    in_flight = False
+    if problem.flight:
+        ev, fl = problem.flight_arguments()
+        for key in ("rotation", "energy", "free"):
+            kwargs.pop(key)
+        (status, steps, rows, evals, ext, rejected, jacobians, factorisations, stop_time,
+         n_events, fx, phase) = run_flight(*args, ev, fl, **kwargs)
+        if n_events > ev.shape[0]:
+            warnings.append(f"{n_events} events, only the first {ev.shape[0]} are in the "
+                            "event table")
+        events = ev[: min(int(n_events), ev.shape[0])].copy()
+        max_height = float(fx[X_MAX_GAP])
+        in_flight = int(phase) == FLIGHT
+    else:
+        (status, steps, rows, evals, ext, rejected, jacobians, factorisations, stop_time) = run(
+            *args, **kwargs)
     min_n, max_n, max_slip, max_res, max_track, min_clear, max_bk = (
         float(v) for v in ext[:E_E0]
     )
@@ -183,6 +201,10 @@ def simulate(problem: SphereProblem) -> SimulationResult:
         structure_free=free,
         start_R=float(start_R),
         start_alpha=float(start_alpha),
+        flight=problem.flight,
+        events=events,
+        max_flight_height=max_height,
+        ends_in_flight=in_flight,
     )
 
 

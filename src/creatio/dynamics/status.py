@@ -12,6 +12,7 @@ from __future__ import annotations
 __all__ = [
     "CONTACT_LOST",
     "EDGE_CROSSED",
+    "FOOT_POINT_FAILED",
     "LEFT_ANNULUS",
     "LEFT_CAVITY",
     "NAMES",
@@ -31,6 +32,7 @@ NON_FINITE = 5       # a state or diagnostic stopped being finite
 STEP_FAILED = 6      # the step control or Newton iteration gave up (or the step budget ran out)
 LEFT_CAVITY = 7      # the contact point left its cavity's cell; a stop only when asked for
 NO_EQUILIBRIUM = 8   # an equilibrium start was asked for and none is acceptable: nothing ran
+FOOT_POINT_FAILED = 9  # in flight, Newton found no foot point of the centre on the surface
 
 #: Status names by code, as written into datasets and reports.
 NAMES = (
@@ -43,4 +45,5 @@ NAMES = (
     "step_failed",
     "left_cavity",
     "no_equilibrium",
+    "foot_point_failed",
 )

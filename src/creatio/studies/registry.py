@@ -22,6 +22,7 @@ from creatio.studies.schema import (
     Ct02Config,
     DynamicConfig,
     En01Config,
+    En02fConfig,
     En02gConfig,
     En03Config,
     En03mConfig,
@@ -69,6 +70,11 @@ def _timestep_parts(study_id: str) -> Callable[[Any], list[Part]]:
     """A sphere study's datasets: one per timestep (dt and dt / refine), named by dt."""
     return lambda cfg: [Part(f"{study_id}_dt{float(dt)!r}", {"dt": float(dt)})
                         for dt in cfg.solver.timesteps()]
+
+
+def _en02f_parts(cfg: Any) -> list[Part]:
+    """EN-02F's datasets: the (T, e) sweep at each timestep, then the drop test."""
+    return _timestep_parts("en02f")(cfg) + [Part("en02f_drop", {"drop": True})]
 
 
 def _en03_parts(cfg: Any) -> list[Part]:
@@ -169,6 +175,9 @@ STUDIES: dict[str, Study] = {
         Study("en02g", SPHERE, En02gConfig, "creatio.studies.en02g:run",
               "creatio.reports.beyond:write_en02g", _timestep_parts("en02g"), in_all=False,
               summary="creatio.reports.beyond:en02g_summary"),
+        Study("en02f", SPHERE, En02fConfig, "creatio.studies.en02f:run",
+              "creatio.reports.flight:write_en02f", _en02f_parts, in_all=False,
+              summary="creatio.reports.flight:en02f_summary"),
         Study("en03", SPHERE, En03Config, "creatio.studies.en03:run",
               "creatio.reports.beyond:write_en03", _en03_parts, in_all=False,
               summary="creatio.reports.beyond:en03_summary"),

@@ -31,6 +31,7 @@ __all__ = [
     "Ct02Config",
     "DynamicConfig",
     "En01Config",
+    "En02fConfig",
     "En02gConfig",
     "En03Config",
     "En03mConfig",
@@ -706,6 +707,124 @@ class En02gConfig(DynamicConfig):
             out.append(("oscillating", float(g0), dataclasses.replace(
                 base, law_gamma=law, equilibrium_start=True)))
         return out
+
+    def step_limit(self) -> float:
+        """The smallest stability limit over every run of the study."""
+        return min(stability_limit(p) for _, _, p in self.run_problems())
+
+
+class ContactLoss(StrEnum):
+    """What a run does where the normal reaction would go negative (docs/model.md s.11):
+    ``stop`` with status contact_lost (every published study), or continue in ``flight``."""
+
+    stop = "stop"
+    flight = "flight"
+
+
+@dataclass
+class FlightConfig:
+    """Separation, flight and impact (docs/model.md s.11)."""
+
+    contact_loss: ContactLoss = ContactLoss.stop
+    restitution: float = 0.0
+    resume_speed: float = 1e-4
+    impact_cap: float = 100.0
+
+    def check(self, path: str) -> None:
+        """e in [0, 1], resumption speed >= 0, impact cap >= 1 per second."""
+        require(0.0 <= self.restitution <= 1.0, f"{path}.restitution", self.restitution,
+                "must be in [0, 1]")
+        require(math.isfinite(self.resume_speed) and self.resume_speed >= 0.0,
+                f"{path}.resume_speed", self.resume_speed, "must be finite and >= 0 m/s")
+        require(math.isfinite(self.impact_cap) and self.impact_cap >= 1.0,
+                f"{path}.impact_cap", self.impact_cap, "must be finite and >= 1 per second")
+
+    def problem_fields(self, restitution: float | None = None) -> dict[str, Any]:
+        """The SphereProblem fields of these settings (restitution overridden if given)."""
+        e = self.restitution if restitution is None else restitution
+        return {"flight": self.contact_loss is ContactLoss.flight, "restitution": float(e),
+                "resume_speed": float(self.resume_speed), "impact_cap": float(self.impact_cap)}
+
+
+@dataclass
+class DropConfig:
+    """The drop test of docs/model.md s.11: flat, still surface, sphere dropped at rest."""
+
+    height: float = 0.1
+    restitution: float = 0.5
+    duration: float = 1.0
+    dt: float = 0.001
+
+    def check(self, path: str) -> None:
+        """Height, duration and dt > 0, e in (0, 1] (the apex ratio needs bounces)."""
+        for name in ("height", "duration", "dt"):
+            v = getattr(self, name)
+            require(math.isfinite(v) and v > 0.0, f"{path}.{name}", v, "must be > 0")
+        require(0.0 < self.restitution <= 1.0, f"{path}.restitution", self.restitution,
+                "must be in (0, 1]")
+        require(steps_in(self.duration, self.dt) is not None, f"{path}.duration",
+                self.duration, f"must be an integer multiple of {path}.dt = {self.dt}")
+
+
+@dataclass
+class En02fStudy(DynamicStudy):
+    """EN-02F: EN-02 at each cycle length T (one cycle each) and restitution e, with flight,
+    plus the drop test."""
+
+    cycles_s: list[float] = MISSING
+    restitutions: list[float] = MISSING
+    drop: DropConfig = field(default_factory=DropConfig)
+
+    def check(self, path: str) -> None:
+        """The EN-02 rules, each T > 0, each e in [0, 1], the drop test in range."""
+        super().check(path)
+        for i, T in enumerate(self.cycles_s):
+            require(math.isfinite(T) and T > 0.0, f"{path}.cycles_s[{i}]", T, "must be > 0 s")
+        for i, e in enumerate(self.restitutions):
+            require(0.0 <= e <= 1.0, f"{path}.restitutions[{i}]", e, "must be in [0, 1]")
+        self.drop.check(f"{path}.drop")
+
+
+@dataclass
+class En02fConfig(DynamicConfig):
+    """Root schema of EN-02F (docs/studies.md): the study sets T and e per run."""
+
+    study: En02fStudy = field(default_factory=En02fStudy)
+    flight: FlightConfig = field(default_factory=FlightConfig)
+
+    def check(self) -> None:
+        """The sphere studies' rules, the flight settings, and every run's duration a
+        multiple of a fixed dt."""
+        super().check()
+        self.flight.check("flight")
+        for i, T in enumerate(self.study.cycles_s):
+            require(self.solver.adaptive or steps_in(T, self.solver.dt) is not None,
+                    f"study.cycles_s[{i}]", T,
+                    f"must be an integer multiple of solver.dt = {self.solver.dt}")
+
+    def run_problems(self, dt: float | None = None
+                     ) -> list[tuple[float, float, SphereProblem]]:
+        """(T, e, problem) of every run: one cycle of length T, restitution e."""
+        base = dataclasses.replace(self.sphere_problem(dt), **self.flight.problem_fields())
+        out = []
+        for T in self.study.cycles_s:
+            laws = {name: (*getattr(base, name)[:3], float(T), *getattr(base, name)[4:])
+                    for name in ("law_r", "law_a", "law_gamma")}
+            for e in self.study.restitutions:
+                out.append((float(T), float(e), dataclasses.replace(
+                    base, **laws, t_end=float(T), restitution=float(e))))
+        return out
+
+    def drop_problem(self) -> SphereProblem:
+        """The drop test: A = 0 and still phases, dropped from study.drop.height, flight on."""
+        d = self.study.drop
+        still = (0.0, 0.0, 0.0, 1.0, 0.0, 0.0)
+        return dataclasses.replace(
+            self.sphere_problem(d.dt), A=0.0, law_r=still, law_a=still, law_gamma=still,
+            t_end=d.duration, output_interval=d.dt * max(1, round(0.01 / d.dt)),
+            method="rk4", fixed_step=False,
+            **self.flight.problem_fields(d.restitution) | {"flight": True},
+            start_height=d.height)
 
     def step_limit(self) -> float:
         """The smallest stability limit over every run of the study."""

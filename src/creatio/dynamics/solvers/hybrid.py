@@ -1,0 +1,726 @@
+"""The hybrid loop: contact and flight phases with located events (docs/model.md s.11).
+
+A separate compiled loop, so that runs with flight disabled compile and execute the one
+driver (creatio.dynamics.solvers.driver) exactly as before. It runs any explicit tableau of
+the registry, at a fixed step (RK4) or under error control (dopri5, dop853), with rotation
+and energy bookkeeping always on and the fixed structure; Radau and the structure path have
+no flight.
+
+* Contact: the state and right-hand side of creatio.dynamics.sphere (s.4-6).
+* Flight: [X (3), V (3), omega (3), Q (4), cumulative spin, surface work, friction
+  dissipation] in the world frame; X'' = g, omega constant, Q integrated.
+* Events are located inside the step where their function changes sign, by re-integration
+  from the step start with a shorter step (Illinois regula falsi, bisection when the bracket
+  stalls) to a bracket of EVENT_TOL; the event state is the far end of the bracket, so a
+  separation has N <= 0 and an impact a gap <= 0, and an event is never moved to a step end.
+  Separation: N reaches 0. Impact: the gap to the surface reaches 0 while approaching.
+  The apex of each flight (the gap's rate v_n reaches 0) is located the same way for the
+  flight's height, without changing the run.
+* The event table has one row per event (EV_* columns); impact losses enter the energy
+  balance through the energy reference: E0 is lowered by each loss, so the residual the
+  loop reports is E - E0 - W_surface + D_friction + sum of losses.
+
+Fixed step: the loop keeps the grid t_i = i dt; after an event the rest of the step is a
+shorter step to the next grid time.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from creatio.dynamics import status as st
+from creatio.dynamics.jit import njit
+from creatio.dynamics.problem import (
+    COL_ALPHA,
+    COL_AZIMUTH,
+    COL_CAVITY_R,
+    COL_CELL_U,
+    COL_CELL_V,
+    COL_DISSIPATION,
+    COL_ENERGY,
+    COL_F,
+    COL_KINETIC,
+    COL_MARKER,
+    COL_N,
+    COL_OMEGA,
+    COL_POTENTIAL,
+    COL_Q,
+    COL_R,
+    COL_RESIDUAL,
+    COL_SLIP,
+    COL_SPEED,
+    COL_SPIN,
+    COL_SPIN_RATE,
+    COL_T,
+    COL_V,
+    COL_WORK,
+    COL_X,
+    NEV,
+    P_DR,
+    P_KA,
+    P_MCAV,
+    P_NCAV,
+    P_R0,
+)
+from creatio.dynamics.solvers.driver import _next_h
+from creatio.dynamics.solvers.explicit import error_norm, step_factor
+from creatio.dynamics.sphere import (
+    E_AZ,
+    E_E0,
+    E_MAX_RES,
+    E_MIN_CLEAR,
+    new_extrema,
+    observe,
+    pack,
+    rhs,
+)
+from creatio.model.cavity import cavity_cell_offsets, cavity_radius
+from creatio.model.flight import foot_point, impact
+from creatio.model.laws import law_eval
+from creatio.model.offset import offset_jets
+from creatio.model.sphere import centre_tangents
+
+__all__ = ["CONTACT", "EVENT_KINDS", "EVENT_TOL", "FLIGHT", "NEV", "run_flight"]
+
+#: Phases of the hybrid loop.
+CONTACT, FLIGHT = 0, 1
+
+#: Width of the bracket (s) an event time is located to.
+EVENT_TOL = 1e-11
+
+#: Event kinds, as written into the event table (column EV_KIND).
+EV_SEPARATION, EV_IMPACT, EV_CONTACT = 0, 1, 2
+EVENT_KINDS = ("separation", "impact", "contact")
+
+#: Columns of the event table: time, kind, relative normal velocity before (v_n-) and after
+#: (v_n+), energy lost, centre (3, world), foot point (R, alpha), and for an impact the
+#: height (largest gap) of the flight it ends.
+(EV_T, EV_KIND, EV_VN, EV_VN_AFTER, EV_LOSS, EV_X, EV_R, EV_ALPHA, EV_HEIGHT) = (
+    0, 1, 2, 3, 4, 5, 8, 9, 10)
+
+#: Sizes of the contact and flight states.
+NC = 14
+NF = 16
+
+# Flight extrema: largest gap of the run and of the current flight, foot point (R, alpha)
+X_MAX_GAP, X_FLIGHT_GAP, X_FOOT_R, X_FOOT_A = range(4)
+
+
+@njit(cache=True)
+def _flight_rhs(y, dy, g):
+    """dy/dt of the flight state: X' = V, V' = (0, 0, -g), omega constant, Q and the spin
+    integrated, the work and dissipation constant."""
+    dy[0] = y[3]
+    dy[1] = y[4]
+    dy[2] = y[5]
+    dy[3] = 0.0
+    dy[4] = 0.0
+    dy[5] = -g
+    dy[6] = 0.0
+    dy[7] = 0.0
+    dy[8] = 0.0
+    wx = y[6]
+    wy = y[7]
+    wz = y[8]
+    q0 = y[9]
+    q1 = y[10]
+    q2 = y[11]
+    q3 = y[12]
+    dy[9] = -0.5 * (wx * q1 + wy * q2 + wz * q3)
+    dy[10] = 0.5 * (q0 * wx + wy * q3 - wz * q2)
+    dy[11] = 0.5 * (q0 * wy + wz * q1 - wx * q3)
+    dy[12] = 0.5 * (q0 * wz + wx * q2 - wy * q1)
+    dy[13] = math.sqrt(wx * wx + wy * wy + wz * wz)
+    dy[14] = 0.0
+    dy[15] = 0.0
+
+
+@njit(cache=True)
+def _f(phase, t, y, dy, pp, lc):
+    """The right-hand side of the phase (contact: creatio.dynamics.sphere.rhs)."""
+    if phase == CONTACT:
+        rhs(t, y, dy, pp, lc, True, True, False)
+    else:
+        _flight_rhs(y, dy, pp[7])
+
+
+@njit(cache=True)
+def _step(phase, t, h, t_next, y, ynew, K, work, kst, tab, pp, lc, estimate, rtol, atol):
+    """One explicit Runge-Kutta step of size h from (t, y) into ynew, in the driver's
+    summation order (so a contact step is the driver's step bit for bit); with estimate, the
+    scaled error norm of the step (0 otherwise)."""
+    c, a_ptr, a_idx, a_val, b_idx, b_val, b_divisor, e, e3, estimator, error_order = tab
+    n = y.size
+    s = c.size
+    _f(phase, t, y, kst, pp, lc)
+    for j in range(n):
+        K[0, j] = kst[j]
+    for stg in range(1, s):
+        p0 = a_ptr[stg]
+        p1 = a_ptr[stg + 1]
+        if p1 == p0:
+            for j in range(n):
+                work[j] = y[j]
+        else:
+            q = a_idx[p0]
+            v = a_val[p0]
+            for j in range(n):
+                work[j] = v * K[q, j]
+            for pq in range(p0 + 1, p1):
+                q = a_idx[pq]
+                v = a_val[pq]
+                for j in range(n):
+                    work[j] += v * K[q, j]
+            for j in range(n):
+                work[j] = y[j] + h * work[j]
+        ts = t_next if c[stg] == 1.0 else t + c[stg] * h
+        _f(phase, ts, work, kst, pp, lc)
+        for j in range(n):
+            K[stg, j] = kst[j]
+    q = b_idx[0]
+    v = b_val[0]
+    for j in range(n):
+        ynew[j] = v * K[q, j]
+    for pq in range(1, b_idx.size):
+        q = b_idx[pq]
+        v = b_val[pq]
+        for j in range(n):
+            ynew[j] += v * K[q, j]
+    hb = h / b_divisor
+    for j in range(n):
+        ynew[j] = y[j] + hb * ynew[j]
+    if not estimate:
+        return 0.0
+    _f(phase, t_next, ynew, kst, pp, lc)
+    for j in range(n):
+        K[s, j] = kst[j]
+    return error_norm(K, y, ynew, h, e, e3, estimator, rtol, atol)
+
+
+@njit(cache=True)
+def _foot(t, y, pp, lc, R, a):
+    """Foot point of the flight state's centre at t from the guess (R, alpha): (found, R,
+    alpha, gap, v_n, n (3), c_t (3))."""
+    R0, dR, k, A, Ka, m, b, g, mu, eps, inertia = pp
+    pr, pr1, pr2 = law_eval(lc[0], lc[1], lc[2], lc[3], lc[4], lc[5], t)
+    pa, pa1, pa2 = law_eval(lc[6], lc[7], lc[8], lc[9], lc[10], lc[11], t)
+    gm, g1, g2 = law_eval(lc[12], lc[13], lc[14], lc[15], lc[16], lc[17], t)
+    found, Rs, As, gap, n1, n2, n3, c1, c2, c3 = foot_point(
+        y[0], y[1], y[2], R, a, R0, k, A, Ka, b, pr, pr1, pr2, pa, pa1, pa2, gm, g1, g2)
+    vn = (y[3] - c1) * n1 + (y[4] - c2) * n2 + (y[5] - c3) * n3
+    return found, Rs, As, gap, vn, n1, n2, n3, c1, c2, c3
+
+
+@njit(cache=True)
+def _event_value(which, t, y, pp, lc, R, a):
+    """The event function at (t, y): 0 the normal reaction N (contact), 1 the gap, 2 the
+    relative normal velocity v_n (flight); NaN where the foot point is not found."""
+    if which == 0:
+        dy = np.empty(y.size)
+        return rhs(t, y, dy, pp, lc, True, True, False)[0]
+    found, Rs, As, gap, vn, n1, n2, n3, c1, c2, c3 = _foot(t, y, pp, lc, R, a)
+    if not found:
+        return math.nan
+    return gap if which == 1 else vn
+
+
+@njit(cache=True)
+def _locate(which, phase, t, h, fa, fb, y, yt, K, work, kst, tab, pp, lc, R, a):
+    """Locate the sign change (fa > 0 at t, fb <= 0 at t + h) of event function `which`
+    inside the step by re-integration from (t, y); leaves the state at the far end of the
+    final bracket in yt and returns its offset tau in (0, h] (h only if the bracket never
+    left the step end)."""
+    lo = 0.0
+    hi = h
+    flo = fa
+    fhi = fb
+    side = 0
+    width0 = h
+    it = 0
+    while hi - lo > EVENT_TOL and it < 200:
+        it += 1
+        bisect = not (flo > 0.0 and fhi <= 0.0)
+        if it % 3 == 0:
+            # the bracket must halve every three tries, else bisect (regula falsi can stall)
+            bisect = bisect or hi - lo > 0.5 * width0
+            width0 = hi - lo
+        cc = 0.5 * (lo + hi) if bisect else (lo * fhi - hi * flo) / (fhi - flo)
+        if not (cc > lo and cc < hi):
+            cc = 0.5 * (lo + hi)
+        _step(phase, t, cc, t + cc, y, yt, K, work, kst, tab, pp, lc, False, 1.0, 1.0)
+        fc = _event_value(which, t + cc, yt, pp, lc, R, a)
+        if fc > 0.0:
+            lo = cc
+            flo = fc
+            if side == 1:
+                fhi *= 0.5
+            side = 1
+        else:
+            hi = cc
+            fhi = fc
+            if side == -1:
+                flo *= 0.5
+            side = -1
+    _step(phase, t, hi, t + hi, y, yt, K, work, kst, tab, pp, lc, False, 1.0, 1.0)
+    return hi, it + 1
+
+
+@njit(cache=True)
+def _to_flight(t, yc, yf, pp, lc):
+    """The flight state of contact state yc (centre and velocity turned to the world frame;
+    spin, orientation and the sums carried); returns the centre's world position."""
+    dy = np.empty(NC)
+    d = rhs(t, yc, dy, pp, lc, True, True, False)
+    ca = math.cos(yc[1])
+    sa = math.sin(yc[1])
+    yf[0] = d[2] * ca - d[3] * sa
+    yf[1] = d[2] * sa + d[3] * ca
+    yf[2] = d[4]
+    yf[3] = d[5] * ca - d[6] * sa
+    yf[4] = d[5] * sa + d[6] * ca
+    yf[5] = d[7]
+    for j in range(10):
+        yf[6 + j] = yc[4 + j]
+
+
+@njit(cache=True)
+def _to_contact(t, yf, yc, pp, lc, R, a):
+    """The contact state at foot point (R, alpha) nearest flight state yf: qdot from
+    (J^T J) qdot = J^T (V - X_t), which drops the residual normal velocity."""
+    R0, dR, k, A, Ka, m, b, g, mu, eps, inertia = pp
+    pr, pr1, pr2 = law_eval(lc[0], lc[1], lc[2], lc[3], lc[4], lc[5], t)
+    pa, pa1, pa2 = law_eval(lc[6], lc[7], lc[8], lc[9], lc[10], lc[11], t)
+    gm, g1, g2 = law_eval(lc[12], lc[13], lc[14], lc[15], lc[16], lc[17], t)
+    rho, z, n1, n2, n3, P, Q, Z = offset_jets(
+        R, a, R0, k, A, Ka, b, pr, pr1, pr2, pa, pa1, pa2, gm, g1, g2)
+    xR1, xR2, xR3, xa1, xa2, xa3, xt1, xt2, xt3 = centre_tangents(P, Q, Z)
+    ca = math.cos(a)
+    sa = math.sin(a)
+    u1 = yf[3] * ca + yf[4] * sa - xt1
+    u2 = -yf[3] * sa + yf[4] * ca - xt2
+    u3 = yf[5] - xt3
+    j11 = xR1 * xR1 + xR2 * xR2 + xR3 * xR3
+    j12 = xR1 * xa1 + xR2 * xa2 + xR3 * xa3
+    j22 = xa1 * xa1 + xa2 * xa2 + xa3 * xa3
+    c1 = xR1 * u1 + xR2 * u2 + xR3 * u3
+    c2 = xa1 * u1 + xa2 * u2 + xa3 * u3
+    idet = 1.0 / (j11 * j22 - j12 * j12)
+    yc[0] = R
+    yc[1] = a
+    yc[2] = (j22 * c1 - j12 * c2) * idet
+    yc[3] = (j11 * c2 - j12 * c1) * idet
+    for j in range(10):
+        yc[4 + j] = yf[6 + j]
+
+
+@njit(cache=True)
+def _energy(m, inertia, g, V1, V2, V3, w1, w2, w3, X3):
+    """Mechanical energy m |V|^2 / 2 + I |omega|^2 / 2 + m g X3."""
+    return (0.5 * m * (V1 * V1 + V2 * V2 + V3 * V3)
+            + 0.5 * inertia * (w1 * w1 + w2 * w2 + w3 * w3) + m * g * X3)
+
+
+@njit(cache=True)
+def _contact_energy(t, yc, pp, lc):
+    """Mechanical energy and world centre of a contact state."""
+    m = pp[5]
+    g = pp[7]
+    inertia = pp[10]
+    dy = np.empty(NC)
+    d = rhs(t, yc, dy, pp, lc, True, True, False)
+    E = _energy(m, inertia, g, d[5], d[6], d[7], yc[4], yc[5], yc[6], d[4])
+    ca = math.cos(yc[1])
+    sa = math.sin(yc[1])
+    return E, d[2] * ca - d[3] * sa, d[2] * sa + d[3] * ca, d[4], d[0]
+
+
+@njit(cache=True)
+def _record(ev, nev, t, kind, vn, vn_after, loss, X1, X2, X3, R, a, height):
+    """Write one event row (when the table has room); returns the new count."""
+    if nev < ev.shape[0]:
+        ev[nev, EV_T] = t
+        ev[nev, EV_KIND] = kind
+        ev[nev, EV_VN] = vn
+        ev[nev, EV_VN_AFTER] = vn_after
+        ev[nev, EV_LOSS] = loss
+        ev[nev, EV_X] = X1
+        ev[nev, EV_X + 1] = X2
+        ev[nev, EV_X + 2] = X3
+        ev[nev, EV_R] = R
+        ev[nev, EV_ALPHA] = a
+        ev[nev, EV_HEIGHT] = height
+    return nev + 1
+
+
+@njit(cache=True)
+def _observe_flight(first, t, y, fx, gap, p, pp, lc, ext, out, row, final, sample):
+    """Diagnostics of a flight state: energy residual, edge clearance, azimuth and the
+    flight's height; a history row on the output grid (N = 0, no friction, slip NaN, R and
+    alpha of the foot point). Returns (status, rows written)."""
+    R0 = p[P_R0]
+    dR = p[P_DR]
+    m = pp[5]
+    b = pp[6]
+    g = pp[7]
+    k = pp[2]
+    inertia = pp[10]
+    X1 = y[0]
+    X2 = y[1]
+    X3 = y[2]
+    kin = 0.5 * m * (y[3] * y[3] + y[4] * y[4] + y[5] * y[5]) + 0.5 * inertia * (
+        y[6] * y[6] + y[7] * y[7] + y[8] * y[8])
+    pot = m * g * X3
+    energy = kin + pot
+    if first:
+        ext[E_E0] = energy
+    res = energy - ext[E_E0] - y[14] + y[15]
+    if abs(res) > ext[E_MAX_RES]:
+        ext[E_MAX_RES] = abs(res)
+    if gap > fx[X_FLIGHT_GAP]:
+        fx[X_FLIGHT_GAP] = gap
+    if gap > fx[X_MAX_GAP]:
+        fx[X_MAX_GAP] = gap
+    gm = law_eval(lc[12], lc[13], lc[14], lc[15], lc[16], lc[17], t)[0]
+    sx = (math.sqrt(X1 * X1 + X2 * X2) - R0) * math.cos(gm) + X3 * math.sin(gm)
+    clear = min(sx - b, dR - sx - b)
+    if clear < ext[E_MIN_CLEAR]:
+        ext[E_MIN_CLEAR] = clear
+    raw = math.atan2(X2, X1)
+    if first:
+        az = raw
+    else:
+        az = raw + 2.0 * math.pi * np.rint((ext[E_AZ] - raw) / (2.0 * math.pi))
+    ext[E_AZ] = az
+    R = fx[X_FOOT_R]
+    a = fx[X_FOOT_A]
+    total = X1 + X2 + X3 + energy
+    for j in range(y.size):
+        total += y[j]
+    status = st.OK
+    if not math.isfinite(total):
+        status = st.NON_FINITE
+    elif R < 0.0 or R > dR:
+        status = st.LEFT_ANNULUS
+    elif clear < 0.0:
+        status = st.EDGE_CROSSED
+    if not (status != st.OK or final or sample):
+        return status, 0
+    pr = law_eval(lc[0], lc[1], lc[2], lc[3], lc[4], lc[5], t)[0]
+    pa = law_eval(lc[6], lc[7], lc[8], lc[9], lc[10], lc[11], t)[0]
+    ncav = p[P_NCAV]
+    du, dv = cavity_cell_offsets(R, a, pr, pa, k, p[P_KA], ncav, p[P_MCAV])
+    out[row, COL_T] = t
+    out[row, COL_X] = X1
+    out[row, COL_X + 1] = X2
+    out[row, COL_X + 2] = X3
+    out[row, COL_R] = R
+    out[row, COL_ALPHA] = a
+    out[row, COL_V] = y[3]
+    out[row, COL_V + 1] = y[4]
+    out[row, COL_V + 2] = y[5]
+    out[row, COL_SPEED] = math.sqrt(y[3] * y[3] + y[4] * y[4] + y[5] * y[5])
+    out[row, COL_N] = 0.0
+    out[row, COL_F] = 0.0
+    out[row, COL_F + 1] = 0.0
+    out[row, COL_F + 2] = 0.0
+    out[row, COL_SLIP] = math.nan
+    wx = y[6]
+    wy = y[7]
+    wz = y[8]
+    qn = 1.0 / math.sqrt(y[9] * y[9] + y[10] * y[10] + y[11] * y[11] + y[12] * y[12])
+    q0 = y[9] * qn
+    q1 = y[10] * qn
+    q2 = y[11] * qn
+    q3 = y[12] * qn
+    out[row, COL_OMEGA] = wx
+    out[row, COL_OMEGA + 1] = wy
+    out[row, COL_OMEGA + 2] = wz
+    out[row, COL_SPIN_RATE] = math.sqrt(wx * wx + wy * wy + wz * wz)
+    out[row, COL_SPIN] = y[13]
+    out[row, COL_Q] = q0
+    out[row, COL_Q + 1] = q1
+    out[row, COL_Q + 2] = q2
+    out[row, COL_Q + 3] = q3
+    out[row, COL_MARKER] = 2.0 * (q1 * q3 + q0 * q2)
+    out[row, COL_MARKER + 1] = 2.0 * (q2 * q3 - q0 * q1)
+    out[row, COL_MARKER + 2] = q0 * q0 - q1 * q1 - q2 * q2 + q3 * q3
+    out[row, COL_AZIMUTH] = az
+    out[row, COL_KINETIC] = kin
+    out[row, COL_POTENTIAL] = pot
+    out[row, COL_ENERGY] = energy
+    out[row, COL_WORK] = y[14]
+    out[row, COL_DISSIPATION] = y[15]
+    out[row, COL_RESIDUAL] = res
+    out[row, COL_CAVITY_R] = cavity_radius(pr, k, ncav)
+    out[row, COL_CELL_U] = du
+    out[row, COL_CELL_V] = dv
+    return status, 1
+
+
+@njit(cache=True)
+def _drive_flight(p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, atol, fixed,
+                  max_steps, tab, out, fl, ev):
+    """Integrate the hybrid contact/flight model from t = 0 to t_end (see the module).
+
+    fl = (restitution e, resumption speed, impacts per second cap, start height: > 0 starts
+    in flight that far above the initial contact position); ev the event table
+    (rows beyond its size are counted, not written). Returns the driver's tuple (status,
+    steps, rows, rhs_evals, extrema, rejected, jacobians, lu, stop_time) plus the event
+    count, the flight extrema and the final phase.
+    """
+    pp, lc, px = pack(p, lawc)
+    R0, dR, k, A, Ka, m, b, g, mu, eps, inertia = pp
+    e_rest = fl[0]
+    v_resume = fl[1]
+    cap = fl[2]
+    icap = max(1, int(cap))
+    ring = np.full(icap, -math.inf)
+    n_imp = 0
+    s = tab[0].size
+    yc = y0.copy()
+    yf = np.zeros(NF)
+    yt_c = np.empty(NC)
+    yt_f = np.empty(NF)
+    Kc = np.empty((s + 1, NC))
+    Kf = np.empty((s + 1, NF))
+    wc = np.empty(NC)
+    wf = np.empty(NF)
+    kc = np.empty(NC)
+    kf = np.empty(NF)
+    ya = np.empty(NF)
+    dy = np.empty(NC)
+    ext = new_extrema(True)
+    fx = np.zeros(4)
+    nev = np.int64(0)
+    evals = np.int64(0)
+    n_rej = np.int64(0)
+    rows = np.int64(0)
+    steps = np.int64(0)
+    status = st.OK
+    t = 0.0
+    phase = CONTACT
+    n_int = int(math.floor(t_end / interval * (1.0 + 1e-12))) if not fixed else 0
+    jn = 1
+    kg = 0
+    on_grid = True
+    h = h0 if fixed else min(h0, interval)
+    error_order = tab[10]
+    final = n_steps == 0 if fixed else t_end <= 0.0
+    sample = True
+    first = True
+    transition = True  # the state may need an event at once (the start, after an event)
+    if fl[3] > 0.0:
+        # a dropped start: the centre fl[3] above its contact position, at rest, in flight
+        _to_flight(0.0, yc, yf, pp, lc)
+        found, Rs, As, gap, vn, n1, n2, n3, c1, c2, c3 = _foot(0.0, yf, pp, lc, yc[0], yc[1])
+        yf[0] += fl[3] * n1
+        yf[1] += fl[3] * n2
+        yf[2] += fl[3] * n3
+        fx[X_FOOT_R] = Rs
+        fx[X_FOOT_A] = As
+        phase = FLIGHT
+    while True:
+        # instantaneous transitions at the current state
+        while transition and status == st.OK:
+            transition = False
+            if phase == CONTACT:
+                Ec, X1, X2, X3, N = _contact_energy(t, yc, pp, lc)
+                if N <= 0.0:
+                    _to_flight(t, yc, yf, pp, lc)
+                    found, Rs, As, gap, vn, n1, n2, n3, c1, c2, c3 = _foot(
+                        t, yf, pp, lc, yc[0], yc[1])
+                    if not found:
+                        status = st.FOOT_POINT_FAILED
+                        break
+                    fx[X_FOOT_R] = Rs
+                    fx[X_FOOT_A] = As
+                    fx[X_FLIGHT_GAP] = 0.0
+                    nev = _record(ev, nev, t, EV_SEPARATION, vn, vn, 0.0, yf[0], yf[1],
+                                  yf[2], Rs, As, math.nan)
+                    phase = FLIGHT
+            else:
+                found, Rs, As, gap, vn, n1, n2, n3, c1, c2, c3 = _foot(
+                    t, yf, pp, lc, fx[X_FOOT_R], fx[X_FOOT_A])
+                if not found:
+                    status = st.FOOT_POINT_FAILED
+                    break
+                fx[X_FOOT_R] = Rs
+                fx[X_FOOT_A] = As
+                if gap <= 0.0 and vn < 0.0:
+                    E0 = _energy(m, inertia, g, yf[3], yf[4], yf[5], yf[6], yf[7], yf[8], yf[2])
+                    V1, V2, V3, w1, w2, w3, vm, vp, jn_, jt_ = impact(
+                        yf[3], yf[4], yf[5], yf[6], yf[7], yf[8], n1, n2, n3, c1, c2, c3, m,
+                        inertia, b, e_rest, mu)
+                    yf[3] = V1
+                    yf[4] = V2
+                    yf[5] = V3
+                    yf[6] = w1
+                    yf[7] = w2
+                    yf[8] = w3
+                    E1 = _energy(m, inertia, g, V1, V2, V3, w1, w2, w3, yf[2])
+                    ext[E_E0] -= E0 - E1
+                    nev = _record(ev, nev, t, EV_IMPACT, vm, vp, E0 - E1, yf[0], yf[1], yf[2],
+                                  Rs, As, fx[X_FLIGHT_GAP])
+                    forced = t - ring[n_imp % icap] < 1.0
+                    ring[n_imp % icap] = t
+                    n_imp += 1
+                    if e_rest == 0.0 or abs(vp) < v_resume or forced:
+                        _to_contact(t, yf, yc, pp, lc, Rs, As)
+                        Ec, X1, X2, X3, N = _contact_energy(t, yc, pp, lc)
+                        ext[E_E0] -= E1 - Ec
+                        nev = _record(ev, nev, t, EV_CONTACT, vp, 0.0, E1 - Ec, X1, X2, X3,
+                                      Rs, As, math.nan)
+                        phase = CONTACT
+                        transition = True
+                    else:
+                        fx[X_FLIGHT_GAP] = 0.0
+        if status != st.OK:
+            break
+        # observe the state (extrema, stops, history row)
+        if phase == CONTACT:
+            d = rhs(t, yc, dy, pp, lc, True, True, True)
+            evals += 1
+            status, wrote = observe(first, t, yc, d, p, ext, out, rows, final, sample, True,
+                                    True, False)
+        else:
+            found, Rs, As, gap, vn, n1, n2, n3, c1, c2, c3 = _foot(
+                t, yf, pp, lc, fx[X_FOOT_R], fx[X_FOOT_A])
+            fx[X_FOOT_R] = Rs
+            fx[X_FOOT_A] = As
+            if not found:
+                status = st.FOOT_POINT_FAILED
+                break
+            status, wrote = _observe_flight(first, t, yf, fx, gap, p, pp, lc, ext, out, rows,
+                                            final, sample)
+        first = False
+        rows += wrote
+        if status != st.OK or final:
+            break
+        # one step towards the next grid (fixed) or output (adaptive) time
+        if fixed:
+            t_target = (kg + 1) * h0
+        else:
+            t_target = jn * interval if jn <= n_int else t_end
+            if t_target > t_end:
+                t_target = t_end
+        y = yc if phase == CONTACT else yf
+        yn = yt_c if phase == CONTACT else yt_f
+        K = Kc if phase == CONTACT else Kf
+        work = wc if phase == CONTACT else wf
+        kst = kc if phase == CONTACT else kf
+        accepted = False
+        rejected = False
+        m_split = 1
+        h_use = h0
+        t_next = t_target
+        while not accepted:
+            if fixed:
+                h_use = h0 if on_grid else t_target - t
+                _step(phase, t, h_use, t_next, y, yn, K, work, kst, tab, pp, lc, False, rtol,
+                      atol)
+                evals += s
+                accepted = True
+            else:
+                if steps >= max_steps or h < 1e-12 * max(1.0, t_end) or not math.isfinite(h):
+                    status = st.STEP_FAILED
+                    break
+                remaining = t_target - t
+                m_split = math.ceil(remaining / h * (1.0 - 1e-9))
+                if m_split < 1:
+                    m_split = 1
+                h_use = remaining / m_split
+                t_next = t + h_use if m_split > 1 else t_target
+                err = _step(phase, t, h_use, t_next, y, yn, K, work, kst, tab, pp, lc, True,
+                            rtol, atol)
+                evals += s + 1
+                ok, factor = step_factor(err, error_order, rejected)
+                if ok:
+                    accepted = True
+                    h = _next_h(h, h_use, factor, m_split)
+                else:
+                    h = h_use * factor
+                    rejected = True
+                    n_rej += 1
+        if status != st.OK:
+            break
+        steps += 1
+        # events inside the step
+        tau = -1.0
+        if phase == CONTACT:
+            N1 = _event_value(0, t_next, yn, pp, lc, 0.0, 0.0)
+            evals += 1
+            if N1 <= 0.0:
+                N0 = _event_value(0, t, y, pp, lc, 0.0, 0.0)
+                tau, n_re = _locate(0, phase, t, h_use, N0, N1, y, yn, K, work, kst, tab, pp,
+                                    lc, 0.0, 0.0)
+                evals += n_re * (s + 1) + 1
+        else:
+            Rg = fx[X_FOOT_R]
+            Ag = fx[X_FOOT_A]
+            found, Rs, As, gap1, vn1, n1, n2, n3, c1, c2, c3 = _foot(t_next, yn, pp, lc, Rg, Ag)
+            if not found:
+                status = st.FOOT_POINT_FAILED
+                break
+            vn0 = _event_value(2, t, y, pp, lc, Rg, Ag)
+            if vn0 > 0.0 and vn1 <= 0.0:
+                # the flight's apex: located for the height only, the run goes on unchanged
+                _locate(2, phase, t, h_use, vn0, vn1, y, ya, K, work, kst, tab, pp, lc, Rg, Ag)
+                ga = _event_value(1, t, ya, pp, lc, Rg, Ag)
+                if ga > fx[X_FLIGHT_GAP]:
+                    fx[X_FLIGHT_GAP] = ga
+                if ga > fx[X_MAX_GAP]:
+                    fx[X_MAX_GAP] = ga
+            if gap1 <= 0.0 and vn1 < 0.0:
+                g0 = _event_value(1, t, y, pp, lc, Rg, Ag)
+                tau, n_re = _locate(1, phase, t, h_use, g0, gap1, y, yn, K, work, kst, tab,
+                                    pp, lc, Rg, Ag)
+                evals += n_re * s
+            else:
+                fx[X_FOOT_R] = Rs
+                fx[X_FOOT_A] = As
+        for j in range(y.size):
+            y[j] = yn[j]
+        transition = tau >= 0.0
+        if transition and tau < h_use:
+            # an event inside the step: the rest of the step follows from the event state
+            t = t + tau
+            on_grid = False
+            sample = False
+            final = False
+            continue
+        if fixed:
+            t = t_next
+            kg += 1
+            on_grid = True
+            final = kg == n_steps
+            sample = kg % stride == 0
+        else:
+            hit = m_split == 1
+            t = t_target if hit else t_next
+            if hit:
+                jn += 1
+            final = hit and t_target >= t_end
+            sample = hit
+    if status == st.STEP_FAILED or status == st.FOOT_POINT_FAILED:
+        # record the state where the run gave up, so the stop is visible in histories
+        if phase == CONTACT:
+            d = rhs(t, yc, dy, pp, lc, True, True, True)
+            _, wrote = observe(first, t, yc, d, p, ext, out, rows, True, True, True, True,
+                               False)
+        else:
+            _, wrote = _observe_flight(first, t, yf, fx, 0.0, p, pp, lc, ext, out, rows,
+                                       True, True)
+        rows += wrote
+    return status, steps, rows, evals, ext, n_rej, 0, 0, t, nev, fx, phase
+
+
+def run_flight(method, p: np.ndarray, lawc: np.ndarray, y0: np.ndarray, out: np.ndarray,
+               ev: np.ndarray, fl: np.ndarray, *, t_end: float, interval: float, h0: float,
+               n_steps: int, stride: int, rtol: float, atol: float, fixed: bool,
+               max_steps: int) -> tuple:
+    """Run an explicit `method` through the hybrid loop; see _drive_flight for the result."""
+    return _drive_flight(p, lawc, y0, float(t_end), float(interval), float(h0), int(n_steps),
+                         int(stride), float(rtol), float(atol), bool(fixed), int(max_steps),
+                         method.driver_tableau, out, fl, ev)
