@@ -41,7 +41,7 @@ commands:
             creatio task compare OUTDIR EN02.nc EN02R.nc
             creatio task scene dataset en02 OUT.nc [--override K=V ...] [--reuse en02=NC]
 
-Studies: {studies}. Configs live in {conf}.
+Studies: {studies} (snakemake all); {beyond} (snakemake beyond). Configs live in {conf}.
 """
 
 
@@ -298,7 +298,9 @@ def _usage() -> str:
     from creatio.pipeline.config import CONF_DIR
     from creatio.studies import registry
 
+    beyond = [s.id for s in registry.STUDIES.values() if not s.in_all and s.kind.name != "analysis"]
     return USAGE.format(studies=", ".join(s.id for s in registry.select(in_all=True)),
+                        beyond=", ".join(beyond),
                         analyses=", ".join(s.id for s in registry.select(kind="analysis"))
                         or "none", conf=CONF_DIR)
 
