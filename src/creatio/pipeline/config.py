@@ -280,23 +280,27 @@ def cache_dir() -> Path:
     return Path(root)
 
 
+def _digest(files: list[Path]) -> str:
+    h = hashlib.sha256()
+    for path in files:
+        h.update(str(path).encode())
+        h.update(path.read_bytes())
+    return h.hexdigest()
+
+
 def _fingerprint() -> str:
-    """sha256 over conf/ and the package sources (what composition and validation read),
-    recomputed when any of those files' size or modification time changes."""
-    package = Path(__file__).resolve().parents[1]
-    files = [p for root, pattern in ((CONF_DIR, "*.yaml"), (package, "*.py"))
-             for p in sorted(root.rglob(pattern))]
+    """sha256 over conf/ (recomputed when a file's size or modification time changes) and
+    over the package sources as this process imported them (hashed once, at import: a
+    process still running old code never files its results under the new code's key)."""
+    files = sorted(CONF_DIR.rglob("*.yaml"))
     stamp = tuple((str(p), st.st_mtime_ns, st.st_size) for p in files for st in [p.stat()])
     if _FINGERPRINT.get("stamp") != stamp:
-        h = hashlib.sha256()
-        for path in files:
-            h.update(str(path).encode())
-            h.update(path.read_bytes())
-        _FINGERPRINT.update(stamp=stamp, digest=h.hexdigest())
-    return _FINGERPRINT["digest"]
+        _FINGERPRINT.update(stamp=stamp, digest=_digest(files))
+    return hashlib.sha256((_FINGERPRINT["digest"] + _PACKAGE_DIGEST).encode()).hexdigest()
 
 
 _FINGERPRINT: dict[str, Any] = {}
+_PACKAGE_DIGEST = _digest(sorted(Path(__file__).resolve().parents[1].rglob("*.py")))
 
 
 def _cache_path(study: str, overrides: tuple[str, ...]) -> Path | None:
