@@ -45,6 +45,17 @@ def test_large_variables_are_compressed(tmp_path):
     assert (tmp_path / "c.nc").stat().st_size < 10_000 * 8 / 4  # zeros: far below raw
 
 
+def test_an_empty_table_is_written_and_read_back(tmp_path):
+    """A zero-length dimension (EN-02F's event table of a run without events) is stored: HDF5
+    refused it as contiguous ("NetCDF: Invalid argument"), found by a fuzz of the configs."""
+    ds = xr.Dataset({"event_time": ("event", np.empty(0), {"units": "s"}),
+                     "event_case": ("event", np.empty(0, np.int32)),
+                     "small": ("m", np.arange(3.0))})
+    back, _ = read_dataset(write_dataset(ds, tmp_path / "e.nc"))
+    assert back.sizes["event"] == 0 and back["event_case"].dtype == np.int32
+    assert back["small"].encoding.get("contiguous") is True
+
+
 def test_write_is_atomic_and_leaves_no_partial_file(tmp_path, ct02_dataset):
     """A failing write leaves neither a temp file nor a clobbered destination."""
     _, ds = ct02_dataset

@@ -193,6 +193,8 @@ def _encoding(ds: xr.Dataset) -> dict[Any, dict[str, Any]]:
     for name, var in ds.variables.items():
         if var.dtype.kind not in "fiub" and not cf.is_string(var):
             continue
+        if var.size == 0:  # HDF5 refuses contiguous storage of nothing (an empty event table)
+            continue
         size = var.nbytes
         if cf.is_string(var):
             size = var.size * max((len(str(v).encode()) for v in np.ravel(var.values)),
