@@ -215,3 +215,18 @@ def test_en02f_builds_its_datasets_and_report(tmp_path) -> None:
     lo, hi = s["boundary"]["with_flight"]["0"]
     assert 6.0 <= lo < hi <= 8.0
     assert all(p.is_file() for p in out.values())
+
+
+def test_events_that_do_not_advance_the_clock_end_the_run() -> None:
+    """A phase of 1e12 rad leaves the radial law's value a rounding staircase (its ulp is
+    1.2e-4 rad), and at T = 3 s contact and flight then flip with no time passing: found by
+    a fuzz of the configs, the run looped for ever. It now ends step_failed where it stalls."""
+    from creatio.pipeline.config import resolve
+
+    cfg = resolve("en02f", ["phases.r.phi0=1e12"]).obj
+    T, _, prob = next(c for c in cfg.run_problems(0.001) if c[0] == 3.0 and c[1] == 0.0)
+    res = simulate(prob)
+    assert res.status == "step_failed"
+    assert 0.0 < res.stop_time < T
+    tail = res.events[-100:, EV_T]
+    assert np.ptp(tail) < 1e-6  # the stop is where the events piled up

@@ -89,6 +89,11 @@ CONTACT, FLIGHT = 0, 1
 
 #: Width of the bracket (s) an event time is located to.
 EVENT_TOL = 1e-11
+#: Events in a row that may each advance the clock by no more than STALL_TIME before the run
+#: ends STEP_FAILED: a state that flips between contact and flight without time passing
+#: (rounding-dominated phases, say) would otherwise loop for ever.
+MAX_STALLED_EVENTS = 1000
+STALL_TIME = 1e-9
 
 #: Event kinds, as written into the event table (column EV_KIND).
 EV_SEPARATION, EV_IMPACT, EV_CONTACT = 0, 1, 2
@@ -498,6 +503,7 @@ def _drive_flight(p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, atol,
     n_rej = np.int64(0)
     rows = np.int64(0)
     steps = np.int64(0)
+    stalled = 0
     status = st.OK
     t = 0.0
     phase = CONTACT
@@ -615,6 +621,9 @@ def _drive_flight(p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, atol,
         m_split = 1
         h_use = h0
         t_next = t_target
+        if steps >= max_steps:
+            status = st.STEP_FAILED
+            break
         while not accepted:
             if fixed:
                 h_use = h0 if on_grid else t_target - t
@@ -685,6 +694,10 @@ def _drive_flight(p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, atol,
         transition = tau >= 0.0
         if transition and tau < h_use:
             # an event inside the step: the rest of the step follows from the event state
+            stalled = stalled + 1 if tau <= STALL_TIME else 0
+            if stalled > MAX_STALLED_EVENTS:
+                status = st.STEP_FAILED
+                break
             t = t + tau
             on_grid = False
             sample = False
