@@ -777,6 +777,13 @@ def _en03m_convergence(runs: Sequence[xr.Dataset], path: Path) -> None:
     _finish(fig, path)
 
 
+def _or(value: Any, text: str) -> Any:
+    """value formatted, or text where it is absent (None or NaN: nothing carried, or no
+    structure to conserve H_z for)."""
+    return text if value is None or (isinstance(value, float) and math.isnan(value)) \
+        else fmt(value)
+
+
 def write_en03m(datasets: Sequence[Path], outdir: str | Path) -> dict[str, Path]:
     """Write en03m.json/.md/.png, _history.csv (every run of the search), _trajectory.png,
     _convergence.png."""
@@ -817,21 +824,23 @@ def write_en03m(datasets: Sequence[Path], outdir: str | Path) -> dict[str, Path]
             "carried angle (deg)", "lag there (deg)", "figure P (N)", "figure status",
             "structure angle (deg)", "W_confine (J)", "H_z drift", "energy residual (J)",
             "dt difference (m)"]
-    body = []
+    body: list[tuple] = []
     for kind in ds.confinement.values:
         for key, c in s[str(kind)]["by_structure_inertia"].items():
-            body.append((str(kind), key, c["min_confining_force_N"],
-                         f"[{fmt(c['bracket_N'][0])}, {fmt(c['bracket_N'][1])}]",
+            lo, hi = (_or(v, "none") for v in c["bracket_N"])
+            body.append((str(kind), key, _or(c["min_confining_force_N"], "none"),
+                         f"[{lo}, {hi}]",
                          c["carried_angle_deg"], c["lag_deg"], c["figure_force_N"],
                          c["status"], c["structure_rotation_deg"], c["confinement_work_J"],
-                         c["angular_momentum_drift"], c["energy_residual_J"],
+                         _or(c["angular_momentum_drift"], "-"), c["energy_residual_J"],
                          c["timestep_difference_m"]))
     lines += table(head, body)
-    lines += ["", "A smallest force of nan means no force up to the maximum carried the sphere "
+    lines += ["", "A smallest force of none means no force up to the maximum carried the sphere "
               "through the cycle; the carried angle and lag are then those of the search's run "
               "that got farthest. Figure runs are at figure_factor x the smallest carrying "
               "force, or at the fallback force. W_confine is the work of the confining force: "
-              "the integral of -P n . c_t for normal, the pull's potential drop for base.", "",
+              "the integral of -P n . c_t for normal, the pull's potential drop for base. "
+              "H_z drift is - for the fixed structure (I_s = inf), which takes any torque.", "",
               f"![search and figure runs]({paths['png'].name})", "",
               f"![paths]({paths['trajectory'].name})", "",
               f"![convergence]({paths['convergence'].name})", ""]
