@@ -27,6 +27,7 @@ from creatio.model.structure import CONFINEMENTS, inverse_inertia
 from creatio.model.surface import wavenumber
 
 __all__ = [
+    "MAX_IMPACT_CAP",
     "MAX_STEPS",
     "NCOL",
     "NPAR",
@@ -39,6 +40,8 @@ __all__ = [
 
 #: Accepted steps after which an adaptive run gives up (status step_failed).
 MAX_STEPS = 20_000_000
+#: Largest cap on impacts per second: the event table is sized 3 x cap x t_end rows.
+MAX_IMPACT_CAP = 10_000.0
 
 # Parameter vector layout of the compiled core (creatio.dynamics.sphere unpacks it): the
 # surface and sphere, the cavity (n, m) the run starts in, the structure's inertia I_s (inf:
@@ -236,9 +239,9 @@ class SphereProblem:
             raise ValueError(f"restitution must be in [0, 1], got {e}")
         if not (math.isfinite(self.resume_speed) and self.resume_speed >= 0.0):
             raise ValueError(f"resume_speed must be finite and >= 0, got {self.resume_speed}")
-        if not (math.isfinite(self.impact_cap) and self.impact_cap >= 1.0):
-            raise ValueError(f"impact_cap must be finite and >= 1 per second, got "
-                             f"{self.impact_cap}")
+        if not (math.isfinite(self.impact_cap) and 1.0 <= self.impact_cap <= MAX_IMPACT_CAP):
+            raise ValueError(f"impact_cap must be between 1 and {MAX_IMPACT_CAP:g} per second, "
+                             f"got {self.impact_cap}")
         if not (math.isfinite(self.start_height) and self.start_height >= 0.0):
             raise ValueError(f"start_height must be finite and >= 0, got {self.start_height}")
         if not self.flight:

@@ -18,6 +18,7 @@ from enum import Enum, StrEnum
 from typing import Any
 
 from creatio.dynamics import SphereProblem, stability_limit
+from creatio.dynamics.problem import MAX_IMPACT_CAP
 from creatio.dynamics.solvers import METHODS
 from creatio.errors import ConfigError
 from creatio.model.laws import Law, LawKind
@@ -731,13 +732,16 @@ class FlightConfig:
     impact_cap: float = 100.0
 
     def check(self, path: str) -> None:
-        """e in [0, 1], resumption speed >= 0, impact cap >= 1 per second."""
+        """e in [0, 1], resumption speed >= 0, impact cap in [1, MAX_IMPACT_CAP] per second
+        (the event table holds 3 x cap x duration rows)."""
         require(0.0 <= self.restitution <= 1.0, f"{path}.restitution", self.restitution,
                 "must be in [0, 1]")
         require(math.isfinite(self.resume_speed) and self.resume_speed >= 0.0,
                 f"{path}.resume_speed", self.resume_speed, "must be finite and >= 0 m/s")
-        require(math.isfinite(self.impact_cap) and self.impact_cap >= 1.0,
-                f"{path}.impact_cap", self.impact_cap, "must be finite and >= 1 per second")
+        require(math.isfinite(self.impact_cap) and 1.0 <= self.impact_cap <= MAX_IMPACT_CAP,
+                f"{path}.impact_cap", self.impact_cap,
+                f"must be between 1 and {MAX_IMPACT_CAP:g} per second (the event table holds "
+                "3 x impact_cap x duration rows)")
 
     def problem_fields(self, restitution: float | None = None) -> dict[str, Any]:
         """The SphereProblem fields of these settings (restitution overridden if given)."""
@@ -795,8 +799,8 @@ class En02fConfig(DynamicConfig):
     def check(self) -> None:
         """The sphere studies' rules, the flight settings, and every run's duration a
         multiple of a fixed dt."""
+        self.flight.check("flight")  # first: the other rules build problems from it
         super().check()
-        self.flight.check("flight")
         for i, T in enumerate(self.study.cycles_s):
             require(self.solver.adaptive or steps_in(T, self.solver.dt) is not None,
                     f"study.cycles_s[{i}]", T,
