@@ -260,11 +260,14 @@ def test_magnitudes_that_overflow_the_model_are_refused(study, override, key):
     ("flight.restitution=-1", "must be in [0, 1]"),
     ("flight.impact_cap=0", "between 1 and"),
     ("flight.impact_cap=1e12", "between 1 and"),
+    ("study.cycles_s=[]", "needs at least 1 value"),
+    ("study.restitutions=[]", "needs at least 1 value"),
 ])
-def test_flight_settings_are_refused_as_config_errors(override, rule):
+def test_en02f_settings_are_refused_as_config_errors(override, rule):
     """EN-02F's flight settings are refused with key, value and rule: they reached the
     problem's ValueError first (the stability rule builds problems), and a cap of 1e12
-    impacts per second sized a 1.9 PiB event table (MemoryError). Found by the fuzz."""
+    impacts per second sized a 1.9 PiB event table (MemoryError), and an empty list of
+    cycles or restitutions reached min() of nothing. Found by the fuzz."""
     from creatio.pipeline.config import resolve
 
     with pytest.raises(ConfigError) as err:

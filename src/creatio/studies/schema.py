@@ -780,8 +780,11 @@ class En02fStudy(DynamicStudy):
     drop: DropConfig = field(default_factory=DropConfig)
 
     def check(self, path: str) -> None:
-        """The EN-02 rules, each T > 0, each e in [0, 1], the drop test in range."""
+        """The EN-02 rules, at least one T > 0 and one e in [0, 1], the drop test in range."""
         super().check(path)
+        for name in ("cycles_s", "restitutions"):
+            values = getattr(self, name)
+            require(len(values) >= 1, f"{path}.{name}", list(values), "needs at least 1 value")
         for i, T in enumerate(self.cycles_s):
             require(math.isfinite(T) and T > 0.0, f"{path}.cycles_s[{i}]", T, "must be > 0 s")
         for i, e in enumerate(self.restitutions):
