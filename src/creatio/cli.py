@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import argparse
 import logging
+import os
 import sys
 from collections.abc import Sequence
 from pathlib import Path
@@ -93,7 +94,17 @@ def _run_task(cfg) -> None:
             return
         print(f"creatio run: {e}", file=sys.stderr)
         sys.exit(2)
-    run_resolved(resolved)
+    try:
+        run_resolved(resolved)
+    except Exception as e:  # Hydra would print its own traceback: one line instead
+        if os.environ.get("CREATIO_DEBUG"):
+            raise
+        message, code = describe(e)
+        if HydraConfig.get().mode == RunMode.MULTIRUN:  # one failed point: record, go on
+            log.warning("creatio run: point failed: %s", message)
+            return
+        print(f"creatio run: {message}", file=sys.stderr)
+        sys.exit(code)
 
 
 def _multirun(args: Sequence[str]) -> int:
@@ -391,24 +402,28 @@ def main(argv: Sequence[str] | None = None) -> int:
         print("creatio: interrupted (nothing half-written is kept; rerun to finish)",
               file=sys.stderr)
         return 130
-    except ConfigError as e:
-        print(f"creatio: {e}", file=sys.stderr)
-        return 2
-    except OSError as e:
-        print(f"creatio: {_os_error(e)}", file=sys.stderr)
-        return 1
-    except ArithmeticError as e:  # a value the validation let through still overflowed
+    except Exception as e:  # noqa: BLE001 - one line, and how to see more
+        message, code = describe(e)
+        print(f"creatio: {message}", file=sys.stderr)
+        return code
+
+
+def describe(e: Exception) -> tuple[str, int]:
+    """A failure as (one line naming what and why, exit status): 2 for a refused config, 1
+    for anything else; the traceback is for CREATIO_DEBUG=1."""
+    if isinstance(e, ConfigError):
+        return str(e), 2
+    if isinstance(e, OSError):
+        return _os_error(e), 1
+    if isinstance(e, ArithmeticError):  # a value the validation let through still overflowed
         import traceback
 
         frame = traceback.extract_tb(e.__traceback__)[-1]
-        print(f"creatio: the computation failed ({type(e).__name__}: {e}) at "
-              f"{Path(frame.filename).name}:{frame.lineno}: a config value is outside the "
-              "model's numeric range (CREATIO_DEBUG=1 shows the traceback)", file=sys.stderr)
-        return 1
-    except Exception as e:  # noqa: BLE001 - one line, and how to see more
-        print(f"creatio: {type(e).__name__}: {str(e).splitlines()[0] if str(e) else ''} "
-              "(CREATIO_DEBUG=1 shows the traceback)", file=sys.stderr)
-        return 1
+        return (f"the computation failed ({type(e).__name__}: {e}) at "
+                f"{Path(frame.filename).name}:{frame.lineno}: a config value is outside the "
+                "model's numeric range (CREATIO_DEBUG=1 shows the traceback)"), 1
+    first = str(e).splitlines()[0] if str(e) else ""
+    return f"{type(e).__name__}: {first} (CREATIO_DEBUG=1 shows the traceback)", 1
 
 
 def _os_error(e: OSError) -> str:

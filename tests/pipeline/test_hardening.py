@@ -274,3 +274,16 @@ def test_en02f_settings_are_refused_as_config_errors(override, rule):
         resolve("en02f", [override])
     assert str(err.value).startswith(f"invalid config: {override.split('=')[0]}=")
     assert rule in str(err.value)
+
+
+def test_an_empty_feature_list_is_refused_and_a_failing_run_is_one_line(tmp_path):
+    """CT-02 with no feature times ran, then its report failed inside `creatio run` (a Hydra
+    app), where Hydra printed a traceback of 20 lines; now the value is refused, and a failure
+    inside a run is one line."""
+    from creatio import cli
+    from creatio.pipeline.config import resolve
+
+    with pytest.raises(ConfigError, match="feature_times"):
+        resolve("ct02", ["study.feature_times=[]"])
+    message, code = cli.describe(ValueError("zero-size array\nsecond line"))
+    assert code == 1 and "\n" not in message and message.startswith("ValueError: zero-size")

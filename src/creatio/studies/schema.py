@@ -373,6 +373,8 @@ class Ct02Study:
         _check_inclinations(f"{path}.inclinations_deg", self.inclinations_deg)
         _check_grid(path, self.n_radii, self.n_angles)
         require(len(self.times) >= 1, f"{path}.times", self.times, "needs at least 1 value")
+        require(len(self.feature_times) >= 1, f"{path}.feature_times", self.feature_times,
+                "needs at least 1 value (the report's feature check)")
         self.varying_gamma.check(f"{path}.varying_gamma", inclination=True, kinds=_NO_CYCLE)
         require(self.feature_h > 0.0, f"{path}.feature_h", self.feature_h, "must be > 0")
 
