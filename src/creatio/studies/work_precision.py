@@ -9,16 +9,19 @@ fixed steps), so a newly registered method is benchmarked without editing this m
 error of a run is the maximum over the 0.1 s output grid of |X - X_ref| (centre position,
 metres), plus the same at the final time, computed outside the timed region. Timing follows
 the DiffEqBenchmarks practice: one warm-up run (which also yields the error), then repeats
-of the core call alone (the compiled loop, or scipy's stepping loop), single-threaded; the
-repeats are interleaved round-robin across all settings of a base, so a slow spell of the
+of the core call alone (the compiled loop, or the peer's solve), single-threaded; the
+repeats are interleaved round-robin across all settings of a base (each round starting one
+setting later, so no setting always follows the same neighbour), so a slow spell of the
 machine spreads over every setting instead of spoiling one. Every repeat is recorded; the
 minimum is the headline number, the median and the spread are kept beside it. The first
 call's extra time (JIT compile or cache load) is reported separately.
 
-Peers: scipy's DOP853, Radau and LSODA on a plain NumPy right-hand side
-(creatio.dynamics.peers). Two more rows measure what a minimal-state run saves: rk4 and
-radau5 with full diagnostics (energy bookkeeping on); and, without friction, the base's own
-solver with the trajectory alone against full diagnostics.
+Peers: scipy's DOP853, Radau and LSODA on a plain NumPy right-hand side, and SUNDIALS
+CVODE's BDF through scikit-sundae on the same one (creatio.dynamics.peers). CVODE is a
+benchmark-only dependency (the ``bench`` extra): without it its rows are left out and the
+dataset says so (attribute peers_unavailable). Two more rows measure what a minimal-state
+run saves: rk4 and radau5 with full diagnostics (energy bookkeeping on); and, without
+friction, the base's own solver with the trajectory alone against full diagnostics.
 
 Config: conf/analysis/work_precision.yaml (grids, peers, reference, timing) over the base
 studies under ``bases``. One dataset per base study; the first also carries the JIT
@@ -48,6 +51,7 @@ from creatio.studies.schema import MISSING, DynamicConfig, require
 
 __all__ = [
     "PEER_METHODS",
+    "SUNDIALS_PEERS",
     "JitConfig",
     "MethodGrid",
     "ReferenceConfig",
@@ -55,14 +59,21 @@ __all__ = [
     "WorkPrecisionConfig",
     "WorkPrecisionStudy",
     "errors",
+    "peer_label",
     "parts",
     "run",
     "settings",
 ]
 
-#: Names of the scipy peers (creatio.dynamics.peers.PEERS, which imports scipy: the names
-#: are repeated here so that validating a config does not).
-PEER_METHODS = ("RK45", "DOP853", "Radau", "LSODA")
+#: Names of the peers: scipy's (creatio.dynamics.peers.PEERS, which imports scipy: the names
+#: are repeated here so that validating a config does not) and SUNDIALS' (peers.SUNDIALS).
+SUNDIALS_PEERS = ("CVODE",)
+PEER_METHODS = ("RK45", "DOP853", "Radau", "LSODA", *SUNDIALS_PEERS)
+
+
+def peer_label(name: str) -> str:
+    """A peer's method label in the report: ``scipy-LSODA``, ``sundials-CVODE-BDF``."""
+    return f"sundials-{name}-BDF" if name in SUNDIALS_PEERS else f"scipy-{name}"
 
 
 # --------------------------------------------------------------------------------- schema
@@ -207,7 +218,7 @@ class WorkPrecisionStudy:
         for name, rtols in self.peers.items():
             key = f"{path}.peers.{name}"
             require(name in PEER_METHODS, key, name,
-                    f"must be a scipy peer: one of {', '.join(PEER_METHODS)}")
+                    f"must be a peer: one of {', '.join(PEER_METHODS)}")
             require(len(rtols) >= 1, key, list(rtols), "needs at least 1 tolerance")
             for i, v in enumerate(rtols):
                 require(math.isfinite(v) and 0.0 < v < 1.0, f"{key}[{i}]", v,
@@ -285,7 +296,7 @@ def settings(study: WorkPrecisionStudy, base: SphereProblem) -> list[Setting]:
     """Every run on one base problem, in report order: each registered method over its grid
     (an adaptive one by rtol, then at its fixed steps if it has any; a fixed-step one by
     dt = output_interval / n), the full-state rows, the mu = 0 pair at the base's own
-    solver, the scipy peers."""
+    solver, the peers (scipy, SUNDIALS)."""
     output_interval = base.output_interval
     out: list[Setting] = []
     full = study.full_state
@@ -310,7 +321,7 @@ def settings(study: WorkPrecisionStudy, base: SphereProblem) -> list[Setting]:
         out += [Setting("mu0", f"{name}-mu0", base.method, kind, value),
                 Setting("mu0", f"{name}-mu0-full", base.method, kind, value)]
     for name, rtols in study.peers.items():
-        out += [Setting("peer", f"scipy-{name}", name, "rtol", float(v))
+        out += [Setting("peer", peer_label(name), name, "rtol", float(v))
                 for v in _thin(rtols, study.quick)]
     return out
 
@@ -437,7 +448,8 @@ def prepare_native(base: SphereProblem, s: Setting, ref: np.ndarray, study: Work
 
 def prepare_peer(base: SphereProblem, s: Setting, ref: np.ndarray, study: WorkPrecisionStudy
                  ) -> Run:
-    """A warm-up scipy solve gives the error; a timed call is its stepping loop alone."""
+    """A warm-up peer solve gives the error; a timed call is its construction and stepping
+    loop (scipy) or construction and solve (CVODE), as solve_peer times them."""
     from creatio.dynamics.peers import centre_grid, solve_peer
 
     rtol, atol = s.value, s.value * study.atol_ratio
@@ -453,13 +465,16 @@ def prepare_peer(base: SphereProblem, s: Setting, ref: np.ndarray, study: WorkPr
 
 
 def round_robin(runs: Sequence[Run]) -> np.ndarray:
-    """Time every run's core call, repeats interleaved: round r calls each run that still
-    has repeats left, in order. Returns seconds (run, repeat), NaN where none was taken."""
-    times = np.full((len(runs), max((r.count for r in runs), default=0)), np.nan)
+    """Time every run's core call, repeats interleaved: round k calls each run that still
+    has repeats left, in order from run k mod n on (wrapping), so that a run is preceded by
+    a different one each round. Returns seconds (run, repeat), NaN where none was taken."""
+    n = len(runs)
+    times = np.full((n, max((r.count for r in runs), default=0)), np.nan)
     for k in range(times.shape[1]):
-        for i, r in enumerate(runs):
-            if k < r.count:
-                times[i, k] = r.call()
+        for j in range(n):
+            i = (k + j) % n
+            if k < runs[i].count:
+                times[i, k] = runs[i].call()
     return times
 
 
@@ -593,7 +608,13 @@ def run(cfg: WorkPrecisionConfig, base: str, jit: bool = False):
     evidence["stability_limit_dt_s"] = stability_limits(prob)
     attrs["reference"] = json.dumps(evidence)
     attrs["timing"] = ("warm-up run, then repeats of the core call interleaved round-robin "
-                       "across all settings; time_s = min, time_median_s = median")
+                       "across all settings (each round starting one setting later); "
+                       "time_s = min, time_median_s = median, times_s = every repeat")
+    from creatio.dynamics.peers import available
+
+    plan = settings(study, prob)
+    missing = sorted({s.solver for s in plan if s.group == "peer" and not available(s.solver)})
+    attrs["peers_unavailable"] = json.dumps(missing)
     runs = [(prepare_peer if s.group == "peer" else prepare_native)(prob, s, ref, study)
-            for s in settings(study, prob)]
+            for s in plan if s.group != "peer" or s.solver not in missing]
     return to_dataset(base, runs, round_robin(runs), attrs)
