@@ -67,9 +67,10 @@ def test_default_grids_are_the_notebook_benchmark() -> None:
     rk4 = [x.value for x in plan if x.method == "rk4"]
     np.testing.assert_allclose(rk4, [0.1 / n for n in (400, 200, 100, 50, 40, 30, 25, 24, 23,
                                                        22, 20)], rtol=1e-15)
-    fixed = [x.value for x in plan if x.method == "radau5-fixed"]
+    fixed = [x.value for x in plan if x.method == "radau5-fixed" and x.newton_rtol is None]
     np.testing.assert_allclose(fixed, [0.1, 0.05, 0.1 / 3, 0.025, 0.02, 0.0125, 0.01],
                                rtol=1e-15)
+    assert s.methods["radau5"].newton_rtol == [1e-9, 1e-10]
     assert s.levels == [1e-6, 1e-8, 1e-9, 1e-10, 1e-11, 1e-12]
     assert s.methods["dop853"].rtol == [1e-6, 1e-7, 1e-8, 1e-9, 1e-10, 1e-11, 1e-12]
     assert s.peers == {"DOP853": [1e-6, 1e-8, 1e-10, 1e-12], "Radau": [1e-5, 1e-7, 1e-9, 1e-11],
@@ -91,6 +92,13 @@ BAD = [
     (["study.methods.rk4.rtol=[1e-6]"], "study.methods.rk4.rtol", "fixed step"),
     (["study.full_state.radau5.rtol=[3e-8]"], "study.full_state.radau5.rtol[0]", "swept"),
     (["study.peers.LSODA=[2.0]"], "study.peers.LSODA[0]", "(0, 1)"),
+    (["study.methods.radau5.newton_rtol=[0]"], "study.methods.radau5.newton_rtol[0]",
+     "(0, 1)"),
+    (["study.methods.rk4.newton_rtol=[1e-9]"], "study.methods.rk4.newton_rtol", "explicit"),
+    (["study.methods.radau5.steps_per_output=[]"], "study.methods.radau5.newton_rtol",
+     "fixed steps"),
+    (["study.full_state.radau5.newton_rtol=[1e-9]"], "study.full_state.radau5.newton_rtol",
+     "base's tolerances"),
     (["+study.peers.BDF=[1e-6]"], "study.peers.BDF", "must be a peer"),
     (["study.levels=[]"], "study.levels", "at least 1"),
     (["study.levels=[1e-6,-1e-8]"], "study.levels[1]", "> 0"),
@@ -359,3 +367,16 @@ def test_cvode_harness_measures_the_native_error_on_the_same_solution(tiny) -> N
     assert run.record["error_m"] == wp.errors(centre_grid(base, again.t, again.y, False),
                                               ref)[0]
     assert 1e-11 < run.record["error_m"] < 1e-6
+
+
+def test_fixed_steps_also_run_at_each_newton_tolerance(tiny) -> None:
+    """An implicit method's fixed step is planned at the base's tolerances, then at each
+    newton_rtol, which the run's problem carries as rtol (atol = rtol x atol_ratio)."""
+    cfg = resolve("work_precision", [*TINY, "study.methods.radau5.newton_rtol=[1e-9]"]).obj
+    base = wp.base_problem(cfg, "en02")
+    plan = [s for s in wp.settings(cfg.study, base) if s.method == "radau5-fixed"]
+    assert [s.label for s in plan] == ["dt=0.02", "dt=0.02 newton_rtol=1e-09"]
+    plain, newton = (wp.native_problem(base, s, cfg.study.atol_ratio) for s in plan)
+    assert (plain.rtol, plain.atol) == (base.rtol, base.atol)
+    assert (newton.rtol, newton.atol) == (1e-9, pytest.approx(1e-11))
+    assert newton.dt == plain.dt == 0.02 and newton.fixed_step and newton.method == "radau5"

@@ -44,6 +44,7 @@ from typing import Any
 import numpy as np
 
 from creatio.dynamics import METHODS, SphereProblem, stability_limit
+from creatio.dynamics.solvers import EXPLICIT
 from creatio.errors import ConfigError
 from creatio.model.numerics import steps_in
 from creatio.studies.registry import Part
@@ -82,17 +83,21 @@ class MethodGrid:
     """The settings one method runs at: tolerances (adaptive), steps (fixed step).
 
     A fixed step is dt = solver.output_interval / n for n in steps_per_output, so that it
-    divides the output grid.
+    divides the output grid. An implicit method's fixed steps run at the base's tolerances,
+    which its Newton iteration converges to, and again at each of newton_rtol (atol = rtol x
+    atol_ratio): at a fixed step the Newton tolerance, not the step, can set the error.
     """
 
     rtol: list[float] = field(default_factory=list)
     steps_per_output: list[int] = field(default_factory=list)
+    newton_rtol: list[float] = field(default_factory=list)
 
     def check(self, path: str) -> None:
         """Tolerances in (0, 1), step counts >= 1."""
-        for i, v in enumerate(self.rtol):
-            require(math.isfinite(v) and 0.0 < v < 1.0, f"{path}.rtol[{i}]", v,
-                    "must lie in (0, 1)")
+        for key in ("rtol", "newton_rtol"):
+            for i, v in enumerate(getattr(self, key)):
+                require(math.isfinite(v) and 0.0 < v < 1.0, f"{path}.{key}[{i}]", v,
+                        "must lie in (0, 1)")
         for i, n in enumerate(self.steps_per_output):
             require(n >= 1, f"{path}.steps_per_output[{i}]", n, "must be an integer >= 1")
 
@@ -189,6 +194,11 @@ class WorkPrecisionStudy:
             key = f"{path}.methods.{name}"
             require(name in METHODS, key, name, known)
             g.check(key)
+            if g.newton_rtol:
+                require(METHODS[name].stepper != EXPLICIT, f"{key}.newton_rtol",
+                        list(g.newton_rtol), f"{name} is explicit: it has no Newton iteration")
+                require(len(g.steps_per_output) >= 1, f"{key}.newton_rtol",
+                        list(g.newton_rtol), "applies to fixed steps: give steps_per_output")
             if METHODS[name].adaptive:
                 require(len(g.rtol) >= 1, f"{key}.rtol", list(g.rtol),
                         "an adaptive method needs at least 1 tolerance")
@@ -208,6 +218,8 @@ class WorkPrecisionStudy:
             key = f"{path}.full_state.{name}"
             require(name in METHODS, key, name, known)
             g.check(key)
+            require(not g.newton_rtol, f"{key}.newton_rtol", list(g.newton_rtol),
+                    "full-state rows run at the base's tolerances: give it under methods")
             swept = self.grid(name)
             for i, v in enumerate(g.rtol):
                 require(v in swept.rtol, f"{key}.rtol[{i}]", v,
@@ -270,18 +282,21 @@ def parts(cfg: WorkPrecisionConfig) -> list[Part]:
 @dataclass(frozen=True)
 class Setting:
     """One benchmarked run: group (native, full, mu0, peer), entry label, the registered
-    method or scipy class it runs, and its setting (rtol, or a fixed dt)."""
+    method or peer it runs, its setting (rtol, or a fixed dt) and, for an implicit method's
+    fixed step, the rtol of its Newton iteration (None: the base's)."""
 
     group: str
     method: str
     solver: str
     kind: str
     value: float
+    newton_rtol: float | None = None
 
     @property
     def label(self) -> str:
-        """The setting as the report prints it: ``rtol=1e-08``, ``dt=0.002``."""
-        return f"{self.kind}={self.value:.6g}"
+        """The setting as the report prints it: ``rtol=1e-08``, ``dt=0.05 newton_rtol=1e-09``."""
+        newton = f" newton_rtol={self.newton_rtol:.6g}" if self.newton_rtol is not None else ""
+        return f"{self.kind}={self.value:.6g}{newton}"
 
 
 def _thin(values: Sequence[Any], quick: bool, keep: Iterable[Any] = ()) -> list[Any]:
@@ -307,8 +322,10 @@ def settings(study: WorkPrecisionStudy, base: SphereProblem) -> list[Setting]:
         if method.adaptive:
             out += [Setting("native", name, name, "rtol", float(v))
                     for v in _thin(grid.rtol, study.quick, keep.rtol)]
-        out += [Setting("native", fixed, name, "dt", output_interval / n)
-                for n in _thin(grid.steps_per_output, study.quick, keep.steps_per_output)]
+        for n in _thin(grid.steps_per_output, study.quick, keep.steps_per_output):
+            out += [Setting("native", fixed, name, "dt", output_interval / n)]
+            out += [Setting("native", fixed, name, "dt", output_interval / n, float(v))
+                    for v in grid.newton_rtol]
     for name, grid in full.items():
         fixed = f"{name}-fixed" if METHODS[name].adaptive else name
         out += [Setting("full", f"{name}-full", name, "rtol", float(v)) for v in grid.rtol]
@@ -334,8 +351,11 @@ def native_problem(base: SphereProblem, s: Setting, atol_ratio: float) -> Sphere
         return dataclasses.replace(base, mu=0.0, rotation=full, energy=full)
     energy = s.group == "full"
     if s.kind == "dt":
-        return dataclasses.replace(base, method=s.solver, dt=s.value, allow_unstable=True,
+        prob = dataclasses.replace(base, method=s.solver, dt=s.value, allow_unstable=True,
                                    fixed_step=METHODS[s.solver].adaptive, energy=energy)
+        if s.newton_rtol is None:
+            return prob
+        return dataclasses.replace(prob, rtol=s.newton_rtol, atol=s.newton_rtol * atol_ratio)
     return dataclasses.replace(base, method=s.solver, rtol=s.value, atol=s.value * atol_ratio,
                                fixed_step=False, energy=energy)
 
