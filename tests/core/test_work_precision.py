@@ -1,6 +1,8 @@
 """The work-precision benchmark as a configured analysis: config refusals, the method plan
-derived from the registry, the round-robin timing protocol, the noise flags of the report,
-and one tiny end-to-end run through the pipeline (datasets with provenance, three reports).
+derived from the registry, the round-robin timing protocol, the noise flags and verdicts of
+the report, the peer harnesses (scipy, and CVODE when scikit-sundae is installed) measuring
+the native error on the same solution, and one tiny end-to-end run through the pipeline
+(datasets with provenance, three reports). No assertion on wall-clock times.
 """
 
 from __future__ import annotations
@@ -29,6 +31,7 @@ TINY = [
     "study.methods.radau5.steps_per_output=[5]", "study.unlisted.rtol=[1e-6]",
     "study.unlisted.steps_per_output=[100,50]",
     "study.peers.DOP853=[1e-6]", "study.peers.Radau=[1e-6]", "study.peers.LSODA=[1e-8]",
+    "study.peers.CVODE=[1e-8]",
     "study.repeats=2", "study.jit.methods=[rk4]", "study.jit.cold=false",
 ]
 

@@ -205,7 +205,8 @@ def _markdown(studies: dict[str, dict], runs: Sequence[dict], machine: dict, jit
                     "first call extra (s)"],
                    [[e["study"], e["method"], e["setting"], e["error_m"], e["final_error_m"],
                      _ms(e["time_s"]), _ms(e["time_median_s"]), e["time_spread"], e["repeats"],
-                     e["rhs_evals"], e["steps"], e["status"], e["first_call_s"]] for e in runs])
+                     e["rhs_evals"], e["steps"] if e["steps"] >= 0 else "not reported",
+                     e["status"], e["first_call_s"]] for e in runs])
     return "\n".join(lines) + "\n"
 
 

@@ -558,10 +558,10 @@ def machine() -> dict[str, str]:
 
 _COUNTERS = {
     "rhs_evals": "right-hand-side evaluations",
-    "steps": "accepted steps",
+    "steps": "accepted steps (-1: not reported by the peer)",
     "rejected_steps": "rejected steps",
     "jacobians": "Jacobian evaluations",
-    "lu_factorisations": "LU factorisations",
+    "lu_factorisations": "LU factorisations (-1: not reported by the peer)",
     "state_size": "integrated state components",
 }
 
