@@ -275,7 +275,8 @@ def test_tiny_run_end_to_end(tiny, tmp_path) -> None:
         ok = ds.group.values != "mu0"
         assert np.all(np.isfinite(ds.error_m.values[ok]))
         np.testing.assert_array_equal(ds.time_s.values, np.nanmin(ds.times_s.values, axis=1))
-        assert {"machine", "reference"} <= set(ds.attrs)
+        assert {"machine", "reference", "load_before_timing", "load_after_timing",
+                "peers_unavailable"} <= set(ds.attrs)
     reports = entry.reports(str(root))
     assert [r.rsplit("/", 1)[1] for r in reports] == ["work_precision.json",
                                                       "work_precision.md",
@@ -289,6 +290,8 @@ def test_tiny_run_end_to_end(tiny, tmp_path) -> None:
     assert {e["method"] for e in report["entries"]} >= set(METHODS)
     md = (root / "benchmarks" / "work_precision.md").read_text()
     assert "## en02r" in md and "fastest native run" in md and "## All runs" in md
+    assert md.count("Load average (1, 5, 15 min) before timing") == 2
+    assert set(report["frontier"]) == {"en02", "en02r"}
     assert (root / "benchmarks" / "work_precision.png").stat().st_size > 10_000
 
 

@@ -185,7 +185,9 @@ def _markdown(studies: dict[str, dict], runs: Sequence[dict], machine: dict, jit
                   f"agreement with {ev.get('check_adaptive')}: "
                   f"{fmt(ev.get('check_adaptive_max_diff_m', math.nan))} m, with "
                   f"{ev.get('check_fixed')}: {fmt(ev.get('check_fixed_max_diff_m', math.nan))} m."
-                  + (f" Fixed-step friction stability limits: {lim}." if lim else ""), ""]
+                  + (f" Fixed-step friction stability limits: {lim}." if lim else "")
+                  + "".join(f" Load average (1, 5, 15 min) {k} timing: {v}."
+                            for k, v in s.get("load_average", {}).items()), ""]
         lines += _frontier(s["fastest"], factor)
         if s["minimal_state"]:
             lines += ["", "Minimal state (`study.outputs=[trajectory]`) against full "
@@ -281,6 +283,9 @@ def write_report(datasets: Sequence[Path], outdir: str | Path) -> dict[str, Path
         base = str(ds.attrs.get("base", these[0]["study"] if these else "?"))
         studies[base] = summary(these, json.loads(ds.attrs.get("reference", "{}")), levels,
                                 factor)
+        studies[base]["load_average"] = {k: str(ds.attrs[f"load_{k}_timing"])
+                                         for k in ("before", "after")
+                                         if f"load_{k}_timing" in ds.attrs}
         machine = machine or json.loads(ds.attrs.get("machine", "{}"))
         jit.update(json.loads(ds.attrs.get("jit", "{}") or "{}"))
         missing.update(json.loads(ds.attrs.get("peers_unavailable", "[]") or "[]"))

@@ -538,6 +538,11 @@ def jit_times(base: SphereProblem, jit: JitConfig) -> dict[str, float]:
     return out
 
 
+def _load() -> str:
+    """The machine's load average over 1, 5 and 15 minutes (how busy it was while timed)."""
+    return ", ".join(f"{x:.2f}" for x in os.getloadavg())
+
+
 def machine() -> dict[str, str]:
     """Facts about the machine and the numeric stack the timings belong to."""
     import numba
@@ -637,4 +642,7 @@ def run(cfg: WorkPrecisionConfig, base: str, jit: bool = False):
     attrs["peers_unavailable"] = json.dumps(missing)
     runs = [(prepare_peer if s.group == "peer" else prepare_native)(prob, s, ref, study)
             for s in plan if s.group != "peer" or s.solver not in missing]
-    return to_dataset(base, runs, round_robin(runs), attrs)
+    attrs["load_before_timing"] = _load()
+    times = round_robin(runs)
+    attrs["load_after_timing"] = _load()
+    return to_dataset(base, runs, times, attrs)
