@@ -17,6 +17,7 @@ lint: $(STAMP)
 	$(BIN)/snakemake --lint
 
 bench: $(STAMP)
+	$(BIN)/python -m pip install --quiet -c constraints.txt -e '.[bench]'
 	$(BIN)/python scripts/bench_en02.py
 	$(BIN)/python scripts/bench_kinematics.py
 	$(BIN)/snakemake benchmarks -c 1

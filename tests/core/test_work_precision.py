@@ -1,6 +1,8 @@
 """The work-precision benchmark as a configured analysis: config refusals, the method plan
-derived from the registry, the round-robin timing protocol, the noise flags of the report,
-and one tiny end-to-end run through the pipeline (datasets with provenance, three reports).
+derived from the registry, the round-robin timing protocol, the noise flags and verdicts of
+the report, the peer harnesses (scipy, and CVODE when scikit-sundae is installed) measuring
+the native error on the same solution, and one tiny end-to-end run through the pipeline
+(datasets with provenance, three reports). No assertion on wall-clock times.
 """
 
 from __future__ import annotations
@@ -29,6 +31,7 @@ TINY = [
     "study.methods.radau5.steps_per_output=[5]", "study.unlisted.rtol=[1e-6]",
     "study.unlisted.steps_per_output=[100,50]",
     "study.peers.DOP853=[1e-6]", "study.peers.Radau=[1e-6]", "study.peers.LSODA=[1e-8]",
+    "study.peers.CVODE=[1e-8]",
     "study.repeats=2", "study.jit.methods=[rk4]", "study.jit.cold=false",
 ]
 
@@ -54,8 +57,10 @@ def test_tiny_config_validates_and_plans_every_registered_method(tiny) -> None:
     assert [s.label for s in plan if s.method == "rk4"] == ["dt=0.002", "dt=0.005"]
     assert {s.method for s in plan if s.group == "full"} == {"rk4-full", "radau5-full"}
     assert {s.method for s in plan if s.group == "mu0"} == {"rk4-mu0", "rk4-mu0-full"}
-    assert tuple(wp.PEER_METHODS) == tuple(__import__("creatio.dynamics.peers",
-                                                      fromlist=["PEERS"]).PEERS)
+    from creatio.dynamics.peers import PEERS, SUNDIALS
+
+    assert tuple(wp.PEER_METHODS) == (*PEERS, *SUNDIALS)
+    assert wp.SUNDIALS_PEERS == tuple(SUNDIALS)
 
 
 def test_default_grids_are_the_notebook_benchmark() -> None:
@@ -65,13 +70,16 @@ def test_default_grids_are_the_notebook_benchmark() -> None:
     rk4 = [x.value for x in plan if x.method == "rk4"]
     np.testing.assert_allclose(rk4, [0.1 / n for n in (400, 200, 100, 50, 40, 30, 25, 24, 23,
                                                        22, 20)], rtol=1e-15)
-    fixed = [x.value for x in plan if x.method == "radau5-fixed"]
+    fixed = [x.value for x in plan if x.method == "radau5-fixed" and x.newton_rtol is None]
     np.testing.assert_allclose(fixed, [0.1, 0.05, 0.1 / 3, 0.025, 0.02, 0.0125, 0.01],
                                rtol=1e-15)
+    assert s.methods["radau5"].newton_rtol == [1e-9, 1e-10]
     assert s.levels == [1e-6, 1e-8, 1e-9, 1e-10, 1e-11, 1e-12]
     assert s.methods["dop853"].rtol == [1e-6, 1e-7, 1e-8, 1e-9, 1e-10, 1e-11, 1e-12]
     assert s.peers == {"DOP853": [1e-6, 1e-8, 1e-10, 1e-12], "Radau": [1e-5, 1e-7, 1e-9, 1e-11],
-                       "LSODA": [1e-6, 1e-7, 1e-8, 1e-9, 1e-10, 1e-11, 1e-12]}
+                       "LSODA": [1e-6, 1e-7, 1e-8, 1e-9, 1e-10, 1e-11, 1e-12],
+                       "CVODE": [1e-6, 1e-7, 1e-8, 1e-9, 1e-10, 1e-11, 1e-12, 1e-13]}
+    assert [x.method for x in plan if x.solver == "CVODE"] == ["sundials-CVODE-BDF"] * 8
     assert (s.reference.method, s.reference.rtol, s.reference.check_method) == (
         "dop853", 1e-13, "radau5")
     assert s.repeats == 5 and not s.quick and s.atol_ratio == 0.01
@@ -87,7 +95,14 @@ BAD = [
     (["study.methods.rk4.rtol=[1e-6]"], "study.methods.rk4.rtol", "fixed step"),
     (["study.full_state.radau5.rtol=[3e-8]"], "study.full_state.radau5.rtol[0]", "swept"),
     (["study.peers.LSODA=[2.0]"], "study.peers.LSODA[0]", "(0, 1)"),
-    (["+study.peers.BDF=[1e-6]"], "study.peers.BDF", "scipy peer"),
+    (["study.methods.radau5.newton_rtol=[0]"], "study.methods.radau5.newton_rtol[0]",
+     "(0, 1)"),
+    (["study.methods.rk4.newton_rtol=[1e-9]"], "study.methods.rk4.newton_rtol", "explicit"),
+    (["study.methods.radau5.steps_per_output=[]"], "study.methods.radau5.newton_rtol",
+     "fixed steps"),
+    (["study.full_state.radau5.newton_rtol=[1e-9]"], "study.full_state.radau5.newton_rtol",
+     "base's tolerances"),
+    (["+study.peers.BDF=[1e-6]"], "study.peers.BDF", "must be a peer"),
     (["study.levels=[]"], "study.levels", "at least 1"),
     (["study.levels=[1e-6,-1e-8]"], "study.levels[1]", "> 0"),
     (["study.repeats=0"], "study.repeats", ">= 1"),
@@ -114,7 +129,7 @@ def test_a_bad_value_is_refused_naming_its_key(overrides, key, rule) -> None:
 @pytest.mark.parametrize(("group", "name", "value", "rule"), [
     ("methods", "euler", {"rtol": [1e-6]}, "registered method"),
     ("full_state", "euler", {"rtol": [1e-6]}, "registered method"),
-    ("peers", "BDF", [1e-6], "scipy peer"),
+    ("peers", "BDF", [1e-6], "must be a peer"),
 ])
 def test_an_unknown_method_in_a_config_file_is_refused(group, name, value, rule) -> None:
     """A grid for a method nobody registered (added in a yaml: OmegaConf cannot add a typed
@@ -145,7 +160,8 @@ def test_quick_keeps_every_third_setting_and_the_full_state_partners() -> None:
 
 
 def test_repeats_are_interleaved_round_robin() -> None:
-    """Round k times every run that still has repeats, in order; each repeat is kept."""
+    """Round k times every run that still has repeats, starting at run k mod n (so no run
+    always follows the same one); each repeat is kept where it was taken."""
     order: list[str] = []
 
     def run(name: str, count: int) -> wp.Run:
@@ -158,8 +174,8 @@ def test_repeats_are_interleaved_round_robin() -> None:
         return wp.Run(s, call, 0.0, count, {})
 
     times = wp.round_robin([run("a", 2), run("b", 3), run("c", 1)])
-    assert order == ["a", "b", "c", "a", "b", "b"]
-    np.testing.assert_array_equal(times, [[1, 4, np.nan], [2, 5, 6], [3, np.nan, np.nan]])
+    assert order == ["a", "b", "c", "b", "a", "b"]
+    np.testing.assert_array_equal(times, [[1, 5, np.nan], [2, 4, 6], [3, np.nan, np.nan]])
     assert wp._repeat_count(0.01, 5, 2.0) == 5
     assert wp._repeat_count(0.5, 5, 2.0) == 4 and wp._repeat_count(5.0, 5, 2.0) == 1
 
@@ -259,7 +275,8 @@ def test_tiny_run_end_to_end(tiny, tmp_path) -> None:
         ok = ds.group.values != "mu0"
         assert np.all(np.isfinite(ds.error_m.values[ok]))
         np.testing.assert_array_equal(ds.time_s.values, np.nanmin(ds.times_s.values, axis=1))
-        assert {"machine", "reference"} <= set(ds.attrs)
+        assert {"machine", "reference", "load_before_timing", "load_after_timing",
+                "peers_unavailable"} <= set(ds.attrs)
     reports = entry.reports(str(root))
     assert [r.rsplit("/", 1)[1] for r in reports] == ["work_precision.json",
                                                       "work_precision.md",
@@ -273,4 +290,99 @@ def test_tiny_run_end_to_end(tiny, tmp_path) -> None:
     assert {e["method"] for e in report["entries"]} >= set(METHODS)
     md = (root / "benchmarks" / "work_precision.md").read_text()
     assert "## en02r" in md and "fastest native run" in md and "## All runs" in md
+    assert md.count("Load average (1, 5, 15 min) before timing") == 2
+    assert set(report["frontier"]) == {"en02", "en02r"}
     assert (root / "benchmarks" / "work_precision.png").stat().st_size > 10_000
+
+
+def test_verdict_tells_apart_only_ranges_that_do_not_overlap() -> None:
+    """faster / slower only when [min, max] ranges are apart; touching ranges are noise."""
+    from creatio.reports.work_precision import verdict
+
+    native = _entry("radau5", "native", "rtol=1e-08", 1e-10, [1.0, 1.2, 1.1])
+    assert verdict(native, _entry("scipy-LSODA", "peer", "rtol=1e-10", 1e-10,
+                                  [1.3, 4.0])) == "faster"
+    assert verdict(native, _entry("sundials-CVODE-BDF", "peer", "rtol=1e-10", 1e-10,
+                                  [0.5, 0.9])) == "slower"
+    assert verdict(native, _entry("scipy-LSODA", "peer", "rtol=1e-10", 1e-10,
+                                  [1.2, 1.3])) == "within noise"
+    assert verdict(native, _entry("scipy-LSODA", "peer", "rtol=1e-10", 1e-10,
+                                  [0.2, 9.0])) == "within noise"
+
+
+def test_frontier_table_shows_median_spread_verdict_and_flags() -> None:
+    """The markdown frontier row carries min, median and spread of both sides, the verdict,
+    and the overlap flag; a peer faster beyond the noise is called slower, not hidden."""
+    from creatio.reports.work_precision import _frontier, summary
+
+    runs = [
+        _entry("radau5-fixed", "native", "dt=0.05", 5e-11, [8e-3, 9e-3, 1.2e-2]),
+        _entry("dop853", "native", "rtol=1e-10", 5e-11, [2e-2, 2.1e-2]),
+        _entry("sundials-CVODE-BDF", "peer", "rtol=1e-11", 6e-11, [1e-1, 1.1e-1]),
+        _entry("scipy-LSODA", "peer", "rtol=1e-08", 5e-9, [1e-3, 1.5e-3]),
+    ]
+    evidence = {"check_adaptive_max_diff_m": 1e-14, "check_fixed_max_diff_m": 1e-14}
+    s = summary(runs, evidence, [1e-8, 1e-10], 10.0)
+    low, high = s["fastest"]
+    assert low["verdict"] == "slower" and low["peer"]["method"] == "scipy-LSODA"
+    assert high["verdict"] == "faster" and high["peer"]["method"] == "sundials-CVODE-BDF"
+    assert high["native"]["time_max_s"] == pytest.approx(1.2e-2)
+    lines = _frontier(s["fastest"], 10.0)
+    assert "median (ms)" in lines[0] and "verdict" in lines[0]
+    assert "| faster |" in lines[3] and "| slower |" in lines[2]
+    assert "| radau5-fixed dt=0.05 | 8 | 9 | 1.5 |" in lines[3]  # min, median, spread
+
+
+def test_a_peer_that_is_not_installed_is_left_out_and_said_so(tiny, monkeypatch) -> None:
+    """Without scikit-sundae the CVODE rows are dropped and the dataset names the peer."""
+    import creatio.dynamics.peers as peers
+
+    monkeypatch.setattr(peers, "available", lambda m: m in peers.PEERS)
+    cfg = dataclasses.replace(tiny.obj, study=dataclasses.replace(
+        tiny.obj.study, peers={"CVODE": [1e-8], "LSODA": [1e-8]}, full_state={},
+        minimal_state=False, repeats=1))
+    cfg.check()
+    ds = wp.run(cfg, "en02")
+    peer_rows = set(ds.method.values[ds.group.values == "peer"])
+    assert peer_rows == {"scipy-LSODA"}
+    assert json.loads(ds.attrs["peers_unavailable"]) == ["CVODE"]
+
+
+def test_cvode_harness_measures_the_native_error_on_the_same_solution(tiny) -> None:
+    """The CVODE peer returns states on the native output grid, in the native state layout,
+    so the same centre formula and error give the native solution's centres: at tight
+    tolerances both runs' centres agree far below the benchmark's levels, and the error
+    prepare_peer records is the harness's error against the same reference."""
+    pytest.importorskip("sksundae")
+    from creatio.dynamics.peers import centre_grid, solve_peer
+
+    base = wp.base_problem(tiny.obj, "en02")
+    ref, _ = wp.reference(base, tiny.obj.study.reference)
+    native = simulate(dataclasses.replace(base, method="radau5", rtol=1e-11, atol=1e-13))
+    theirs = solve_peer(base, "CVODE", 1e-11, 1e-13)
+    assert theirs.status == "ok" and theirs.steps == -1 and theirs.rhs_evals > 0
+    np.testing.assert_array_equal(theirs.t, native.t)
+    np.testing.assert_array_equal(theirs.y[0], base.initial_state(True, False))
+    np.testing.assert_allclose(theirs.y[:, 0], native.R, rtol=0, atol=1e-8)
+    np.testing.assert_allclose(theirs.y[:, 1], native.alpha, rtol=0, atol=1e-8)
+    X = centre_grid(base, theirs.t, theirs.y, False)
+    np.testing.assert_allclose(X, native.X, rtol=0, atol=1e-8)
+    setting = wp.Setting("peer", wp.peer_label("CVODE"), "CVODE", "rtol", 1e-8)
+    run = wp.prepare_peer(base, setting, ref, tiny.obj.study)
+    again = solve_peer(base, "CVODE", 1e-8, 1e-8 * tiny.obj.study.atol_ratio)
+    assert run.record["error_m"] == wp.errors(centre_grid(base, again.t, again.y, False),
+                                              ref)[0]
+    assert 1e-11 < run.record["error_m"] < 1e-6
+
+
+def test_fixed_steps_also_run_at_each_newton_tolerance(tiny) -> None:
+    """An implicit method's fixed step is planned at the base's tolerances, then at each
+    newton_rtol, which the run's problem carries as rtol (atol = rtol x atol_ratio)."""
+    cfg = resolve("work_precision", [*TINY, "study.methods.radau5.newton_rtol=[1e-9]"]).obj
+    base = wp.base_problem(cfg, "en02")
+    plan = [s for s in wp.settings(cfg.study, base) if s.method == "radau5-fixed"]
+    assert [s.label for s in plan] == ["dt=0.02", "dt=0.02 newton_rtol=1e-09"]
+    plain, newton = (wp.native_problem(base, s, cfg.study.atol_ratio) for s in plan)
+    assert (plain.rtol, plain.atol) == (base.rtol, base.atol)
+    assert (newton.rtol, newton.atol) == (1e-9, pytest.approx(1e-11))
+    assert newton.dt == plain.dt == 0.02 and newton.fixed_step and newton.method == "radau5"

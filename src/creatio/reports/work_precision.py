@@ -4,7 +4,9 @@ Derived from the datasets alone (one per base study, creatio.studies.work_precis
 headline time of a run is the minimum over its timed repeats; beside it the median and the
 spread, max / min over the repeats (1 = no scatter). Two timings are told apart only when
 their ranges [min, max] do not overlap: a comparison whose ranges overlap is flagged as
-within the timing noise, and a negative saving is never printed without such a flag.
+within the timing noise, and a negative saving is never printed without such a flag. The
+frontier (per error level: the fastest native run, the fastest peer, and the verdict
+between them) is the report's headline, in the markdown and in the JSON.
 """
 
 from __future__ import annotations
@@ -19,7 +21,7 @@ import numpy as np
 
 from creatio.reports.common import fmt, plt, save_figure, strict_json, table, write_text
 
-__all__ = ["fastest", "overlap", "summary", "write_report"]
+__all__ = ["fastest", "overlap", "summary", "verdict", "write_report"]
 
 SPREAD = "max / min of the timed repeats (1 = no scatter)"
 TEXT = ("study", "group", "method", "solver", "setting", "setting_kind", "status")
@@ -49,6 +51,14 @@ def overlap(a: dict[str, Any], b: dict[str, Any]) -> bool:
     return a["time_s"] <= b["time_max_s"] and b["time_s"] <= a["time_max_s"]
 
 
+def verdict(native: dict[str, Any], peer: dict[str, Any]) -> str:
+    """Native against peer: ``faster`` or ``slower`` when the ranges [min, max] are apart,
+    ``within noise`` when they overlap."""
+    if overlap(native, peer):
+        return "within noise"
+    return "faster" if native["time_s"] < peer["time_s"] else "slower"
+
+
 def fastest(runs: Sequence[dict[str, Any]], level: float, group: str,
             exclude: str | None = None) -> dict[str, Any] | None:
     """The quickest run of a group (native, peer) whose error is <= level, optionally not
@@ -59,7 +69,8 @@ def fastest(runs: Sequence[dict[str, Any]], level: float, group: str,
 
 
 def _brief(e: dict[str, Any] | None) -> dict[str, Any] | None:
-    keys = ("method", "setting", "error_m", "time_s", "time_median_s", "time_spread")
+    keys = ("method", "setting", "error_m", "time_s", "time_median_s", "time_max_s",
+            "time_spread")
     return {k: e[k] for k in keys} if e else None
 
 
@@ -91,7 +102,8 @@ def summary(runs: Sequence[dict[str, Any]], evidence: dict[str, Any], levels: Se
         row.update(native=_brief(best), peer=_brief(peer), runner_up=_brief(second),
                    tied_with_runner_up=bool(best and second and overlap(best, second)),
                    speed_up=peer["time_s"] / best["time_s"] if best and peer else None,
-                   spreads_overlap=bool(best and peer and overlap(best, peer)))
+                   spreads_overlap=bool(best and peer and overlap(best, peer)),
+                   verdict=verdict(best, peer) if best and peer else None)
         rows.append(row)
     by_key = {(e["method"], e["setting"]): e for e in runs}
     minimal = []
@@ -112,16 +124,54 @@ def _ms(x: float) -> str:
     return fmt(x * 1e3)
 
 
+FRONTIER = ["error level (m)", "fastest native run", "time (ms)", "median (ms)", "spread",
+            "error (m)", "fastest peer", "peer time (ms)", "peer median (ms)", "peer spread",
+            "speed-up", "verdict", "noise"]
+
+
+def _frontier(rows: Sequence[dict[str, Any]], factor: float) -> list[str]:
+    """The frontier table: per level the fastest native run and peer (min, median, spread),
+    the speed-up of the minima and the verdict; every overlap flagged."""
+    out = []
+    blank = [""] * (len(FRONTIER) - 2)
+    for r in rows:
+        if not r["resolved"]:
+            out.append([r["level_m"], f"not resolved (below {fmt(factor)} x the reference's "
+                        "own agreement)", *blank])
+            continue
+        b, p, second = r["native"], r["peer"], r["runner_up"]
+        native = (["none reaches it", "", "", "", ""] if b is None else
+                  [f"{b['method']} {b['setting']}", _ms(b["time_s"]), _ms(b["time_median_s"]),
+                   fmt(b["time_spread"]), b["error_m"]])
+        peer = (["none reaches it", "", "", ""] if p is None else
+                [f"{p['method']} {p['setting']}", _ms(p["time_s"]), _ms(p["time_median_s"]),
+                 fmt(p["time_spread"])])
+        tie = (f"native tied with {second['method']} {second['setting']} (ranges overlap)"
+               if r["tied_with_runner_up"] else "")
+        noise = "; ".join(x for x in (tie, "speed-up within noise (ranges overlap)"
+                                      if r["spreads_overlap"] else "") if x)
+        speed = f"{fmt(r['speed_up'])}x" if r["speed_up"] is not None else ""
+        out.append([r["level_m"], *native, *peer, speed, r["verdict"] or "", noise])
+    return table(FRONTIER, out)
+
+
 def _markdown(studies: dict[str, dict], runs: Sequence[dict], machine: dict, jit: dict,
-              levels: Sequence[float], factor: float) -> str:
+              levels: Sequence[float], factor: float, missing: Sequence[str] = ()) -> str:
     lines = ["# Work-precision benchmark (EN-02, EN-02R)", "",
              "Error: max over the 0.1 s output grid of the centre-position error against the "
              "reference. Time: core call, single thread, JIT excluded; a warm-up run, then "
-             "repeats interleaved round-robin across all settings; the time is the minimum "
-             f"over the repeats, the median beside it, spread = {SPREAD}. Two times whose "
-             "ranges [min, max] overlap are within the noise and flagged so. Regenerate: "
+             "repeats interleaved round-robin across all settings (each round starting one "
+             "setting later); the time is the minimum over the repeats, the median beside "
+             f"it, spread = {SPREAD}. Two times whose ranges [min, max] overlap are within the "
+             "noise and flagged so; verdict: native faster / slower than the fastest peer "
+             "beyond the noise, or within it. Peers: scipy solve_ivp (DOP853, Radau, LSODA) "
+             "and SUNDIALS CVODE BDF (scikit-sundae, the `bench` extra), on the same "
+             "right-hand side, the same grid and the same error. Regenerate: "
              "`snakemake benchmarks -c 1`.", "",
              "Machine: " + "; ".join(f"{k} {v}" for k, v in machine.items()), ""]
+    if missing:
+        lines += [f"Peers not installed here, left out: {', '.join(missing)} "
+                  "(`pip install -e .[bench]`).", ""]
     if jit:
         lines += ["JIT, excluded from every timing (first call of the compiled loop): "
                   + ", ".join(f"{k.removesuffix('_s').replace('_', ' ')} {fmt(v)} s"
@@ -135,33 +185,10 @@ def _markdown(studies: dict[str, dict], runs: Sequence[dict], machine: dict, jit
                   f"agreement with {ev.get('check_adaptive')}: "
                   f"{fmt(ev.get('check_adaptive_max_diff_m', math.nan))} m, with "
                   f"{ev.get('check_fixed')}: {fmt(ev.get('check_fixed_max_diff_m', math.nan))} m."
-                  + (f" Fixed-step friction stability limits: {lim}." if lim else ""), ""]
-        rows = []
-        for r in s["fastest"]:
-            if not r["resolved"]:
-                rows.append([r["level_m"], f"not resolved (below {fmt(factor)} x the "
-                             "reference's own agreement)", "", "", "", "", "", "", ""])
-                continue
-            b, p = r["native"], r["peer"]
-            if b is None:
-                rows.append([r["level_m"], "none reaches it", "", "", "", "", "", "", ""])
-                continue
-            second = r["runner_up"]
-            tie = (f"tied with {second['method']} {second['setting']} (ranges overlap)"
-                   if r["tied_with_runner_up"] else "")
-            if p is None:
-                rows.append([r["level_m"], f"{b['method']} {b['setting']}", _ms(b["time_s"]),
-                             fmt(b["time_spread"]), b["error_m"], "none reaches it", "", "",
-                             tie])
-                continue
-            flag = "; ".join(x for x in (tie, "speed-up within noise (ranges overlap)"
-                                         if r["spreads_overlap"] else "") if x)
-            rows.append([r["level_m"], f"{b['method']} {b['setting']}", _ms(b["time_s"]),
-                         fmt(b["time_spread"]), b["error_m"], f"{p['method']} {p['setting']}",
-                         _ms(p["time_s"]), f"{fmt(r['speed_up'])}x", flag])
-        lines += table(["error level (m)", "fastest native run", "time (ms)", "spread",
-                        "error (m)", "best scipy peer", "peer time (ms)", "speed-up", "noise"],
-                       rows)
+                  + (f" Fixed-step friction stability limits: {lim}." if lim else "")
+                  + "".join(f" Load average (1, 5, 15 min) {k} timing: {v}."
+                            for k, v in s.get("load_average", {}).items()), ""]
+        lines += _frontier(s["fastest"], factor)
         if s["minimal_state"]:
             lines += ["", "Minimal state (`study.outputs=[trajectory]`) against full "
                       "diagnostics. With friction the spin drives the slip, so only the energy "
@@ -180,7 +207,8 @@ def _markdown(studies: dict[str, dict], runs: Sequence[dict], machine: dict, jit
                     "first call extra (s)"],
                    [[e["study"], e["method"], e["setting"], e["error_m"], e["final_error_m"],
                      _ms(e["time_s"]), _ms(e["time_median_s"]), e["time_spread"], e["repeats"],
-                     e["rhs_evals"], e["steps"], e["status"], e["first_call_s"]] for e in runs])
+                     e["rhs_evals"], e["steps"] if e["steps"] >= 0 else "not reported",
+                     e["status"], e["first_call_s"]] for e in runs])
     return "\n".join(lines) + "\n"
 
 
@@ -190,7 +218,8 @@ def _styles(methods: Sequence[str]) -> dict[str, tuple[Any, str, str]]:
     cmap = plt.get_cmap("tab10" if n <= 10 else "tab20" if n <= 20 else "turbo")
     colours = cmap(np.arange(n) % cmap.N) if n <= 20 else cmap(np.linspace(0, 1, n))
     markers = "osD^vP*Xh<>p"
-    return {m: (colours[i], markers[i % len(markers)], "--" if m.startswith("scipy-") else "-")
+    return {m: (colours[i], markers[i % len(markers)],
+                "--" if m.startswith(("scipy-", "sundials-")) else "-")
             for i, m in enumerate(methods)}
 
 
@@ -247,22 +276,32 @@ def write_report(datasets: Sequence[Path], outdir: str | Path) -> dict[str, Path
     studies: dict[str, dict] = {}
     machine: dict[str, str] = {}
     jit: dict[str, float] = {}
+    missing: set[str] = set()
     for ds, _ in loaded:
         these = entries(ds)
         runs += these
         base = str(ds.attrs.get("base", these[0]["study"] if these else "?"))
         studies[base] = summary(these, json.loads(ds.attrs.get("reference", "{}")), levels,
                                 factor)
+        studies[base]["load_average"] = {k: str(ds.attrs[f"load_{k}_timing"])
+                                         for k in ("before", "after")
+                                         if f"load_{k}_timing" in ds.attrs}
         machine = machine or json.loads(ds.attrs.get("machine", "{}"))
         jit.update(json.loads(ds.attrs.get("jit", "{}") or "{}"))
+        missing.update(json.loads(ds.attrs.get("peers_unavailable", "[]") or "[]"))
     paths = {"json": outdir / "work_precision.json", "md": outdir / "work_precision.md",
              "png": outdir / "work_precision.png"}
     report = {"title": settings.get("title", "work-precision benchmark"),
               "time": "core call, min over the repeats (time_s); median (time_median_s)",
               "time_spread": SPREAD, "noise": "two times whose ranges [min, max] overlap",
-              "machine": machine, "jit": jit, "levels_m": levels, "studies": studies,
+              "verdict": "native against the fastest peer: faster / slower beyond the noise, "
+                         "or within noise (ranges overlap)",
+              "machine": machine, "jit": jit, "levels_m": levels,
+              "peers_unavailable": sorted(missing),
+              "frontier": {k: v["fastest"] for k, v in studies.items()}, "studies": studies,
               "entries": runs}
     write_text(paths["json"], strict_json(report))
-    write_text(paths["md"], _markdown(studies, runs, machine, jit, levels, factor))
+    write_text(paths["md"], _markdown(studies, runs, machine, jit, levels, factor,
+                                      sorted(missing)))
     _figure(runs, paths["png"])
     return paths

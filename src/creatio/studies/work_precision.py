@@ -9,16 +9,19 @@ fixed steps), so a newly registered method is benchmarked without editing this m
 error of a run is the maximum over the 0.1 s output grid of |X - X_ref| (centre position,
 metres), plus the same at the final time, computed outside the timed region. Timing follows
 the DiffEqBenchmarks practice: one warm-up run (which also yields the error), then repeats
-of the core call alone (the compiled loop, or scipy's stepping loop), single-threaded; the
-repeats are interleaved round-robin across all settings of a base, so a slow spell of the
+of the core call alone (the compiled loop, or the peer's solve), single-threaded; the
+repeats are interleaved round-robin across all settings of a base (each round starting one
+setting later, so no setting always follows the same neighbour), so a slow spell of the
 machine spreads over every setting instead of spoiling one. Every repeat is recorded; the
 minimum is the headline number, the median and the spread are kept beside it. The first
 call's extra time (JIT compile or cache load) is reported separately.
 
-Peers: scipy's DOP853, Radau and LSODA on a plain NumPy right-hand side
-(creatio.dynamics.peers). Two more rows measure what a minimal-state run saves: rk4 and
-radau5 with full diagnostics (energy bookkeeping on); and, without friction, the base's own
-solver with the trajectory alone against full diagnostics.
+Peers: scipy's DOP853, Radau and LSODA on a plain NumPy right-hand side, and SUNDIALS
+CVODE's BDF through scikit-sundae on the same one (creatio.dynamics.peers). CVODE is a
+benchmark-only dependency (the ``bench`` extra): without it its rows are left out and the
+dataset says so (attribute peers_unavailable). Two more rows measure what a minimal-state
+run saves: rk4 and radau5 with full diagnostics (energy bookkeeping on); and, without
+friction, the base's own solver with the trajectory alone against full diagnostics.
 
 Config: conf/analysis/work_precision.yaml (grids, peers, reference, timing) over the base
 studies under ``bases``. One dataset per base study; the first also carries the JIT
@@ -41,6 +44,7 @@ from typing import Any
 import numpy as np
 
 from creatio.dynamics import METHODS, SphereProblem, stability_limit
+from creatio.dynamics.solvers import EXPLICIT
 from creatio.errors import ConfigError
 from creatio.model.numerics import steps_in
 from creatio.studies.registry import Part
@@ -48,6 +52,7 @@ from creatio.studies.schema import MISSING, DynamicConfig, require
 
 __all__ = [
     "PEER_METHODS",
+    "SUNDIALS_PEERS",
     "JitConfig",
     "MethodGrid",
     "ReferenceConfig",
@@ -55,14 +60,21 @@ __all__ = [
     "WorkPrecisionConfig",
     "WorkPrecisionStudy",
     "errors",
+    "peer_label",
     "parts",
     "run",
     "settings",
 ]
 
-#: Names of the scipy peers (creatio.dynamics.peers.PEERS, which imports scipy: the names
-#: are repeated here so that validating a config does not).
-PEER_METHODS = ("RK45", "DOP853", "Radau", "LSODA")
+#: Names of the peers: scipy's (creatio.dynamics.peers.PEERS, which imports scipy: the names
+#: are repeated here so that validating a config does not) and SUNDIALS' (peers.SUNDIALS).
+SUNDIALS_PEERS = ("CVODE",)
+PEER_METHODS = ("RK45", "DOP853", "Radau", "LSODA", *SUNDIALS_PEERS)
+
+
+def peer_label(name: str) -> str:
+    """A peer's method label in the report: ``scipy-LSODA``, ``sundials-CVODE-BDF``."""
+    return f"sundials-{name}-BDF" if name in SUNDIALS_PEERS else f"scipy-{name}"
 
 
 # --------------------------------------------------------------------------------- schema
@@ -71,17 +83,21 @@ class MethodGrid:
     """The settings one method runs at: tolerances (adaptive), steps (fixed step).
 
     A fixed step is dt = solver.output_interval / n for n in steps_per_output, so that it
-    divides the output grid.
+    divides the output grid. An implicit method's fixed steps run at the base's tolerances,
+    which its Newton iteration converges to, and again at each of newton_rtol (atol = rtol x
+    atol_ratio): at a fixed step the Newton tolerance, not the step, can set the error.
     """
 
     rtol: list[float] = field(default_factory=list)
     steps_per_output: list[int] = field(default_factory=list)
+    newton_rtol: list[float] = field(default_factory=list)
 
     def check(self, path: str) -> None:
         """Tolerances in (0, 1), step counts >= 1."""
-        for i, v in enumerate(self.rtol):
-            require(math.isfinite(v) and 0.0 < v < 1.0, f"{path}.rtol[{i}]", v,
-                    "must lie in (0, 1)")
+        for key in ("rtol", "newton_rtol"):
+            for i, v in enumerate(getattr(self, key)):
+                require(math.isfinite(v) and 0.0 < v < 1.0, f"{path}.{key}[{i}]", v,
+                        "must lie in (0, 1)")
         for i, n in enumerate(self.steps_per_output):
             require(n >= 1, f"{path}.steps_per_output[{i}]", n, "must be an integer >= 1")
 
@@ -178,6 +194,11 @@ class WorkPrecisionStudy:
             key = f"{path}.methods.{name}"
             require(name in METHODS, key, name, known)
             g.check(key)
+            if g.newton_rtol:
+                require(METHODS[name].stepper != EXPLICIT, f"{key}.newton_rtol",
+                        list(g.newton_rtol), f"{name} is explicit: it has no Newton iteration")
+                require(len(g.steps_per_output) >= 1, f"{key}.newton_rtol",
+                        list(g.newton_rtol), "applies to fixed steps: give steps_per_output")
             if METHODS[name].adaptive:
                 require(len(g.rtol) >= 1, f"{key}.rtol", list(g.rtol),
                         "an adaptive method needs at least 1 tolerance")
@@ -197,6 +218,8 @@ class WorkPrecisionStudy:
             key = f"{path}.full_state.{name}"
             require(name in METHODS, key, name, known)
             g.check(key)
+            require(not g.newton_rtol, f"{key}.newton_rtol", list(g.newton_rtol),
+                    "full-state rows run at the base's tolerances: give it under methods")
             swept = self.grid(name)
             for i, v in enumerate(g.rtol):
                 require(v in swept.rtol, f"{key}.rtol[{i}]", v,
@@ -207,7 +230,7 @@ class WorkPrecisionStudy:
         for name, rtols in self.peers.items():
             key = f"{path}.peers.{name}"
             require(name in PEER_METHODS, key, name,
-                    f"must be a scipy peer: one of {', '.join(PEER_METHODS)}")
+                    f"must be a peer: one of {', '.join(PEER_METHODS)}")
             require(len(rtols) >= 1, key, list(rtols), "needs at least 1 tolerance")
             for i, v in enumerate(rtols):
                 require(math.isfinite(v) and 0.0 < v < 1.0, f"{key}[{i}]", v,
@@ -259,18 +282,21 @@ def parts(cfg: WorkPrecisionConfig) -> list[Part]:
 @dataclass(frozen=True)
 class Setting:
     """One benchmarked run: group (native, full, mu0, peer), entry label, the registered
-    method or scipy class it runs, and its setting (rtol, or a fixed dt)."""
+    method or peer it runs, its setting (rtol, or a fixed dt) and, for an implicit method's
+    fixed step, the rtol of its Newton iteration (None: the base's)."""
 
     group: str
     method: str
     solver: str
     kind: str
     value: float
+    newton_rtol: float | None = None
 
     @property
     def label(self) -> str:
-        """The setting as the report prints it: ``rtol=1e-08``, ``dt=0.002``."""
-        return f"{self.kind}={self.value:.6g}"
+        """The setting as the report prints it: ``rtol=1e-08``, ``dt=0.05 newton_rtol=1e-09``."""
+        newton = f" newton_rtol={self.newton_rtol:.6g}" if self.newton_rtol is not None else ""
+        return f"{self.kind}={self.value:.6g}{newton}"
 
 
 def _thin(values: Sequence[Any], quick: bool, keep: Iterable[Any] = ()) -> list[Any]:
@@ -285,7 +311,7 @@ def settings(study: WorkPrecisionStudy, base: SphereProblem) -> list[Setting]:
     """Every run on one base problem, in report order: each registered method over its grid
     (an adaptive one by rtol, then at its fixed steps if it has any; a fixed-step one by
     dt = output_interval / n), the full-state rows, the mu = 0 pair at the base's own
-    solver, the scipy peers."""
+    solver, the peers (scipy, SUNDIALS)."""
     output_interval = base.output_interval
     out: list[Setting] = []
     full = study.full_state
@@ -296,8 +322,10 @@ def settings(study: WorkPrecisionStudy, base: SphereProblem) -> list[Setting]:
         if method.adaptive:
             out += [Setting("native", name, name, "rtol", float(v))
                     for v in _thin(grid.rtol, study.quick, keep.rtol)]
-        out += [Setting("native", fixed, name, "dt", output_interval / n)
-                for n in _thin(grid.steps_per_output, study.quick, keep.steps_per_output)]
+        for n in _thin(grid.steps_per_output, study.quick, keep.steps_per_output):
+            out += [Setting("native", fixed, name, "dt", output_interval / n)]
+            out += [Setting("native", fixed, name, "dt", output_interval / n, float(v))
+                    for v in grid.newton_rtol]
     for name, grid in full.items():
         fixed = f"{name}-fixed" if METHODS[name].adaptive else name
         out += [Setting("full", f"{name}-full", name, "rtol", float(v)) for v in grid.rtol]
@@ -310,7 +338,7 @@ def settings(study: WorkPrecisionStudy, base: SphereProblem) -> list[Setting]:
         out += [Setting("mu0", f"{name}-mu0", base.method, kind, value),
                 Setting("mu0", f"{name}-mu0-full", base.method, kind, value)]
     for name, rtols in study.peers.items():
-        out += [Setting("peer", f"scipy-{name}", name, "rtol", float(v))
+        out += [Setting("peer", peer_label(name), name, "rtol", float(v))
                 for v in _thin(rtols, study.quick)]
     return out
 
@@ -323,8 +351,11 @@ def native_problem(base: SphereProblem, s: Setting, atol_ratio: float) -> Sphere
         return dataclasses.replace(base, mu=0.0, rotation=full, energy=full)
     energy = s.group == "full"
     if s.kind == "dt":
-        return dataclasses.replace(base, method=s.solver, dt=s.value, allow_unstable=True,
+        prob = dataclasses.replace(base, method=s.solver, dt=s.value, allow_unstable=True,
                                    fixed_step=METHODS[s.solver].adaptive, energy=energy)
+        if s.newton_rtol is None:
+            return prob
+        return dataclasses.replace(prob, rtol=s.newton_rtol, atol=s.newton_rtol * atol_ratio)
     return dataclasses.replace(base, method=s.solver, rtol=s.value, atol=s.value * atol_ratio,
                                fixed_step=False, energy=energy)
 
@@ -437,7 +468,8 @@ def prepare_native(base: SphereProblem, s: Setting, ref: np.ndarray, study: Work
 
 def prepare_peer(base: SphereProblem, s: Setting, ref: np.ndarray, study: WorkPrecisionStudy
                  ) -> Run:
-    """A warm-up scipy solve gives the error; a timed call is its stepping loop alone."""
+    """A warm-up peer solve gives the error; a timed call is its construction and stepping
+    loop (scipy) or construction and solve (CVODE), as solve_peer times them."""
     from creatio.dynamics.peers import centre_grid, solve_peer
 
     rtol, atol = s.value, s.value * study.atol_ratio
@@ -453,13 +485,16 @@ def prepare_peer(base: SphereProblem, s: Setting, ref: np.ndarray, study: WorkPr
 
 
 def round_robin(runs: Sequence[Run]) -> np.ndarray:
-    """Time every run's core call, repeats interleaved: round r calls each run that still
-    has repeats left, in order. Returns seconds (run, repeat), NaN where none was taken."""
-    times = np.full((len(runs), max((r.count for r in runs), default=0)), np.nan)
+    """Time every run's core call, repeats interleaved: round k calls each run that still
+    has repeats left, in order from run k mod n on (wrapping), so that a run is preceded by
+    a different one each round. Returns seconds (run, repeat), NaN where none was taken."""
+    n = len(runs)
+    times = np.full((n, max((r.count for r in runs), default=0)), np.nan)
     for k in range(times.shape[1]):
-        for i, r in enumerate(runs):
-            if k < r.count:
-                times[i, k] = r.call()
+        for j in range(n):
+            i = (k + j) % n
+            if k < runs[i].count:
+                times[i, k] = runs[i].call()
     return times
 
 
@@ -503,6 +538,11 @@ def jit_times(base: SphereProblem, jit: JitConfig) -> dict[str, float]:
     return out
 
 
+def _load() -> str:
+    """The machine's load average over 1, 5 and 15 minutes (how busy it was while timed)."""
+    return ", ".join(f"{x:.2f}" for x in os.getloadavg())
+
+
 def machine() -> dict[str, str]:
     """Facts about the machine and the numeric stack the timings belong to."""
     import numba
@@ -523,10 +563,10 @@ def machine() -> dict[str, str]:
 
 _COUNTERS = {
     "rhs_evals": "right-hand-side evaluations",
-    "steps": "accepted steps",
+    "steps": "accepted steps (-1: not reported by the peer)",
     "rejected_steps": "rejected steps",
     "jacobians": "Jacobian evaluations",
-    "lu_factorisations": "LU factorisations",
+    "lu_factorisations": "LU factorisations (-1: not reported by the peer)",
     "state_size": "integrated state components",
 }
 
@@ -593,7 +633,16 @@ def run(cfg: WorkPrecisionConfig, base: str, jit: bool = False):
     evidence["stability_limit_dt_s"] = stability_limits(prob)
     attrs["reference"] = json.dumps(evidence)
     attrs["timing"] = ("warm-up run, then repeats of the core call interleaved round-robin "
-                       "across all settings; time_s = min, time_median_s = median")
+                       "across all settings (each round starting one setting later); "
+                       "time_s = min, time_median_s = median, times_s = every repeat")
+    from creatio.dynamics.peers import available
+
+    plan = settings(study, prob)
+    missing = sorted({s.solver for s in plan if s.group == "peer" and not available(s.solver)})
+    attrs["peers_unavailable"] = json.dumps(missing)
     runs = [(prepare_peer if s.group == "peer" else prepare_native)(prob, s, ref, study)
-            for s in settings(study, prob)]
-    return to_dataset(base, runs, round_robin(runs), attrs)
+            for s in plan if s.group != "peer" or s.solver not in missing]
+    attrs["load_before_timing"] = _load()
+    times = round_robin(runs)
+    attrs["load_after_timing"] = _load()
+    return to_dataset(base, runs, times, attrs)
