@@ -80,6 +80,7 @@ from creatio.model.laws import law_eval
 from creatio.model.offset import offset_jets
 from creatio.model.sphere import (
     acceleration_at_fixed_rates,
+    attitude_rates,
     centre_tangents,
     max_curvature_times_b,
     normal_reaction,
@@ -170,18 +171,8 @@ def rhs(t, y, dy, pp, lc, rot, en, diag):
         dy[5] = d1 * sa + d2 * ca
         dy[6] = s * (n1 * f2 - n2 * f1)
         # dQ/dt = 1/2 (0, omega) * Q, world-frame omega
-        wx = y[4]
-        wy = y[5]
-        wz = y[6]
-        q0 = y[7]
-        q1 = y[8]
-        q2 = y[9]
-        q3 = y[10]
-        dy[7] = -0.5 * (wx * q1 + wy * q2 + wz * q3)
-        dy[8] = 0.5 * (q0 * wx + wy * q3 - wz * q2)
-        dy[9] = 0.5 * (q0 * wy + wz * q1 - wx * q3)
-        dy[10] = 0.5 * (q0 * wz + wx * q2 - wy * q1)
-        dy[11] = math.sqrt(wx * wx + wy * wy + wz * wz)
+        dy[7], dy[8], dy[9], dy[10], dy[11] = attitude_rates(
+            y[7], y[8], y[9], y[10], y[4], y[5], y[6])
     if en:
         dy[ie] = (N * n1 + f1) * ct1 + (N * n3 + f3) * ct3
         dy[ie + 1] = -(f1 * vs1 + f2 * vs2 + f3 * vs3)

@@ -125,6 +125,17 @@ def stable_step(bound: float, rate: float) -> float:
     return bound / rate
 
 
+def attitude_rates(q0: float, q1: float, q2: float, q3: float, wx: float, wy: float,
+                   wz: float) -> tuple[float, float, float, float, float]:
+    """dQ/dt = 1/2 (0, omega) * Q for the unit quaternion Q of the sphere's orientation and
+    its world-frame angular velocity omega, then the spin rate |omega| (docs/model.md s.4)."""
+    return (-0.5 * (wx * q1 + wy * q2 + wz * q3),
+            0.5 * (q0 * wx + wy * q3 - wz * q2),
+            0.5 * (q0 * wy + wz * q1 - wx * q3),
+            0.5 * (q0 * wz + wx * q2 - wy * q1),
+            math.sqrt(wx * wx + wy * wy + wz * wz))
+
+
 #: The functions the dynamics layer compiles into its loops.
 SCALAR_KERNELS = (inertia, centre_tangents, acceleration_at_fixed_rates, normal_reaction,
-                  max_curvature_times_b)
+                  max_curvature_times_b, attitude_rates)

@@ -19,6 +19,7 @@ from typing import Any
 
 import numpy as np
 import xarray as xr
+from matplotlib.ticker import ScalarFormatter
 
 from creatio.pipeline.io import atomic_write
 from creatio.reports.common import fmt, plt, save_figure, strict_json, table, write_text
@@ -116,6 +117,11 @@ def _load(datasets: Sequence[Path]) -> tuple[list[xr.Dataset], dict]:
 
 
 def _finish(fig: Any, path: Path) -> None:
+    """Save and close a figure, with no offset notation on any linear y axis (an offset
+    such as 1e-6 - 3.6e2 hides the values a reader looks for)."""
+    for ax in fig.axes:
+        if isinstance(ax.yaxis.get_major_formatter(), ScalarFormatter):
+            ax.ticklabel_format(axis="y", useOffset=False)
     fig.tight_layout()
     save_figure(fig, path, dpi=100)
     plt.close(fig)

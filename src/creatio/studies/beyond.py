@@ -28,20 +28,47 @@ __all__ = ["SCALARS", "output_grid", "run_dataset", "run_scalars", "stack",
 #: Per-run scalar figures of a stacked dataset: (variable, dataset attribute, attributes).
 SCALARS = (
     ("stop_time", "stop_time", {"units": "s"}),
-    ("steps", "steps", {"long_name": "integration steps"}),
+    ("steps", "steps", {"long_name": "integration steps", "units": "1"}),
     ("min_normal_reaction", "min_normal_reaction", {"units": "N"}),
     ("max_normal_reaction", "max_normal_reaction", {"units": "N"}),
     ("max_slip_speed", "max_slip_speed", {"units": "m s-1"}),
     ("max_energy_residual", "max_energy_residual", {"units": "J"}),
     ("max_cavity_tracking_error", "max_cavity_tracking_error", {"units": "m"}),
     ("min_edge_clearance", "min_edge_clearance", {"units": "m"}),
-    ("max_b_kappa", "max_b_kappa", {}),
+    ("max_b_kappa", "max_b_kappa",
+     {"long_name": "largest sphere radius times surface curvature", "units": "1"}),
     ("stability_limit_dt", "stability_limit_dt", {"units": "s"}),
     ("left_cavity_time", "left_cavity_time",
      {"units": "s", "long_name": "first step outside the starting cavity's cell (NaN: never)"}),
     ("start_R", "start_R", {"units": "m", "long_name": "contact R at the start"}),
     ("start_alpha", "start_alpha", {"units": "rad", "long_name": "contact alpha at the start"}),
 )
+
+
+#: Units and names of the per-run scalars the studies beyond the notebook add to stack().
+EXTRA_ATTRS: dict[str, dict[str, str]] = {
+    "structure_rotation": {"units": "degree", "long_name": "structure yaw over the run"},
+    "structure_rotation_point_mass": {"units": "degree",
+                                      "long_name": "structure yaw of the point-mass estimate"},
+    "world_angular_displacement": {"units": "degree",
+                                   "long_name": "sphere azimuth change in the world frame"},
+    "max_hz_drift": {"units": "kg m2 s-1", "long_name": "largest |H_z(t) - H_z(0)| (NaN: "
+                     "fixed structure)"},
+    "hz_scale": {"units": "kg m2 s-1", "long_name": "largest |I_s Theta|"},
+    "max_structure_rate": {"units": "rad s-1", "long_name": "largest structure yaw rate"},
+    "max_contact_radius": {"units": "m", "long_name": "largest horizontal contact radius"},
+    "confinement_work_total": {"units": "J", "long_name": "work of the confining force"},
+    "confining_force": {"units": "N", "long_name": "confining force P"},
+    "dt": {"units": "s", "long_name": "timestep of the run"},
+    "flights": {"units": "1", "long_name": "number of flights"},
+    "impacts": {"units": "1", "long_name": "number of impacts"},
+    "flight_time": {"units": "s", "long_name": "total time in flight"},
+    "max_flight_height": {"units": "m", "long_name": "largest gap to the surface in flight"},
+    "impact_loss": {"units": "J", "long_name": "mechanical energy lost at impacts and "
+                    "resumptions of contact"},
+    "ends_in_cavity": {"units": "1", "long_name": "1 if the run ends in contact in its "
+                       "starting cavity's cell"},
+}
 
 
 def output_grid(duration: float, interval: float) -> np.ndarray:
@@ -168,5 +195,6 @@ def stack(datasets: Sequence[xr.Dataset], dim: str, coord: Sequence[float], coor
     for key, unit in units.items():
         out[key] = (dim, np.array([d[key] for d in derived]), {"units": unit})
     for key in extra_scalars:
-        out[key] = (dim, np.array([float(ds.attrs.get(key, math.nan)) for ds in datasets]))
+        out[key] = (dim, np.array([float(ds.attrs.get(key, math.nan)) for ds in datasets]),
+                    EXTRA_ATTRS.get(key, {}))
     return out

@@ -172,20 +172,18 @@ def run(cfg: En02fConfig, dt: float | None = None, drop: bool = False) -> xr.Dat
     figures = ("flights", "impacts", "flight_time", "max_flight_height", "impact_loss",
                "ends_in_cavity")
     out = stack(datasets, "case", list(range(len(problems))),
-                {"long_name": "run index (cycle, restitution)"}, grid, HISTORIES, figures)
+                {"long_name": "run index (cycle, restitution)", "units": "1"}, grid, HISTORIES,
+                figures)
     out = out.assign_coords(
         cycle=("case", np.array([T for T, _, _ in problems]),
                {"long_name": "cycle length T", "units": "s"}),
         restitution=("case", np.array([e for _, e, _ in problems]),
-                     {"long_name": "restitution coefficient e"}))
-    units = {"flight_time": "s", "max_flight_height": "m", "impact_loss": "J"}
-    for name, unit in units.items():
-        out[name].attrs["units"] = unit
+                     {"long_name": "restitution coefficient e", "units": "1"}))
     out = out.assign(_event_table(results))
     es = list(dict.fromkeys(float(e) for e in cfg.study.restitutions))
     brackets = np.array([cycle_boundary(cfg, dt, e, True) for e in es]).reshape(-1, 2)
     out = out.assign_coords(boundary_restitution=("boundary_restitution", np.array(es), {
-        "long_name": "restitution of the cycle-length boundary"}))
+        "long_name": "restitution of the cycle-length boundary", "units": "1"}))
     out["boundary_cycle_fail"] = ("boundary_restitution", brackets[:, 0], {
         "long_name": "largest cycle length found at which the sphere does not come back to "
                      "its cavity with flight", "units": "s"})

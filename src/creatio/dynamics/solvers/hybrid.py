@@ -80,7 +80,7 @@ from creatio.model.cavity import cavity_cell_offsets, cavity_radius
 from creatio.model.flight import foot_point, impact
 from creatio.model.laws import law_eval
 from creatio.model.offset import offset_jets
-from creatio.model.sphere import centre_tangents
+from creatio.model.sphere import attitude_rates, centre_tangents
 
 __all__ = ["CONTACT", "EVENT_KINDS", "EVENT_TOL", "FLIGHT", "NEV", "run_flight"]
 
@@ -126,18 +126,8 @@ def _flight_rhs(y, dy, g):
     dy[6] = 0.0
     dy[7] = 0.0
     dy[8] = 0.0
-    wx = y[6]
-    wy = y[7]
-    wz = y[8]
-    q0 = y[9]
-    q1 = y[10]
-    q2 = y[11]
-    q3 = y[12]
-    dy[9] = -0.5 * (wx * q1 + wy * q2 + wz * q3)
-    dy[10] = 0.5 * (q0 * wx + wy * q3 - wz * q2)
-    dy[11] = 0.5 * (q0 * wy + wz * q1 - wx * q3)
-    dy[12] = 0.5 * (q0 * wz + wx * q2 - wy * q1)
-    dy[13] = math.sqrt(wx * wx + wy * wy + wz * wz)
+    dy[9], dy[10], dy[11], dy[12], dy[13] = attitude_rates(
+        y[9], y[10], y[11], y[12], y[6], y[7], y[8])
     dy[14] = 0.0
     dy[15] = 0.0
 
