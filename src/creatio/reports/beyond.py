@@ -23,6 +23,7 @@ from matplotlib.ticker import ScalarFormatter
 
 from creatio.pipeline.io import atomic_write
 from creatio.reports.common import fmt, plt, save_figure, strict_json, table, write_text
+from creatio.reports.sphere import history_csv
 
 __all__ = ["en02g_summary", "en03_summary", "en03m_summary", "run_difference",
            "write_en02g", "write_en03", "write_en03m"]
@@ -114,6 +115,19 @@ def _load(datasets: Sequence[Path]) -> tuple[list[xr.Dataset], dict]:
 
     loaded = [read_dataset(p) for p in datasets]
     return [ds for ds, _ in loaded], loaded[0][1]
+
+
+def _start(datasets: Sequence[Path], outdir: str | Path,
+           summary: Any) -> tuple[list[xr.Dataset], dict, dict[str, Path]]:
+    """What every writer here does first: load the datasets, summarise them with
+    summary(runs), write the JSON contract; returns (runs, summary, output paths)."""
+    runs, _ = _load(datasets)
+    outdir = Path(outdir)
+    outdir.mkdir(parents=True, exist_ok=True)
+    s = summary(runs)
+    paths = _paths(outdir, s["study"])
+    write_text(paths["json"], strict_json(s))
+    return runs, s, paths
 
 
 def _finish(fig: Any, path: Path) -> None:
@@ -304,13 +318,8 @@ def _en02g_convergence(runs: Sequence[xr.Dataset], path: Path) -> None:
 def write_en02g(datasets: Sequence[Path], outdir: str | Path) -> dict[str, Path]:
     """Write en02g.json/.md/.png, _history.csv (per-run figures), _trajectory.png,
     _convergence.png."""
-    runs, _ = _load(datasets)
+    runs, s, paths = _start(datasets, outdir, en02g_summary)
     ds = runs[0]
-    outdir = Path(outdir)
-    outdir.mkdir(parents=True, exist_ok=True)
-    s = en02g_summary(runs)
-    paths = _paths(outdir, s["study"])
-    write_text(paths["json"], strict_json(s))
     _en02g_figure(ds, s, paths["png"])
     _en02g_trajectory(ds, paths["trajectory"])
     _en02g_convergence(runs, paths["convergence"])
@@ -537,37 +546,18 @@ def _en03_convergence(singles: Sequence[xr.Dataset], path: Path) -> None:
     _finish(fig, path)
 
 
-def _history_csv(ds: xr.Dataset, path: Path) -> None:
-    cols: dict[str, np.ndarray] = {"time_s": ds.time.values}
-    for name, var in ds.data_vars.items():
-        unit = var.attrs.get("units", "")
-        suffix = f" ({unit})" if unit else ""
-        if var.dims == ("time",):
-            cols[f"{name}{suffix}"] = var.values
-        elif var.dims[0] == "time" and var.ndim == 2:
-            for j, c in enumerate(var[var.dims[1]].values):
-                cols[f"{name}_{c}{suffix}"] = var.values[:, j]
-    _write_csv(path, list(cols), list(zip(*(np.asarray(v).tolist() for v in cols.values()),
-                                          strict=True)))
-
-
 def write_en03(datasets: Sequence[Path], outdir: str | Path) -> dict[str, Path]:
     """Write en03.json/.md/.png, _history.csv (the single run), _trajectory.png,
     _convergence.png."""
-    runs, _ = _load(datasets)
+    runs, s, paths = _start(datasets, outdir, en03_summary)
     singles = [d for d in runs if d.attrs.get("part", "single") == "single"]
     ds = singles[0]
-    outdir = Path(outdir)
-    outdir.mkdir(parents=True, exist_ok=True)
-    s = en03_summary(runs)
-    paths = _paths(outdir, s["study"])
-    write_text(paths["json"], strict_json(s))
     _en03_figure(runs, s, paths["png"])
     _paths_figure([(f"I_s = {s['structure_inertia_kg_m2']:g} kg m^2", ds)],
                   paths["trajectory"], "EN-03: the sphere's centre relative to the structure "
                   "and in the world")
     _en03_convergence(singles, paths["convergence"])
-    _history_csv(ds, paths["csv"])
+    history_csv(ds, paths["csv"])
     rows = [
         ("structure inertia I_s (kg m^2)", s["structure_inertia_kg_m2"]),
         ("final structure angle (deg)", s["structure_rotation_deg"]),
@@ -793,13 +783,8 @@ def _or(value: Any, text: str) -> Any:
 def write_en03m(datasets: Sequence[Path], outdir: str | Path) -> dict[str, Path]:
     """Write en03m.json/.md/.png, _history.csv (every run of the search), _trajectory.png,
     _convergence.png."""
-    runs, _ = _load(datasets)
+    runs, s, paths = _start(datasets, outdir, en03m_summary)
     ds = runs[0]
-    outdir = Path(outdir)
-    outdir.mkdir(parents=True, exist_ok=True)
-    s = en03m_summary(runs)
-    paths = _paths(outdir, s["study"])
-    write_text(paths["json"], strict_json(s))
     _en03m_figure(ds, s, paths["png"])
     named = []
     for i, kind in enumerate(ds.confinement.values):

@@ -20,8 +20,8 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
-from creatio.reports.beyond import FAILURES, _load, _paths, run_difference
-from creatio.reports.common import fmt, plt, save_figure, strict_json, table, write_text
+from creatio.reports.beyond import FAILURES, _start, run_difference
+from creatio.reports.common import fmt, plt, save_figure, table, write_text
 
 __all__ = ["en02f_summary", "write_en02f"]
 
@@ -193,13 +193,8 @@ def _convergence(sweeps: Sequence[xr.Dataset], drop: xr.Dataset | None, path: Pa
 def write_en02f(datasets: Sequence[Path], outdir: str | Path) -> dict[str, Path]:
     """Write en02f.json/.md/.png, _history.csv (per-case figures), _trajectory.png,
     _convergence.png."""
-    runs, _ = _load(datasets)
+    runs, s, paths = _start(datasets, outdir, en02f_summary)
     sweeps, drop = _split(runs)
-    outdir = Path(outdir)
-    outdir.mkdir(parents=True, exist_ok=True)
-    s = en02f_summary(runs)
-    paths = _paths(outdir, "en02f")
-    write_text(paths["json"], strict_json(s))
     keys = ["status", "stop_time_s", "flights", "impacts", "flight_time_s",
             "max_flight_height_m", "impact_loss_J", "energy_residual_J", "ends_in_cavity",
             "timestep_difference_m"]

@@ -18,7 +18,8 @@ from creatio.pipeline.io import atomic_write
 from creatio.reports.common import fmt, plt, readable_y, save_figure, strict_json, table, write_text
 from creatio.studies import registry
 
-__all__ = ["dynamic_summary", "timestep_difference", "write_comparison", "write_report"]
+__all__ = ["dynamic_summary", "history_csv", "timestep_difference", "write_comparison",
+           "write_report"]
 
 
 def centre_difference(coarse: xr.Dataset, fine: xr.Dataset) -> tuple[np.ndarray, np.ndarray]:
@@ -175,7 +176,9 @@ def _convergence_figure_dynamic(datasets: Sequence[xr.Dataset], path: Path) -> N
     plt.close(fig)
 
 
-def _history_csv(ds: xr.Dataset, path: Path) -> None:
+def history_csv(ds: xr.Dataset, path: Path) -> None:
+    """Every history of a sphere dataset as CSV columns (vectors one column per component,
+    units in the headers); every sphere-kind report writes its _history.csv with it."""
     cols: dict[str, np.ndarray] = {"time_s": ds.time.values}
     for name, var in ds.data_vars.items():
         unit = var.attrs.get("units", "")
@@ -230,7 +233,7 @@ def write_report(datasets: Sequence[Path], outdir: str | Path) -> dict[str, Path
     _history_figure(ds, paths["png"])
     _trajectory_figure([(study, ds)], config, paths["trajectory"])
     _convergence_figure_dynamic(runs, paths["convergence"])
-    _history_csv(ds, paths["csv"])
+    history_csv(ds, paths["csv"])
     pub = dict(registry.get(study).published)
     if pub:
         rows = [(label, s[key], pub.get(key, "")) for label, key in SUMMARY_ROWS]
