@@ -84,6 +84,8 @@ from creatio.model.sphere import (
     centre_tangents,
     max_curvature_times_b,
     normal_reaction,
+    tangent_coordinates,
+    tangential_part,
 )
 from creatio.model.structure import angular_momentum_parts
 
@@ -135,11 +137,7 @@ def rhs(t, y, dy, pp, lc, rot, en, diag):
         u1 -= b * (w2 * n3 - w3 * n2)
         u2 -= b * (w3 * n1 - w1 * n3)
         u3 -= b * (w1 * n2 - w2 * n1)
-    un = u1 * n1 + u2 * n2 + u3 * n3
-    vs1 = u1 - un * n1
-    vs2 = u2 - un * n2
-    vs3 = u3 - un * n3
-    slip2 = vs1 * vs1 + vs2 * vs2 + vs3 * vs3
+    vs1, vs2, vs3, slip2 = tangential_part(u1, u2, u3, n1, n2, n3)
     fc = 0.0
     if mu > 0.0:
         fc = -mu * N / math.sqrt(slip2 + eps * eps)
@@ -150,16 +148,9 @@ def rhs(t, y, dy, pp, lc, rot, en, diag):
     r1 = f1 / m - a01
     r2 = f2 / m - a02
     r3 = f3 / m - g - a03
-    j11 = xR1 * xR1 + xR2 * xR2 + xR3 * xR3
-    j12 = xR1 * xa1 + xR2 * xa2 + xR3 * xa3
-    j22 = xa1 * xa1 + xa2 * xa2 + xa3 * xa3
-    c1 = xR1 * r1 + xR2 * r2 + xR3 * r3
-    c2 = xa1 * r1 + xa2 * r2 + xa3 * r3
-    idet = 1.0 / (j11 * j22 - j12 * j12)
     dy[0] = Rd
     dy[1] = ad
-    dy[2] = (j22 * c1 - j12 * c2) * idet
-    dy[3] = (j11 * c2 - j12 * c1) * idet
+    dy[2], dy[3] = tangent_coordinates(xR1, xR2, xR3, xa1, xa2, xa3, r1, r2, r3)
     ie = 4
     if rot:
         ie = 12

@@ -25,6 +25,8 @@ from creatio.model.sphere import (
     attitude_rates,
     centre_tangents,
     max_curvature_times_b,
+    tangent_coordinates,
+    tangential_part,
 )
 from creatio.model.structure import confinement_power, free_structure_solve
 
@@ -80,11 +82,7 @@ def rhs_structure(t, y, dy, pp, lc, rot, en, diag, px):
         u1 -= b * (w2 * n3 - w3 * n2)
         u2 -= b * (w3 * n1 - w1 * n3)
         u3 -= b * (w1 * n2 - w2 * n1)
-    un = u1 * n1 + u2 * n2 + u3 * n3
-    vs1 = u1 - un * n1
-    vs2 = u2 - un * n2
-    vs3 = u3 - un * n3
-    slip2 = vs1 * vs1 + vs2 * vs2 + vs3 * vs3
+    vs1, vs2, vs3, slip2 = tangential_part(u1, u2, u3, n1, n2, n3)
     ph = 0.0
     if mu > 0.0:
         ph = -mu / math.sqrt(slip2 + eps * eps)
@@ -105,16 +103,9 @@ def rhs_structure(t, y, dy, pp, lc, rot, en, diag, px):
     r1 = b1 + thdd * X2 + f1 / m
     r2 = b2 - thdd * X1 + f2 / m
     r3 = b3 + f3 / m
-    j11 = xR1 * xR1 + xR2 * xR2 + xR3 * xR3
-    j12 = xR1 * xa1 + xR2 * xa2 + xR3 * xa3
-    j22 = xa1 * xa1 + xa2 * xa2 + xa3 * xa3
-    c1 = xR1 * r1 + xR2 * r2 + xR3 * r3
-    c2 = xa1 * r1 + xa2 * r2 + xa3 * r3
-    idet = 1.0 / (j11 * j22 - j12 * j12)
     dy[0] = Rd
     dy[1] = ad
-    dy[2] = (j22 * c1 - j12 * c2) * idet
-    dy[3] = (j11 * c2 - j12 * c1) * idet
+    dy[2], dy[3] = tangent_coordinates(xR1, xR2, xR3, xa1, xa2, xa3, r1, r2, r3)
     if rot:
         # I domega/dt = (-b n) x f, turned from the rotating frame to the world by theta + a
         s = -b / inertia

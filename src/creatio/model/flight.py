@@ -18,6 +18,7 @@ from __future__ import annotations
 import math
 
 from creatio.model.offset import offset_jets
+from creatio.model.sphere import tangential_part
 
 __all__ = ["FOOT_TOL", "SCALAR_KERNELS", "foot_point", "impact"]
 
@@ -127,11 +128,8 @@ def impact(V1, V2, V3, w1, w2, w3, n1, n2, n3, ct1, ct2, ct3, m, inertia, b, e, 
     s1 = u1 - b * (w2 * n3 - w3 * n2)
     s2 = u2 - b * (w3 * n1 - w1 * n3)
     s3 = u3 - b * (w1 * n2 - w2 * n1)
-    sn = s1 * n1 + s2 * n2 + s3 * n3
-    s1 -= sn * n1
-    s2 -= sn * n2
-    s3 -= sn * n3
-    slip = math.sqrt(s1 * s1 + s2 * s2 + s3 * s3)
+    s1, s2, s3, slip2 = tangential_part(s1, s2, s3, n1, n2, n3)
+    slip = math.sqrt(slip2)
     jn = m * (1.0 + e) * abs(vn)
     meff = 1.0 / (1.0 / m + b * b / inertia)
     jt = min(meff * slip, mu * jn)

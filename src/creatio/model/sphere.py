@@ -125,6 +125,31 @@ def stable_step(bound: float, rate: float) -> float:
     return bound / rate
 
 
+def tangent_coordinates(xR1: float, xR2: float, xR3: float, xa1: float, xa2: float,
+                        xa3: float, r1: float, r2: float, r3: float) -> tuple[float, float]:
+    """(J^T J)^-1 J^T r for J = [X_R X_alpha]: the (R, alpha) components of the tangent
+    combination closest to r, as the equations of motion project onto the surface
+    (docs/model.md s.4)."""
+    j11 = xR1 * xR1 + xR2 * xR2 + xR3 * xR3
+    j12 = xR1 * xa1 + xR2 * xa2 + xR3 * xa3
+    j22 = xa1 * xa1 + xa2 * xa2 + xa3 * xa3
+    c1 = xR1 * r1 + xR2 * r2 + xR3 * r3
+    c2 = xa1 * r1 + xa2 * r2 + xa3 * r3
+    idet = 1.0 / (j11 * j22 - j12 * j12)
+    return (j22 * c1 - j12 * c2) * idet, (j11 * c2 - j12 * c1) * idet
+
+
+def tangential_part(u1: float, u2: float, u3: float, n1: float, n2: float,
+                    n3: float) -> tuple[float, float, float, float]:
+    """The part of u tangent to the unit normal n, and its squared length: the contact
+    point's slip v_s from its velocity relative to the membrane (docs/model.md s.4)."""
+    un = u1 * n1 + u2 * n2 + u3 * n3
+    t1 = u1 - un * n1
+    t2 = u2 - un * n2
+    t3 = u3 - un * n3
+    return t1, t2, t3, t1 * t1 + t2 * t2 + t3 * t3
+
+
 def attitude_rates(q0: float, q1: float, q2: float, q3: float, wx: float, wy: float,
                    wz: float) -> tuple[float, float, float, float, float]:
     """dQ/dt = 1/2 (0, omega) * Q for the unit quaternion Q of the sphere's orientation and
@@ -138,4 +163,5 @@ def attitude_rates(q0: float, q1: float, q2: float, q3: float, wx: float, wy: fl
 
 #: The functions the dynamics layer compiles into its loops.
 SCALAR_KERNELS = (inertia, centre_tangents, acceleration_at_fixed_rates, normal_reaction,
-                  max_curvature_times_b, attitude_rates)
+                  max_curvature_times_b, attitude_rates, tangential_part,
+                  tangent_coordinates)

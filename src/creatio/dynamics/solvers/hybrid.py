@@ -80,7 +80,7 @@ from creatio.model.cavity import cavity_cell_offsets, cavity_radius
 from creatio.model.flight import foot_point, impact
 from creatio.model.laws import law_eval
 from creatio.model.offset import offset_jets
-from creatio.model.sphere import attitude_rates, centre_tangents
+from creatio.model.sphere import attitude_rates, centre_tangents, tangent_coordinates
 
 __all__ = ["CONTACT", "EVENT_KINDS", "EVENT_TOL", "FLIGHT", "NEV", "run_flight"]
 
@@ -296,16 +296,9 @@ def _to_contact(t, yf, yc, pp, lc, R, a):
     u1 = yf[3] * ca + yf[4] * sa - xt1
     u2 = -yf[3] * sa + yf[4] * ca - xt2
     u3 = yf[5] - xt3
-    j11 = xR1 * xR1 + xR2 * xR2 + xR3 * xR3
-    j12 = xR1 * xa1 + xR2 * xa2 + xR3 * xa3
-    j22 = xa1 * xa1 + xa2 * xa2 + xa3 * xa3
-    c1 = xR1 * u1 + xR2 * u2 + xR3 * u3
-    c2 = xa1 * u1 + xa2 * u2 + xa3 * u3
-    idet = 1.0 / (j11 * j22 - j12 * j12)
     yc[0] = R
     yc[1] = a
-    yc[2] = (j22 * c1 - j12 * c2) * idet
-    yc[3] = (j11 * c2 - j12 * c1) * idet
+    yc[2], yc[3] = tangent_coordinates(xR1, xR2, xR3, xa1, xa2, xa3, u1, u2, u3)
     for j in range(10):
         yc[4 + j] = yf[6 + j]
 
