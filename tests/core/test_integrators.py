@@ -71,6 +71,65 @@ def test_observed_order_on_smooth_case(smooth: SphereProblem, method: str, dts) 
     assert abs(order - ORDERS[method]) < 0.35, (method, errs, order)
 
 
+@pytest.mark.parametrize(
+    ("method", "dts"),
+    [
+        ("rk4", (0.03, 0.015)),
+        ("dopri5", (0.06, 0.03)),
+        ("dop853", (0.3, 0.15)),
+        ("radau5", (0.12, 0.06)),
+    ],
+)
+def test_dense_output_order_at_off_step_times(smooth: SphereProblem, method: str,
+                                              dts) -> None:
+    """With dense output and steps that do not divide the 0.2 s grid, the rows between steps
+    converge at min(p, q + 1) for order p and interpolant order q (rk4 4, dopri5 5, dop853 8,
+    radau5 4): a lower-order interpolant (a linear one: 2) fails."""
+    ref = _ref(smooth)
+    expected = min(METHODS[method].order, METHODS[method].dense_order + 1)
+    errs = []
+    for dt in dts:
+        assert (smooth.output_interval / dt) % 1.0 > 0.1  # most rows fall between steps
+        prob = dataclasses.replace(smooth, method=method, dt=dt, fixed_step=method != "rk4",
+                                   dense_output=True)
+        res = simulate(prob)
+        assert res.status == "ok" and res.steps == math.ceil(smooth.t_end / dt - 1e-9)
+        np.testing.assert_allclose(res.t, np.arange(res.t.size) * smooth.output_interval,
+                                   rtol=0.0, atol=1e-12)
+        errs.append(_err(res.X, ref))
+    order = math.log2(errs[0] / errs[1])
+    assert errs[1] > 1e-13, "finest error must stay above rounding for an order estimate"
+    assert order > expected - 0.35, (method, errs, order, expected)
+
+
+@pytest.mark.parametrize("method", ["dopri5", "dop853", "radau5"])
+def test_adaptive_dense_output_meets_the_tolerance_in_fewer_steps(en02: SphereProblem,
+                                                                  method: str) -> None:
+    """Steps that need not land on the grid: fewer of them than the landing run's, and the
+    interpolated rows still within rtol x |X| of the reference."""
+    prob = dataclasses.replace(en02, t_end=30.0)
+    ref = _ref(prob)
+    rtol = 1e-9
+    landing = simulate(dataclasses.replace(prob, method=method, rtol=rtol, atol=rtol / 100))
+    dense = simulate(dataclasses.replace(prob, method=method, rtol=rtol, atol=rtol / 100,
+                                         dense_output=True))
+    assert dense.status == "ok" and dense.t.size == landing.t.size
+    scale = float(np.linalg.norm(ref, axis=1).max())
+    assert _err(dense.X, ref) <= rtol * scale
+    assert dense.steps < landing.steps
+
+
+def test_dense_output_frees_a_fixed_step_from_the_grid() -> None:
+    """solver.dt = 3 ms does not divide the 0.1 s grid: refused by name, accepted with
+    solver.dense_output=true."""
+    with pytest.raises(ConfigError, match="solver.output_interval"):
+        resolve("en02", ["solver.dt=0.003"])
+    prob = resolve("en02", ["solver.dt=0.003", "solver.dense_output=true"]).obj.sphere_problem()
+    assert prob.dense_output and prob.dt == 0.003
+    with pytest.raises(ConfigError, match="solver.dense_output"):
+        resolve("en02f", ["solver.dense_output=true", "flight.contact_loss=flight"])
+
+
 @pytest.mark.parametrize("method", ["dopri5", "dop853", "radau5"])
 @pytest.mark.parametrize("rtol", [1e-6, 1e-9])
 def test_adaptive_methods_meet_their_tolerance(en02: SphereProblem, method: str,

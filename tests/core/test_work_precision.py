@@ -29,7 +29,9 @@ TINY = [
     "study.methods.rk4.steps_per_output=[50,20]", "study.methods.dopri5.rtol=[1e-6]",
     "study.methods.dop853.rtol=[1e-8]", "study.methods.radau5.rtol=[1e-6,1e-8]",
     "study.methods.radau5.steps_per_output=[5]", "study.unlisted.rtol=[1e-6]",
-    "study.unlisted.steps_per_output=[100,50]",
+    "study.unlisted.steps_per_output=[100,50]", "study.methods.dopri5.dense_rtol=[]",
+    "study.methods.dop853.dense_rtol=[]", "study.methods.radau5.dense_rtol=[1e-8]",
+    "study.methods.radau5.dense_dt=[0.06]",
     "study.peers.DOP853=[1e-6]", "study.peers.Radau=[1e-6]", "study.peers.LSODA=[1e-8]",
     "study.peers.CVODE=[1e-8]",
     "study.repeats=2", "study.jit.methods=[rk4]", "study.jit.cold=false",
@@ -53,8 +55,14 @@ def test_tiny_config_validates_and_plans_every_registered_method(tiny) -> None:
     for s in plan:  # adaptive methods by rtol (and "-fixed" by dt), fixed-step ones by dt
         if s.group == "native":
             adaptive = METHODS[s.solver].adaptive
-            assert s.kind == ("dt" if s.method.endswith("-fixed") or not adaptive else "rtol")
+            assert s.kind == ("dt" if "-fixed" in s.method or not adaptive else "rtol")
+            assert s.dense == s.method.endswith("-dense")
     assert [s.label for s in plan if s.method == "rk4"] == ["dt=0.002", "dt=0.005"]
+    assert [(s.method, s.label) for s in plan if s.dense] == [
+        ("rk4-dense", "dt=0.003"), ("radau5-dense", "rtol=1e-08"),
+        ("radau5-fixed-dense", "dt=0.06")]
+    dense = next(s for s in plan if s.dense)
+    assert wp.native_problem(wp.base_problem(cfg, "en02"), dense, 0.01).dense_output
     assert {s.method for s in plan if s.group == "full"} == {"rk4-full", "radau5-full"}
     assert {s.method for s in plan if s.group == "mu0"} == {"rk4-mu0", "rk4-mu0-full"}
     from creatio.dynamics.peers import PEERS, SUNDIALS

@@ -121,6 +121,9 @@ class SphereProblem:
     method: "rk4" (fixed step dt) or one of the adaptive methods "dopri5", "dop853",
     "radau5", which control the local error to rtol/atol (dt is then the first step; with
     fixed_step they take the constant step dt instead, without error control).
+    ``dense_output``: steps are not cut to land on the output grid (a fixed dt need not divide
+    output_interval or t_end; the last step lands on t_end) and the rows on the grid are the
+    method's dense output, each with one more right-hand-side evaluation for its diagnostics.
 
     Beyond the notebook (docs/model.md s.8-10): ``equilibrium_start`` starts at rest at the
     static equilibrium nearest the bottom of the cavity nearest (R_init, alpha_init) instead
@@ -167,6 +170,7 @@ class SphereProblem:
     rtol: float = 1e-10
     atol: float = 1e-12
     fixed_step: bool = False
+    dense_output: bool = False
     structure_inertia: float = math.inf
     confinement: str = "none"
     confining_force: float = 0.0
@@ -208,7 +212,7 @@ class SphereProblem:
             value = getattr(self, name)
             if not (math.isfinite(value) and value > 0.0):
                 raise ValueError(f"{name} must be finite and > 0, got {value}")
-        if not self.adaptive:
+        if not self.adaptive and not self.dense_output:
             _multiple("output_interval", self.output_interval, self.dt)
             _multiple("t_end", self.t_end, self.dt)
         if self.rotation is False and (self.mu > 0.0 or any(omega)):
@@ -248,6 +252,9 @@ class SphereProblem:
             if self.start_height > 0.0:
                 raise ValueError(f"start_height = {self.start_height} m needs flight")
             return
+        if self.dense_output:
+            raise ValueError("flight takes its own steps to every event: dense_output is not "
+                             "available with it")
         if solvers.get(self.method).stepper != solvers.EXPLICIT:
             raise ValueError(f"flight needs an explicit method (rk4, dopri5, dop853), got "
                              f"{self.method!r}")
@@ -356,10 +363,10 @@ class SphereProblem:
         parameters, laws, initial state, a preallocated history table, and the step plan.
 
         Fixed-step runs take n_steps = t_end / dt steps with a history row every
-        output_interval / dt; adaptive ones write a row per output time.
+        output_interval / dt; adaptive ones, and dense output, write a row per output time.
         """
         rot, en = self.rotation_integrated, bool(self.energy)
-        if self.adaptive:
+        if self.adaptive or self.dense_output:
             n_steps, stride = math.ceil(self.t_end / self.output_interval * (1 - 1e-12)), 1
         else:
             n_steps = _multiple("t_end", self.t_end, self.dt)
@@ -372,7 +379,7 @@ class SphereProblem:
             "n_steps": 0 if self.adaptive else n_steps, "stride": stride,
             "rtol": self.rtol, "atol": self.atol, "fixed": not self.adaptive,
             "max_steps": MAX_STEPS, "rotation": rot, "energy": en,
-            "free": self.structure_free,
+            "free": self.structure_free, "dense": self.dense_output,
         }
         return args, kwargs
 

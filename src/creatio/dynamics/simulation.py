@@ -104,7 +104,7 @@ def simulate(problem: SphereProblem) -> SimulationResult:
     in_flight = False
     if problem.flight:
         ev, fl = problem.flight_arguments()
-        for key in ("rotation", "energy", "free"):
+        for key in ("rotation", "energy", "free", "dense"):
             kwargs.pop(key)
         (status, steps, rows, evals, ext, rejected, jacobians, factorisations, stop_time,
          n_events, fx, phase) = run_flight(*args, ev, fl, **kwargs)

@@ -279,7 +279,9 @@ class SolverConfig:
     control the local error to rtol/atol; their convergence pair is the run at rtol/atol and
     the run at the tolerances divided by refine**order (the error ratio a dt / refine pair of
     that order gives when the global error is proportional to the tolerance), and their
-    datasets are still named by dt and dt / refine.
+    datasets are still named by dt and dt / refine. dense_output samples the output grid from
+    each step's interpolant instead of cutting steps to land on it (then a fixed dt need not
+    divide output_interval).
     """
 
     method: Method = Method.rk4
@@ -290,6 +292,7 @@ class SolverConfig:
     rtol: float = 1e-8
     atol: float = 1e-10
     fixed_step: bool = False
+    dense_output: bool = False
 
     @property
     def adaptive(self) -> bool:
@@ -312,7 +315,7 @@ class SolverConfig:
         require(not (self.fixed_step and not METHODS[str(self.method)].adaptive),
                 f"{path}.fixed_step", self.fixed_step,
                 f"applies to the adaptive methods; {self.method} always takes a fixed step")
-        if self.adaptive:
+        if self.adaptive or self.dense_output:
             require(
                 self.output_interval > 0.0, f"{path}.output_interval", self.output_interval,
                 "must be > 0",
@@ -543,7 +546,8 @@ class DynamicConfig:
             f"must lie in [0, geometry.dR = {self.geometry.dR}]",
         )
         require(
-            self.solver.adaptive or steps_in(self.study.duration, self.solver.dt) is not None,
+            self.solver.adaptive or self.solver.dense_output
+            or steps_in(self.study.duration, self.solver.dt) is not None,
             "study.duration",
             self.study.duration,
             f"must be an integer multiple of solver.dt = {self.solver.dt}",
@@ -579,6 +583,7 @@ class DynamicConfig:
             t_end=st.duration, dt=dt,
             output_interval=sv.output_interval, allow_unstable=sv.allow_unstable,
             method=str(sv.method), rtol=rtol, atol=atol, fixed_step=sv.fixed_step,
+            dense_output=sv.dense_output,
             rotation=True if Output.rotation in st.outputs else None,
             energy=Output.energy in st.outputs,
         )
@@ -805,6 +810,10 @@ class En02fConfig(DynamicConfig):
         """The sphere studies' rules, the flight settings, and every run's duration a
         multiple of a fixed dt."""
         self.flight.check("flight")  # first: the other rules build problems from it
+        require(not (self.solver.dense_output and self.flight.contact_loss is ContactLoss.flight),
+                "solver.dense_output", self.solver.dense_output,
+                "is not available with flight.contact_loss = flight (the flight loop takes "
+                "its own steps to every event)")
         super().check()
         for i, T in enumerate(self.study.cycles_s):
             require(self.solver.adaptive or steps_in(T, self.solver.dt) is not None,

@@ -86,20 +86,27 @@ class MethodGrid:
     divides the output grid. An implicit method's fixed steps run at the base's tolerances,
     which its Newton iteration converges to, and again at each of newton_rtol (atol = rtol x
     atol_ratio): at a fixed step the Newton tolerance, not the step, can set the error.
+    With dense output (rows from each step's interpolant, steps free of the grid) it runs
+    again at each of dense_rtol ("<name>-dense") and at the fixed steps dense_dt, in
+    seconds, which need not divide the grid ("<name>-fixed-dense", or "rk4-dense").
     """
 
     rtol: list[float] = field(default_factory=list)
     steps_per_output: list[int] = field(default_factory=list)
     newton_rtol: list[float] = field(default_factory=list)
+    dense_rtol: list[float] = field(default_factory=list)
+    dense_dt: list[float] = field(default_factory=list)
 
     def check(self, path: str) -> None:
-        """Tolerances in (0, 1), step counts >= 1."""
-        for key in ("rtol", "newton_rtol"):
+        """Tolerances in (0, 1), step counts >= 1, dense steps > 0."""
+        for key in ("rtol", "newton_rtol", "dense_rtol"):
             for i, v in enumerate(getattr(self, key)):
                 require(math.isfinite(v) and 0.0 < v < 1.0, f"{path}.{key}[{i}]", v,
                         "must lie in (0, 1)")
         for i, n in enumerate(self.steps_per_output):
             require(n >= 1, f"{path}.steps_per_output[{i}]", n, "must be an integer >= 1")
+        for i, v in enumerate(self.dense_dt):
+            require(math.isfinite(v) and v > 0.0, f"{path}.dense_dt[{i}]", v, "must be > 0 s")
 
 
 @dataclass
@@ -205,6 +212,8 @@ class WorkPrecisionStudy:
             else:
                 require(not g.rtol, f"{key}.rtol", list(g.rtol),
                         f"{name} takes a fixed step: give steps_per_output")
+                require(not g.dense_rtol, f"{key}.dense_rtol", list(g.dense_rtol),
+                        f"{name} takes a fixed step: give dense_dt")
                 require(len(g.steps_per_output) >= 1, f"{key}.steps_per_output",
                         list(g.steps_per_output), "needs at least 1 value")
         self.unlisted.check(f"{path}.unlisted")
@@ -283,7 +292,8 @@ def parts(cfg: WorkPrecisionConfig) -> list[Part]:
 class Setting:
     """One benchmarked run: group (native, full, mu0, peer), entry label, the registered
     method or peer it runs, its setting (rtol, or a fixed dt) and, for an implicit method's
-    fixed step, the rtol of its Newton iteration (None: the base's)."""
+    fixed step, the rtol of its Newton iteration (None: the base's), and whether its rows
+    are dense output."""
 
     group: str
     method: str
@@ -291,6 +301,7 @@ class Setting:
     kind: str
     value: float
     newton_rtol: float | None = None
+    dense: bool = False
 
     @property
     def label(self) -> str:
@@ -326,6 +337,10 @@ def settings(study: WorkPrecisionStudy, base: SphereProblem) -> list[Setting]:
             out += [Setting("native", fixed, name, "dt", output_interval / n)]
             out += [Setting("native", fixed, name, "dt", output_interval / n, float(v))
                     for v in grid.newton_rtol]
+        out += [Setting("native", f"{name}-dense", name, "rtol", float(v), dense=True)
+                for v in _thin(grid.dense_rtol, study.quick)]
+        out += [Setting("native", f"{fixed}-dense", name, "dt", float(v), dense=True)
+                for v in _thin(grid.dense_dt, study.quick)]
     for name, grid in full.items():
         fixed = f"{name}-fixed" if METHODS[name].adaptive else name
         out += [Setting("full", f"{name}-full", name, "rtol", float(v)) for v in grid.rtol]
@@ -352,12 +367,13 @@ def native_problem(base: SphereProblem, s: Setting, atol_ratio: float) -> Sphere
     energy = s.group == "full"
     if s.kind == "dt":
         prob = dataclasses.replace(base, method=s.solver, dt=s.value, allow_unstable=True,
-                                   fixed_step=METHODS[s.solver].adaptive, energy=energy)
+                                   fixed_step=METHODS[s.solver].adaptive, energy=energy,
+                                   dense_output=s.dense)
         if s.newton_rtol is None:
             return prob
         return dataclasses.replace(prob, rtol=s.newton_rtol, atol=s.newton_rtol * atol_ratio)
     return dataclasses.replace(base, method=s.solver, rtol=s.value, atol=s.value * atol_ratio,
-                               fixed_step=False, energy=energy)
+                               fixed_step=False, energy=energy, dense_output=s.dense)
 
 
 # -------------------------------------------------------------------------------- running

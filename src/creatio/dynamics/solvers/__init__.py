@@ -40,7 +40,10 @@ class Tableau:
 
     y_new = y + (h / b_divisor) sum_q b[q] k_q, summed in b_order (the order fixes the
     rounding); e (and e3 for the combined estimate) weigh the stages plus the end-of-step
-    derivative, as in scipy's RungeKutta.E.
+    derivative, as in scipy's RungeKutta.E. Dense output: y(t + x h) = y + h sum_q K_q
+    sum_k dense[q, k] x^(k + 1) over the stages, the end-of-step derivative and the stages
+    c_extra / a_extra computed only for it (a_extra's rows weigh every earlier stage); without
+    dense, the cubic Hermite interpolant of the step.
     """
 
     c: NDArray[np.float64]
@@ -51,6 +54,9 @@ class Tableau:
     e: NDArray[np.float64] | None = None
     e3: NDArray[np.float64] | None = None
     estimator: int = NO_ESTIMATE
+    dense: NDArray[np.float64] | None = None
+    c_extra: NDArray[np.float64] | None = None
+    a_extra: NDArray[np.float64] | None = None
 
     @property
     def stages(self) -> int:
@@ -85,6 +91,24 @@ class Tableau:
                 np.array(a_idx, dtype=np.int64), np.array(a_val, dtype=float),
                 np.array(b_idx, dtype=np.int64), b[b_idx].copy(), e, e3)
 
+    def dense_arrays(self) -> tuple[NDArray, NDArray, NDArray]:
+        """(c_extra, a_extra, dense) of the compiled dense output: a_extra as a dense
+        (extra, s + 1 + extra) matrix, dense as (s + 1 + extra, degree)."""
+        s = self.stages
+        if self.dense is None:
+            return (np.zeros(0), np.zeros((0, s + 1)),
+                    tb.hermite_dense_polynomial(self.weights()))
+        if self.c_extra is None or self.a_extra is None:
+            return np.zeros(0), np.zeros((0, s + 1)), np.ascontiguousarray(self.dense, float)
+        return (np.ascontiguousarray(self.c_extra, float),
+                np.ascontiguousarray(self.a_extra, float),
+                np.ascontiguousarray(self.dense, float))
+
+    @property
+    def dense_order(self) -> int:
+        """Order of the dense output (the interpolant's degree): 3 for the Hermite cubic."""
+        return 3 if self.dense is None else int(np.asarray(self.dense).shape[1])
+
     def weights(self) -> NDArray[np.float64]:
         """The weights b / b_divisor of the stability function."""
         return np.asarray(self.b, float) / self.b_divisor
@@ -100,6 +124,9 @@ class Method:
     error_order: int | None
     description: str
     tableau: Tableau | None = None
+    #: order of the dense output between steps (interpolant's degree; Radau IIA 5: its
+    #: collocation cubic); None: the tableau's
+    dense_order_override: int | None = field(default=None, repr=False)
     exact_stability_bound: float | None = field(default=None, repr=False)
 
     @property
@@ -112,18 +139,29 @@ class Method:
         """Whether stiff modes are damped at any step (no stability limit on dt)."""
         return self.stepper == RADAU
 
+    @property
+    def dense_order(self) -> int:
+        """Order of the dense output between steps (the interpolant's degree)."""
+        if self.dense_order_override is not None:
+            return self.dense_order_override
+        assert self.tableau is not None
+        return self.tableau.dense_order
+
     @functools.cached_property
     def driver_tableau(self) -> tuple:
         """The tableau argument of the compiled driver (a one-stage stand-in for Radau):
-        (c, a_ptr, a_idx, a_val, b_idx, b_val, b_divisor, e, e3, estimator, error_order)."""
+        (c, a_ptr, a_idx, a_val, b_idx, b_val, b_divisor, e, e3, estimator, error_order,
+        c_extra, a_extra, dense)."""
         error_order = int(self.error_order or 0)
         if self.tableau is None:
             one, none = np.zeros(1), np.zeros(1, dtype=np.int64)
             return (one, np.zeros(2, dtype=np.int64), none, one, none, one, 1.0, np.zeros(2),
-                    np.zeros(2), NO_ESTIMATE, error_order)
+                    np.zeros(2), NO_ESTIMATE, error_order, np.zeros(0), np.zeros((0, 2)),
+                    np.zeros((2, 1)))
         c, a_ptr, a_idx, a_val, b_idx, b_val, e, e3 = self.tableau.arrays()
+        c_extra, a_extra, dense = self.tableau.dense_arrays()
         return (c, a_ptr, a_idx, a_val, b_idx, b_val, float(self.tableau.b_divisor), e, e3,
-                int(self.tableau.estimator), error_order)
+                int(self.tableau.estimator), error_order, c_extra, a_extra, dense)
 
     @functools.cached_property
     def stability_bound(self) -> float:
@@ -147,13 +185,17 @@ METHODS: dict[str, Method] = {
                Tableau(tb.RK4_C, tb.RK4_A, tb.RK4_B, tb.RK4_B_DIVISOR, tb.RK4_B_ORDER),
                exact_stability_bound=tb.RK4_REAL_STABILITY),
         Method("dopri5", EXPLICIT, 5, 4, "Dormand-Prince 5(4), adaptive explicit pair",
-               Tableau(tb.DP5_C, tb.DP5_A, tb.DP5_B, e=tb.DP5_E, estimator=EMBEDDED)),
+               Tableau(tb.DP5_C, tb.DP5_A, tb.DP5_B, e=tb.DP5_E, estimator=EMBEDDED,
+                       dense=tb.DP5_P)),
         Method("dop853", EXPLICIT, 8, 7,
                "Dormand-Prince 8(5,3), adaptive explicit pair with Hairer's error estimate",
                Tableau(tb.DOP853_C, tb.DOP853_A, tb.DOP853_B, e=tb.DOP853_E5,
-                       e3=tb.DOP853_E3, estimator=COMBINED_5_3)),
+                       e3=tb.DOP853_E3, estimator=COMBINED_5_3,
+                       dense=tb.dop853_dense_polynomial(), c_extra=tb.DOP853_C_EXTRA,
+                       a_extra=tb.DOP853_A_EXTRA)),
         Method("radau5", RADAU, 5, 3,
-               "Radau IIA order 5, adaptive, L-stable (simplified Newton, Gustafsson control)"),
+               "Radau IIA order 5, adaptive, L-stable (simplified Newton, Gustafsson control)",
+               dense_order_override=3),
     )
 }
 

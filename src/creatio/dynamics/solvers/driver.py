@@ -58,6 +58,12 @@ def _implicit_workspace(stepper, n):
     raise NotImplementedError("called only from compiled code")
 
 
+def _implicit_dense(stepper, ws, t, yout):
+    """The implicit stepper's dense output at t within its last accepted step (compiled code
+    only; resolved at compile time)."""
+    raise NotImplementedError("called only from compiled code")
+
+
 @overload(_implicit_step, prefer_literal=True, inline="always")
 def _implicit_step_of(stepper, t, t_next, h, y, f, ynew, fnew, dbuf, ws, tol, fixed, rejected,
                       pp, lc, rot, en, free, px):
@@ -84,6 +90,16 @@ def _implicit_workspace_of(stepper, n):
     return lambda stepper, n: np.empty(0)
 
 
+@overload(_implicit_dense, prefer_literal=True, inline="always")
+def _implicit_dense_of(stepper, ws, t, yout):
+    """Radau's collocation polynomial for the RADAU kind, a stand-in never run otherwise."""
+    if not isinstance(stepper, types.IntegerLiteral):
+        return None
+    if stepper.literal_value == RADAU:
+        return lambda stepper, ws, t, yout: radau.dense(ws, t, yout)
+    return lambda stepper, ws, t, yout: None
+
+
 @njit(cache=True)
 def _next_h(h, h_use, factor, m):
     """The controller's next proposal; a step shortened (m == 1, h_use < h) to land on an
@@ -95,29 +111,39 @@ def _next_h(h, h_use, factor, m):
 
 @njit(cache=True)
 def _drive(stepper, p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, atol, fixed,
-           max_steps, tab, out, rot, en, free):
+           max_steps, tab, out, rot, en, free, dense):
     """Integrate from t = 0 to t_end with the stepper of kind `stepper` (a compile-time
     constant); rows of `out` are the sampled histories.
 
     Fixed step: h0 = dt, n_steps steps, a history row every `stride` steps. Adaptive: h0 is
     the first step, rows on the grid of `interval`. tab = (c, a_ptr, a_idx, a_val, b_idx,
-    b_val, b_divisor, e, e3, estimator, error_order) is the explicit tableau as its nonzeros
-    (creatio.dynamics.solvers.Tableau.arrays). Returns (status, steps, rows, rhs_evals,
+    b_val, b_divisor, e, e3, estimator, error_order, c_extra, a_extra, dense_p) is the explicit
+    tableau as its nonzeros and its dense output (creatio.dynamics.solvers.Tableau.arrays,
+    dense_arrays). With `dense`, steps are not cut to the grid: the step size runs free (a
+    fixed step need not divide the interval), only the last step lands on t_end, and the rows
+    on the grid are the step's dense output (with one more right-hand-side evaluation each
+    for their diagnostics). Returns (status, steps, rows, rhs_evals,
     extrema, rejected, jacobians, lu_factorisations, stop_time); STEP_FAILED when the step
     underflows, Newton fails at a fixed step, or max_steps accepted steps did not reach t_end.
     """
     pp, lc, px = pack(p, lawc)
-    c, a_ptr, a_idx, a_val, b_idx, b_val, b_divisor, e, e3, estimator, error_order = tab
+    (c, a_ptr, a_idx, a_val, b_idx, b_val, b_divisor, e, e3, estimator, error_order, c_extra,
+     a_extra, dense_p) = tab
     n = y0.size
     s = c.size
+    n_extra = c_extra.size
+    n_dense = dense_p.shape[0]
     y = y0.copy()
     ynew = np.empty(n)
-    K = np.empty((s + 1, n))  # explicit stages (one row each) and the end-of-step stage
+    # explicit stages (one row each), the end-of-step stage and the dense output's extra ones
+    K = np.empty((n_dense, n))
     f = K[0]  # f(t, y) is the first stage: a view made once, so never copied into K
     fnew = np.empty(n)
     dbuf = np.empty(NDIAG)
     work = np.empty(n)
     kst = np.empty(n)
+    yout = np.empty(n)
+    wq = np.empty(n_dense)
     iws = _implicit_workspace(stepper, n)
     tol = (rtol, atol)
     ext = new_extrema(en)
@@ -133,9 +159,9 @@ def _drive(stepper, p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, ato
     t = 0.0
     status = st.OK
     # output grid of an adaptive run: n_int whole intervals, then t_end
-    n_int = int(math.floor(t_end / interval * (1.0 + 1e-12))) if not fixed else 0
+    n_int = int(math.floor(t_end / interval * (1.0 + 1e-12))) if dense or not fixed else 0
     jn = 1
-    h = h0 if fixed else min(h0, interval)
+    h = h0 if fixed or dense else min(h0, interval)
     final = n_steps == 0 if fixed else t_end <= 0.0
     sample = yes
     # whether f and dbuf already hold f(t, y) and its diagnostics (an adaptive step's last
@@ -155,6 +181,10 @@ def _drive(stepper, p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, ato
             break
         if fixed:
             t_target = (steps + 1) * h0
+            if dense and t_target >= t_end * (1.0 - 1e-12):
+                t_target = t_end
+        elif dense:
+            t_target = t_end
         else:
             t_target = jn * interval if jn <= n_int else t_end
             if t_target > t_end:
@@ -170,14 +200,21 @@ def _drive(stepper, p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, ato
                 if steps >= max_steps or h < 1e-12 * max(1.0, t_end) or not math.isfinite(h):
                     status = st.STEP_FAILED
                     break
-                m = math.ceil(remaining / h * (1.0 - 1e-9))
-                if m < 1:
-                    m = 1
-                h_use = remaining / m
-                t_next = t + h_use
+                if dense:
+                    # free steps; the one that reaches t_end lands on it
+                    m = 1 if h >= remaining * (1.0 - 1e-9) else 2
+                    h_use = remaining if m == 1 else h
+                else:
+                    m = math.ceil(remaining / h * (1.0 - 1e-9))
+                    if m < 1:
+                        m = 1
+                    h_use = remaining / m
+                t_next = t_target if dense and m == 1 else t + h_use
                 if t_next <= t:
                     status = st.STEP_FAILED
                     break
+            elif dense and t_target == t_end:
+                h_use = t_end - t
             if stepper == EXPLICIT:
                 # Explicit Runge-Kutta, any tableau: K[0] = f(t, y) (f is K's first row); stage
                 # st from
@@ -221,13 +258,23 @@ def _drive(stepper, p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, ato
                     ynew[j] = y[j] + hb * ynew[j]
                 nj = 0
                 nl = 0
-                if fixed:
+                if fixed and not dense:
                     # the end-of-step derivative is the next step's first stage, evaluated
                     # with its diagnostics at the top of the next step
                     outcome = ACCEPTED
                     factor = 1.0
                     ev = s - 1
                     have_f = not yes
+                elif fixed:
+                    # dense output needs the end-of-step derivative now: the next step's first
+                    # stage, with its diagnostics, evaluated here instead of at its top
+                    store(rhs_of(free, t_next, ynew, fnew, pp, lc, rot, en, True, px), dbuf)
+                    for j in range(n):
+                        K[s, j] = fnew[j]
+                    outcome = ACCEPTED
+                    factor = 1.0
+                    ev = s
+                    have_f = yes
                 else:
                     # the error estimate needs the end-of-step derivative (FSAL): keep it
                     store(rhs_of(free, t_next, ynew, fnew, pp, lc, rot, en, True, px), dbuf)
@@ -258,13 +305,68 @@ def _drive(stepper, p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, ato
                 n_rej += 1
         if status != st.OK:
             break
+        if dense:
+            # rows on the grid inside the step (t_end's row is the landing step's end)
+            extras = n_extra == 0
+            while jn <= n_int:
+                tg = jn * interval
+                if tg > t_next or tg >= t_end * (1.0 - 1e-12):
+                    break
+                if stepper == EXPLICIT:
+                    if not extras:
+                        for i in range(n_extra):
+                            row = s + 1 + i
+                            for j in range(n):
+                                work[j] = 0.0
+                            for q in range(row):
+                                v = a_extra[i, q]
+                                if v != 0.0:
+                                    for j in range(n):
+                                        work[j] += v * K[q, j]
+                            for j in range(n):
+                                work[j] = y[j] + h_use * work[j]
+                            rhs_of(free, t + c_extra[i] * h_use, work, kst, pp, lc, rot, en,
+                                   False, px)
+                            for j in range(n):
+                                K[row, j] = kst[j]
+                        evals += n_extra
+                        extras = yes
+                    x = (tg - t) / h_use
+                    for q in range(n_dense):
+                        acc = 0.0
+                        xp = x
+                        for k in range(dense_p.shape[1]):
+                            acc += dense_p[q, k] * xp
+                            xp *= x
+                        wq[q] = acc
+                    for j in range(n):
+                        acc = 0.0
+                        for q in range(n_dense):
+                            acc += wq[q] * K[q, j]
+                        yout[j] = y[j] + h_use * acc
+                else:
+                    _implicit_dense(stepper, iws, tg, yout)
+                d = rhs_of(free, tg, yout, kst, pp, lc, rot, en, True, px)
+                evals += 1
+                status, wrote = observe(False, tg, yout, d, p, ext, out, rows, False, yes, rot,
+                                        en, free)
+                rows += wrote
+                jn += 1
+                if status != st.OK:
+                    break
+            if status != st.OK:
+                break
         steps += 1
         for j in range(n):
             y[j] = ynew[j]
         if have_f:
             for j in range(n):
                 f[j] = fnew[j]
-        if fixed:
+        if dense:
+            t = t_next
+            final = t_next == t_end
+            sample = final
+        elif fixed:
             t = t_next
             final = steps == n_steps
             sample = steps % stride == 0
@@ -289,114 +391,114 @@ def _drive(stepper, p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, ato
 # and bookkeeping it uses; an entry is compiled (and cached) on its first call only.
 @njit(cache=True)
 def _explicit_rot_en(p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, atol, fixed,
-                     max_steps, tab, out):
+                     max_steps, tab, out, dense):
     return _drive(EXPLICIT, p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, atol,
-                  fixed, max_steps, tab, out, True, True, False)
+                  fixed, max_steps, tab, out, True, True, False, dense)
 
 
 @njit(cache=True)
 def _explicit_rot(p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, atol, fixed, max_steps,
-                  tab, out):
+                  tab, out, dense):
     return _drive(EXPLICIT, p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, atol,
-                  fixed, max_steps, tab, out, True, False, False)
+                  fixed, max_steps, tab, out, True, False, False, dense)
 
 
 @njit(cache=True)
 def _explicit_en(p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, atol, fixed, max_steps,
-                 tab, out):
+                 tab, out, dense):
     return _drive(EXPLICIT, p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, atol,
-                  fixed, max_steps, tab, out, False, True, False)
+                  fixed, max_steps, tab, out, False, True, False, dense)
 
 
 @njit(cache=True)
 def _explicit_bare(p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, atol, fixed, max_steps,
-                   tab, out):
+                   tab, out, dense):
     return _drive(EXPLICIT, p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, atol,
-                  fixed, max_steps, tab, out, False, False, False)
+                  fixed, max_steps, tab, out, False, False, False, dense)
 
 
 @njit(cache=True)
 def _explicit_structure_rot_en(p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, atol,
-                               fixed, max_steps, tab, out):
+                               fixed, max_steps, tab, out, dense):
     return _drive(EXPLICIT, p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, atol,
-                  fixed, max_steps, tab, out, True, True, True)
+                  fixed, max_steps, tab, out, True, True, True, dense)
 
 
 @njit(cache=True)
 def _explicit_structure_rot(p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, atol, fixed,
-                            max_steps, tab, out):
+                            max_steps, tab, out, dense):
     return _drive(EXPLICIT, p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, atol,
-                  fixed, max_steps, tab, out, True, False, True)
+                  fixed, max_steps, tab, out, True, False, True, dense)
 
 
 @njit(cache=True)
 def _explicit_structure_en(p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, atol, fixed,
-                           max_steps, tab, out):
+                           max_steps, tab, out, dense):
     return _drive(EXPLICIT, p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, atol,
-                  fixed, max_steps, tab, out, False, True, True)
+                  fixed, max_steps, tab, out, False, True, True, dense)
 
 
 @njit(cache=True)
 def _explicit_structure_bare(p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, atol, fixed,
-                             max_steps, tab, out):
+                             max_steps, tab, out, dense):
     return _drive(EXPLICIT, p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, atol,
-                  fixed, max_steps, tab, out, False, False, True)
+                  fixed, max_steps, tab, out, False, False, True, dense)
 
 
 @njit(cache=True)
 def _radau_rot_en(p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, atol, fixed, max_steps,
-                  tab, out):
+                  tab, out, dense):
     return _drive(RADAU, p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, atol,
-                  fixed, max_steps, tab, out, True, True, False)
+                  fixed, max_steps, tab, out, True, True, False, dense)
 
 
 @njit(cache=True)
 def _radau_rot(p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, atol, fixed, max_steps,
-               tab, out):
+               tab, out, dense):
     return _drive(RADAU, p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, atol,
-                  fixed, max_steps, tab, out, True, False, False)
+                  fixed, max_steps, tab, out, True, False, False, dense)
 
 
 @njit(cache=True)
 def _radau_en(p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, atol, fixed, max_steps, tab,
-              out):
+              out, dense):
     return _drive(RADAU, p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, atol,
-                  fixed, max_steps, tab, out, False, True, False)
+                  fixed, max_steps, tab, out, False, True, False, dense)
 
 
 @njit(cache=True)
 def _radau_bare(p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, atol, fixed, max_steps,
-                tab, out):
+                tab, out, dense):
     return _drive(RADAU, p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, atol,
-                  fixed, max_steps, tab, out, False, False, False)
+                  fixed, max_steps, tab, out, False, False, False, dense)
 
 
 @njit(cache=True)
 def _radau_structure_rot_en(p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, atol, fixed,
-                            max_steps, tab, out):
+                            max_steps, tab, out, dense):
     return _drive(RADAU, p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, atol,
-                  fixed, max_steps, tab, out, True, True, True)
+                  fixed, max_steps, tab, out, True, True, True, dense)
 
 
 @njit(cache=True)
 def _radau_structure_rot(p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, atol, fixed,
-                         max_steps, tab, out):
+                         max_steps, tab, out, dense):
     return _drive(RADAU, p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, atol,
-                  fixed, max_steps, tab, out, True, False, True)
+                  fixed, max_steps, tab, out, True, False, True, dense)
 
 
 @njit(cache=True)
 def _radau_structure_en(p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, atol, fixed,
-                        max_steps, tab, out):
+                        max_steps, tab, out, dense):
     return _drive(RADAU, p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, atol,
-                  fixed, max_steps, tab, out, False, True, True)
+                  fixed, max_steps, tab, out, False, True, True, dense)
 
 
 @njit(cache=True)
 def _radau_structure_bare(p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, atol, fixed,
-                          max_steps, tab, out):
+                          max_steps, tab, out, dense):
     return _drive(RADAU, p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, atol,
-                  fixed, max_steps, tab, out, False, False, True)
+                  fixed, max_steps, tab, out, False, False, True, dense)
 
 
 SPECIALISATIONS = {
@@ -438,9 +540,12 @@ def run(
     rotation: bool,
     energy: bool,
     free: bool = False,
+    dense: bool = False,
 ) -> tuple:
     """Run `method` through its compiled specialisation; see _drive for the result tuple.
-    free selects the structure path (docs/model.md s.9-10)."""
+    free selects the structure path (docs/model.md s.9-10); dense the rows from dense output
+    instead of steps cut to land on the grid."""
     fn = SPECIALISATIONS[(method.stepper, bool(rotation), bool(energy), bool(free))]
     return fn(p, lawc, y0, float(t_end), float(interval), float(h0), int(n_steps), int(stride),
-              float(rtol), float(atol), bool(fixed), int(max_steps), method.driver_tableau, out)
+              float(rtol), float(atol), bool(fixed), int(max_steps), method.driver_tableau, out,
+              bool(dense))

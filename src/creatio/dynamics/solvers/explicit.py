@@ -28,7 +28,7 @@ ACCEPTED, NEWTON_FAILED, ERROR_REJECTED = 0, 1, 2
 def error_norm(K, y, ynew, h, e, e3, estimator, rtol, atol):
     """Scaled local error of the step (< 1: acceptable); inf when not finite."""
     n = y.size
-    s1 = K.shape[0]
+    s1 = e.size  # the stages and the end-of-step one (K may hold dense-output stages too)
     err = 0.0
     if estimator == EMBEDDED:
         s2 = 0.0

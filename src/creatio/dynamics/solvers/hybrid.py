@@ -146,7 +146,7 @@ def _step(phase, t, h, t_next, y, ynew, K, work, kst, tab, pp, lc, estimate, rto
     """One explicit Runge-Kutta step of size h from (t, y) into ynew, in the driver's
     summation order (so a contact step is the driver's step bit for bit); with estimate, the
     scaled error norm of the step (0 otherwise)."""
-    c, a_ptr, a_idx, a_val, b_idx, b_val, b_divisor, e, e3, estimator, error_order = tab
+    c, a_ptr, a_idx, a_val, b_idx, b_val, b_divisor, e, e3, estimator, error_order = tab[:11]
     n = y.size
     s = c.size
     _f(phase, t, y, kst, pp, lc)

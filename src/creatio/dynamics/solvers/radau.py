@@ -31,7 +31,7 @@ from creatio.dynamics.solvers.explicit import (
 from creatio.dynamics.solvers.linalg import lu_factor, lu_solve
 from creatio.dynamics.sphere import rhs_of, store
 
-__all__ = ["THETA", "jacobian", "step", "workspace"]
+__all__ = ["THETA", "dense", "jacobian", "step", "workspace"]
 
 NEWTON_MAXITER = 6
 #: Newton contraction rate above which the Jacobian is refreshed (Hairer's THET).
@@ -350,3 +350,17 @@ def step(stepper, t, t_next, h, y, f, ynew, fnew, dbuf, ws, tol, fixed, rejected
     rs[RS_H_PREV] = h
     rs[RS_HAVE_OLD] = 1.0
     return ACCEPTED, factor, evals, n_jac, n_lu, True
+
+
+@njit(cache=True)
+def dense(ws, t, yout):
+    """Dense output at t inside the last accepted step: its collocation polynomial
+    y_old + Q (x, x^2, x^3), x = (t - t_old) / h, which matches the stage values (order 3)."""
+    rs = ws[0]
+    Qold = ws[10]
+    yold = ws[11]
+    x = (t - rs[RS_T_OLD]) / rs[RS_H_PREV]
+    x2 = x * x
+    x3 = x2 * x
+    for j in range(yold.size):
+        yout[j] = yold[j] + Qold[j, 0] * x + Qold[j, 1] * x2 + Qold[j, 2] * x3

@@ -45,6 +45,17 @@ DP5_E = np.array([
     -0.0419047619047619,
     0.025,
 ])
+# Dormand-Prince 5(4) continuous extension of order 4 (Shampine 1986; scipy's RK45.P):
+# y(t + x h) = y + h sum_q K_q sum_k P[q, k] x^(k + 1), over the 6 stages and the FSAL stage.
+DP5_P = np.array([
+    [1.0, -2.8535800653862835, 3.0717434641059005, -1.1270175653862835],
+    [0.0, 0.0, 0.0, 0.0],
+    [0.0, 4.023133379230305, -6.249321565289, 2.675424484351598],
+    [0.0, -3.7324019615885042, 10.068970589843675, -5.685526961588504],
+    [0.0, 2.5548038301849423, -6.399112377351017, 3.5219323679207912],
+    [0.0, -1.3744241142186024, 3.272657752246729, -1.7672812570757455],
+    [0.0, 1.3824689317781436, -3.764937863556287, 2.382468931778144],
+])
 # DOP853: 12 stages + FSAL; E5 and E3 are the two error estimators (incl. FSAL).
 DOP853_C = np.array([
     0.0,
@@ -118,6 +129,21 @@ DOP853_E3 = np.array([
     0.02265179219836082,
     0.0,
 ])
+# DOP853's dense output of order 7 (Hairer's dop853.f, contd8): three more stages at
+# C_EXTRA from the 12 stages and the FSAL stage (rows of A_EXTRA over all 16), and the
+# weights D of the interpolant's four upper coefficients (see dop853_dense_polynomial).
+DOP853_C_EXTRA = np.array([0.1, 0.2, 0.7777777777777778])
+DOP853_A_EXTRA = np.array([
+    [0.056167502283047954, 0.0, 0.0, 0.0, 0.0, 0.0, 0.25350021021662483, -0.2462390374708025, -0.12419142326381637, 0.15329179827876568, 0.00820105229563469, 0.007567897660545699, -0.008298, 0.0, 0.0, 0.0],
+    [0.03183464816350214, 0.0, 0.0, 0.0, 0.0, 0.028300909672366776, 0.053541988307438566, -0.05492374857139099, 0.0, 0.0, -0.00010834732869724932, 0.0003825710908356584, -0.00034046500868740456, 0.1413124436746325, 0.0, 0.0],
+    [-0.42889630158379194, 0.0, 0.0, 0.0, 0.0, -4.697621415361164, 7.683421196062599, 4.06898981839711, 0.3567271874552811, 0.0, 0.0, 0.0, -0.0013990241651590145, 2.9475147891527724, -9.15095847217987, 0.0],
+])
+DOP853_D = np.array([
+    [-8.428938276109013, 0.0, 0.0, 0.0, 0.0, 0.5667149535193777, -3.0689499459498917, 2.38466765651207, 2.117034582445028, -0.871391583777973, 2.2404374302607883, 0.6315787787694688, -0.08899033645133331, 18.148505520854727, -9.194632392478356, -4.436036387594894],
+    [10.427508642579134, 0.0, 0.0, 0.0, 0.0, 242.28349177525817, 165.20045171727028, -374.5467547226902, -22.113666853125306, 7.733432668472264, -30.674084731089398, -9.332130526430229, 15.697238121770845, -31.139403219565178, -9.35292435884448, 35.81684148639408],
+    [19.985053242002433, 0.0, 0.0, 0.0, 0.0, -387.0373087493518, -189.17813819516758, 527.8081592054236, -11.57390253995963, 6.8812326946963, -1.0006050966910838, 0.7777137798053443, -2.778205752353508, -60.19669523126412, 84.32040550667716, 11.99229113618279],
+    [-25.69393346270375, 0.0, 0.0, 0.0, 0.0, -154.18974869023643, -231.5293791760455, 357.6391179106141, 93.40532418362432, -37.45832313645163, 104.0996495089623, 29.8402934266605, -43.53345659001114, 96.32455395918828, -39.17726167561544, -149.72683625798564],
+])
 # Radau IIA order 5: nodes, error weights, A = T diag(mu_real, mu_complex, conj) TI.
 RADAU_C = np.array([
     0.15505102572168222,
@@ -167,3 +193,40 @@ RK4_B_ORDER = (1, 2, 0, 3)
 #: [-2.7853, 0] of the real axis (the generic scan of its polynomial agrees to 1e-12).
 RK4_REAL_STABILITY = 2.785293563405282
 # fmt: on
+
+
+def hermite_dense_polynomial(b: np.ndarray) -> np.ndarray:
+    """Cubic Hermite dense output of any s-stage tableau with weights b (summing to 1):
+    y(t + x h) = y + h sum_q K_q sum_k P[q, k] x^(k + 1) over the stages and the end-of-step
+    derivative K_s, matching y, f at both ends (interpolation order 3: RK4's)."""
+    b = np.asarray(b, float)
+    s = b.size
+    P = np.zeros((s + 1, 3))
+    P[:s, 1] = 3.0 * b
+    P[:s, 2] = -2.0 * b
+    P[0] += [1.0, -2.0, 1.0]
+    P[s] += [0.0, -1.0, 1.0]
+    return P
+
+
+def dop853_dense_polynomial() -> np.ndarray:
+    """DOP853's order-7 interpolant in the polynomial form of hermite_dense_polynomial, over its
+    16 stages (12, FSAL, 3 extra): dop853.f's nested form F0 + (1 - x)(F1 + x(F2 + (1 - x)
+    (F3 + x(F4 + (1 - x)(F5 + x F6))))) times x, with F0 = y_new - y = h b.K,
+    F1 = h f0 - F0, F2 = 2 F0 - h (f0 + f1) and F3..F6 = h D.K, expanded in powers of x."""
+    from numpy.polynomial import polynomial as npp
+
+    n = DOP853_D.shape[1]
+    b = np.zeros(n)
+    b[: DOP853_B.size] = DOP853_B
+    f0 = np.eye(n)[0]
+    f1 = np.eye(n)[DOP853_B.size]
+    F = [b, f0 - b, 2.0 * b - f0 - f1, *DOP853_D]
+    P = np.zeros((n, 7))
+    for q in range(n):
+        poly = np.zeros(1)
+        for i, row in enumerate(reversed(F)):
+            poly = npp.polyadd(poly, [row[q]])
+            poly = npp.polymul(poly, [0.0, 1.0] if i % 2 == 0 else [1.0, -1.0])
+        P[q, : poly.size - 1] = poly[1:8]
+    return P
