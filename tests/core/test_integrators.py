@@ -56,6 +56,7 @@ def _err(X: np.ndarray, ref: np.ndarray) -> float:
         ("dopri5", (0.05, 0.025)),
         ("dop853", (0.2, 0.1)),
         ("radau5", (0.1, 0.05)),
+        ("rodas4", (0.05, 0.025)),
     ],
 )
 def test_observed_order_on_smooth_case(smooth: SphereProblem, method: str, dts) -> None:
@@ -78,13 +79,14 @@ def test_observed_order_on_smooth_case(smooth: SphereProblem, method: str, dts) 
         ("dopri5", (0.06, 0.03)),
         ("dop853", (0.3, 0.15)),
         ("radau5", (0.12, 0.06)),
+        ("rodas4", (0.12, 0.06)),
     ],
 )
 def test_dense_output_order_at_off_step_times(smooth: SphereProblem, method: str,
                                               dts) -> None:
     """With dense output and steps that do not divide the 0.2 s grid, the rows between steps
     converge at min(p, q + 1) for order p and interpolant order q (rk4 4, dopri5 5, dop853 8,
-    radau5 4): a lower-order interpolant (a linear one: 2) fails."""
+    radau5 4, rodas4 4): a lower-order interpolant (a linear one: 2) fails."""
     ref = _ref(smooth)
     expected = min(METHODS[method].order, METHODS[method].dense_order + 1)
     errs = []
@@ -102,7 +104,7 @@ def test_dense_output_order_at_off_step_times(smooth: SphereProblem, method: str
     assert order > expected - 0.35, (method, errs, order, expected)
 
 
-@pytest.mark.parametrize("method", ["dopri5", "dop853", "radau5"])
+@pytest.mark.parametrize("method", ["dopri5", "dop853", "radau5", "rodas4"])
 def test_adaptive_dense_output_meets_the_tolerance_in_fewer_steps(en02: SphereProblem,
                                                                   method: str) -> None:
     """Steps that need not land on the grid: fewer of them than the landing run's, and the
@@ -130,7 +132,7 @@ def test_dense_output_frees_a_fixed_step_from_the_grid() -> None:
         resolve("en02f", ["solver.dense_output=true", "flight.contact_loss=flight"])
 
 
-@pytest.mark.parametrize("method", ["dopri5", "dop853", "radau5"])
+@pytest.mark.parametrize("method", ["dopri5", "dop853", "radau5", "rodas4"])
 @pytest.mark.parametrize("rtol", [1e-6, 1e-9])
 def test_adaptive_methods_meet_their_tolerance(en02: SphereProblem, method: str,
                                                rtol: float) -> None:
@@ -154,6 +156,9 @@ def test_radau5_accurate_far_beyond_the_explicit_limit(en02: SphereProblem) -> N
     ref = _ref(prob)
     stiff = simulate(dataclasses.replace(prob, method="radau5", dt=dt, fixed_step=True))
     assert stiff.status == "ok" and _err(stiff.X, ref) < 1e-9
+    # RODAS4, L-stable too, is as stable there; order 4 against 5 costs it accuracy
+    ros = simulate(dataclasses.replace(prob, method="rodas4", dt=dt, fixed_step=True))
+    assert ros.status == "ok" and _err(stiff.X, ref) < _err(ros.X, ref) < 1e-8
     assert math.isinf(stability_limit(dataclasses.replace(prob, method="radau5", dt=dt)))
     # the explicit scheme at the same step is refused, and breaks down when forced
     with pytest.raises(UnstableStepError, match="stability limit"):

@@ -44,7 +44,7 @@ from typing import Any
 import numpy as np
 
 from creatio.dynamics import METHODS, SphereProblem, stability_limit
-from creatio.dynamics.solvers import EXPLICIT
+from creatio.dynamics.solvers import RADAU
 from creatio.errors import ConfigError
 from creatio.model.numerics import steps_in
 from creatio.studies.registry import Part
@@ -202,8 +202,9 @@ class WorkPrecisionStudy:
             require(name in METHODS, key, name, known)
             g.check(key)
             if g.newton_rtol:
-                require(METHODS[name].stepper != EXPLICIT, f"{key}.newton_rtol",
-                        list(g.newton_rtol), f"{name} is explicit: it has no Newton iteration")
+                require(METHODS[name].stepper == RADAU, f"{key}.newton_rtol",
+                        list(g.newton_rtol),
+                        f"{name} has no Newton iteration (explicit or linearly implicit)")
                 require(len(g.steps_per_output) >= 1, f"{key}.newton_rtol",
                         list(g.newton_rtol), "applies to fixed steps: give steps_per_output")
             if METHODS[name].adaptive:

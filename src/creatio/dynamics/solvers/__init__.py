@@ -1,11 +1,11 @@
 """The integration methods: one record per method, one registry, no compiler at import.
 
 A method is data, as scipy's RungeKutta classes are their constants: a stepper kind
-(``explicit`` reads any Butcher tableau; ``radau`` is the Radau IIA collocation), its order,
-the order of its error estimate (None without one), its tableau and its real stability
-interval at a fixed step. The compiled loop that runs them all is
-creatio.dynamics.solvers.driver; config validation, the stability estimate, benchmarks and
-the stability map read this registry.
+(``explicit`` reads any Butcher tableau; ``radau`` is the Radau IIA collocation; ``rosenbrock``
+the linearly implicit RODAS4), its order, the order of its error estimate (None without one),
+its tableau, its dense output's order and its real stability interval at a fixed step. The
+compiled loop that runs them all is creatio.dynamics.solvers.driver; config validation, the
+stability estimate, benchmarks and the stability map read this registry.
 
 Adding an explicit method is a tableau (creatio.dynamics.solvers.tableaus) and one entry of
 METHODS below.
@@ -23,11 +23,12 @@ from numpy.typing import NDArray
 from creatio.dynamics.solvers import tableaus as tb
 from creatio.model.numerics import real_stability_bound, rk_stability_polynomial
 
-__all__ = ["EXPLICIT", "METHODS", "RADAU", "Method", "Tableau", "get"]
+__all__ = ["EXPLICIT", "METHODS", "RADAU", "ROSENBROCK", "Method", "Tableau", "get"]
 
 #: Stepper kinds of the compiled driver.
 EXPLICIT = 0
 RADAU = 1
+ROSENBROCK = 2
 
 #: Error estimators of an explicit tableau: none, one embedded pair (RMS norm), or Hairer's
 #: combined 5th/3rd-order estimate of DOP853.
@@ -137,7 +138,7 @@ class Method:
     @property
     def l_stable(self) -> bool:
         """Whether stiff modes are damped at any step (no stability limit on dt)."""
-        return self.stepper == RADAU
+        return self.stepper != EXPLICIT
 
     @property
     def dense_order(self) -> int:
@@ -195,6 +196,9 @@ METHODS: dict[str, Method] = {
                        a_extra=tb.DOP853_A_EXTRA)),
         Method("radau5", RADAU, 5, 3,
                "Radau IIA order 5, adaptive, L-stable (simplified Newton, Gustafsson control)",
+               dense_order_override=3),
+        Method("rodas4", ROSENBROCK, 4, 3,
+               "Rosenbrock RODAS4, adaptive, L-stable, linearly implicit (Jacobian every step)",
                dense_order_override=3),
     )
 }

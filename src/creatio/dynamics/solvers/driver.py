@@ -35,7 +35,7 @@ from numba.extending import overload
 
 from creatio.dynamics import status as st
 from creatio.dynamics.jit import njit
-from creatio.dynamics.solvers import EXPLICIT, RADAU, Method, radau
+from creatio.dynamics.solvers import EXPLICIT, RADAU, ROSENBROCK, Method, radau, rosenbrock
 from creatio.dynamics.solvers.explicit import (
     ACCEPTED,
     ERROR_REJECTED,
@@ -67,12 +67,14 @@ def _implicit_dense(stepper, ws, t, yout):
 @overload(_implicit_step, prefer_literal=True, inline="always")
 def _implicit_step_of(stepper, t, t_next, h, y, f, ynew, fnew, dbuf, ws, tol, fixed, rejected,
                       pp, lc, rot, en, free, px):
-    """Radau's step for the RADAU kind; for the explicit kind a stand-in that is never run,
-    so an explicit run never types or compiles the implicit stepper."""
+    """Radau's or RODAS4's step for their kinds; for the explicit kind a stand-in that is
+    never run, so an explicit run never types or compiles an implicit stepper."""
     if not isinstance(stepper, types.IntegerLiteral):
         return None
     if stepper.literal_value == RADAU:
         return radau.step.py_func
+    elif stepper.literal_value == ROSENBROCK:
+        return rosenbrock.step.py_func
     else:
         def impl(stepper, t, t_next, h, y, f, ynew, fnew, dbuf, ws, tol, fixed, rejected, pp,
                  lc, rot, en, free, px):
@@ -82,21 +84,26 @@ def _implicit_step_of(stepper, t, t_next, h, y, f, ynew, fnew, dbuf, ws, tol, fi
 
 @overload(_implicit_workspace, prefer_literal=True)
 def _implicit_workspace_of(stepper, n):
-    """Radau's workspace for the RADAU kind, an empty placeholder otherwise."""
+    """The implicit kinds' workspaces, an empty placeholder for the explicit kind."""
     if not isinstance(stepper, types.IntegerLiteral):
         return None
     if stepper.literal_value == RADAU:
         return lambda stepper, n: radau.workspace(n)
+    if stepper.literal_value == ROSENBROCK:
+        return lambda stepper, n: rosenbrock.workspace(n)
     return lambda stepper, n: np.empty(0)
 
 
 @overload(_implicit_dense, prefer_literal=True, inline="always")
 def _implicit_dense_of(stepper, ws, t, yout):
-    """Radau's collocation polynomial for the RADAU kind, a stand-in never run otherwise."""
+    """Radau's collocation polynomial, RODAS4's Hermite cubic, a stand-in never run for the
+    explicit kind."""
     if not isinstance(stepper, types.IntegerLiteral):
         return None
     if stepper.literal_value == RADAU:
         return lambda stepper, ws, t, yout: radau.dense(ws, t, yout)
+    if stepper.literal_value == ROSENBROCK:
+        return lambda stepper, ws, t, yout: rosenbrock.dense(ws, t, yout)
     return lambda stepper, ws, t, yout: None
 
 
@@ -501,6 +508,62 @@ def _radau_structure_bare(p, lawc, y0, t_end, interval, h0, n_steps, stride, rto
                   fixed, max_steps, tab, out, False, False, True, dense)
 
 
+@njit(cache=True)
+def _rosenbrock_rot_en(p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, atol,
+                       fixed, max_steps, tab, out, dense):
+    return _drive(ROSENBROCK, p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, atol,
+                  fixed, max_steps, tab, out, True, True, False, dense)
+
+
+@njit(cache=True)
+def _rosenbrock_rot(p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, atol,
+                    fixed, max_steps, tab, out, dense):
+    return _drive(ROSENBROCK, p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, atol,
+                  fixed, max_steps, tab, out, True, False, False, dense)
+
+
+@njit(cache=True)
+def _rosenbrock_en(p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, atol,
+                   fixed, max_steps, tab, out, dense):
+    return _drive(ROSENBROCK, p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, atol,
+                  fixed, max_steps, tab, out, False, True, False, dense)
+
+
+@njit(cache=True)
+def _rosenbrock_bare(p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, atol,
+                     fixed, max_steps, tab, out, dense):
+    return _drive(ROSENBROCK, p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, atol,
+                  fixed, max_steps, tab, out, False, False, False, dense)
+
+
+@njit(cache=True)
+def _rosenbrock_structure_rot_en(p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, atol,
+                                 fixed, max_steps, tab, out, dense):
+    return _drive(ROSENBROCK, p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, atol,
+                  fixed, max_steps, tab, out, True, True, True, dense)
+
+
+@njit(cache=True)
+def _rosenbrock_structure_rot(p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, atol,
+                              fixed, max_steps, tab, out, dense):
+    return _drive(ROSENBROCK, p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, atol,
+                  fixed, max_steps, tab, out, True, False, True, dense)
+
+
+@njit(cache=True)
+def _rosenbrock_structure_en(p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, atol,
+                             fixed, max_steps, tab, out, dense):
+    return _drive(ROSENBROCK, p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, atol,
+                  fixed, max_steps, tab, out, False, True, True, dense)
+
+
+@njit(cache=True)
+def _rosenbrock_structure_bare(p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, atol,
+                               fixed, max_steps, tab, out, dense):
+    return _drive(ROSENBROCK, p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, atol,
+                  fixed, max_steps, tab, out, False, False, True, dense)
+
+
 SPECIALISATIONS = {
     (EXPLICIT, True, True, False): _explicit_rot_en,
     (EXPLICIT, True, False, False): _explicit_rot,
@@ -518,6 +581,14 @@ SPECIALISATIONS = {
     (RADAU, True, False, True): _radau_structure_rot,
     (RADAU, False, True, True): _radau_structure_en,
     (RADAU, False, False, True): _radau_structure_bare,
+    (ROSENBROCK, True, True, False): _rosenbrock_rot_en,
+    (ROSENBROCK, True, False, False): _rosenbrock_rot,
+    (ROSENBROCK, False, True, False): _rosenbrock_en,
+    (ROSENBROCK, False, False, False): _rosenbrock_bare,
+    (ROSENBROCK, True, True, True): _rosenbrock_structure_rot_en,
+    (ROSENBROCK, True, False, True): _rosenbrock_structure_rot,
+    (ROSENBROCK, False, True, True): _rosenbrock_structure_en,
+    (ROSENBROCK, False, False, True): _rosenbrock_structure_bare,
 }
 
 

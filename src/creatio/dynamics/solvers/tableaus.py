@@ -195,6 +195,36 @@ RK4_REAL_STABILITY = 2.785293563405282
 # fmt: on
 
 
+# fmt: off
+# RODAS4 (Hairer & Wanner, Solving ODEs II, s. VI.4; the coefficients of their rodas.f), in
+# the stage form of a Rosenbrock method with W = I / (h gamma) - J:
+#   W U_i = f(t + alpha_i h, y + sum_j A[i, j] U_j) + sum_j C[i, j] U_j / h + gamma_i h df/dt,
+#   y_new = y + sum_i M[i] U_i, error estimate sum_i E[i] U_i (order 4, embedded 3).
+# Stiffly accurate: M is A's last row plus the last stage, so y_new is the last stage's state.
+RODAS4_GAMMA = 0.25
+RODAS4_ALPHA = np.array([0.0, 0.386, 0.21, 0.63, 1.0, 1.0])
+RODAS4_GAMMAS = np.array([0.25, -0.1043, 0.1035, -0.03620000000000023, 0.0, 0.0])
+RODAS4_A = np.array([
+    [0.0, 0.0, 0.0, 0.0, 0.0, 0.0],
+    [1.544, 0.0, 0.0, 0.0, 0.0, 0.0],
+    [0.9466785280815826, 0.2557011698983284, 0.0, 0.0, 0.0, 0.0],
+    [3.314825187068521, 2.896124015972201, 0.9986419139977817, 0.0, 0.0, 0.0],
+    [1.221224509226641, 6.019134481288629, 12.53708332932087, -0.687886036105895, 0.0, 0.0],
+    [1.221224509226641, 6.019134481288629, 12.53708332932087, -0.687886036105895, 1.0, 0.0],
+])
+RODAS4_C = np.array([
+    [0.0, 0.0, 0.0, 0.0, 0.0, 0.0],
+    [-5.6688, 0.0, 0.0, 0.0, 0.0, 0.0],
+    [-2.430093356833875, -0.2063599157091915, 0.0, 0.0, 0.0, 0.0],
+    [-0.1073529058151375, -9.594562251023355, -20.47028614809616, 0.0, 0.0, 0.0],
+    [7.496443313967647, -10.24680431464352, -33.99990352819905, 11.7089089320616, 0.0, 0.0],
+    [8.083246795921522, -7.981132988064893, -31.52159432874371, 16.31930543123136, -6.058818238834054, 0.0],
+])
+RODAS4_M = np.array([1.221224509226641, 6.019134481288629, 12.53708332932087, -0.687886036105895, 1.0, 1.0])
+RODAS4_E = np.array([0.0, 0.0, 0.0, 0.0, 0.0, 1.0])
+# fmt: on
+
+
 def hermite_dense_polynomial(b: np.ndarray) -> np.ndarray:
     """Cubic Hermite dense output of any s-stage tableau with weights b (summing to 1):
     y(t + x h) = y + h sum_q K_q sum_k P[q, k] x^(k + 1) over the stages and the end-of-step

@@ -1,0 +1,174 @@
+"""RODAS4, the linearly implicit (Rosenbrock) stepper, compiled (Hairer & Wanner, Solving ODEs
+II, s. VI.4).
+
+Six stages, each one linear solve with the same matrix W = I / (h gamma) - J and no Newton
+iteration: stiffly accurate and L-stable, so like Radau IIA it damps the friction's slip
+mode at any h. Its order needs the Jacobian at each step's start: J is the forward-difference
+Jacobian of the feedback columns with the exact quaternion block (radau.jacobian), and the
+explicit time dependence of the surface enters through a forward difference df/dt. Step
+control is the explicit pairs' (creatio.dynamics.solvers.explicit: safety 0.9, factors in
+[0.2, 10], RMS norm). Dense output: the cubic Hermite polynomial of the step's ends.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from creatio.dynamics.jit import njit
+from creatio.dynamics.solvers import tableaus as tb
+from creatio.dynamics.solvers.explicit import (
+    ACCEPTED,
+    ERROR_REJECTED,
+    NEWTON_FAILED,
+    step_factor,
+)
+from creatio.dynamics.solvers.linalg import lu_factor, lu_solve
+from creatio.dynamics.solvers.radau import jacobian
+from creatio.dynamics.sphere import rhs_of, store
+
+__all__ = ["dense", "step", "workspace"]
+
+_GAMMA = tb.RODAS4_GAMMA
+_ALPHA = tb.RODAS4_ALPHA.copy()
+_GAMMAS = tb.RODAS4_GAMMAS.copy()
+_A = tb.RODAS4_A.copy()
+_C = tb.RODAS4_C.copy()
+_M = tb.RODAS4_M.copy()
+_E = tb.RODAS4_E.copy()
+_S = 6
+#: Order of the embedded solution (step_factor's exponent is -1 / (ERROR_ORDER + 1)).
+ERROR_ORDER = 3
+
+# Slots of the carried state: the time of the Jacobian held (NaN: none), the h of the LU
+# factors held (-1: none), and the last accepted step (start time, size) for dense output.
+RS_JAC_T, RS_LU_H, RS_T_OLD, RS_H_OLD = range(4)
+
+
+@njit(cache=True)
+def workspace(n):
+    """Carried state and work arrays of step for a state of size n: nothing computed yet."""
+    rs = np.zeros(4)
+    rs[RS_JAC_T] = math.nan
+    rs[RS_LU_H] = -1.0
+    return (
+        rs,
+        np.empty((n, n)),               # jac
+        np.empty((n, n)),               # LU of W
+        np.empty(n, dtype=np.int64),    # pivots
+        np.empty((_S, n)),              # U: stage increments
+        np.empty(n),                    # df/dt
+        np.empty(n),                    # work: a stage state
+        np.empty(n),                    # tmp: a stage derivative
+        np.empty((4, n)),               # dense output: y0, f0, y1, f1 of the last step
+    )
+
+
+@njit(cache=True)
+def step(stepper, t, t_next, h, y, f, ynew, fnew, dbuf, ws, tol, fixed, rejected, pp, lc, rot,
+         en, free, px):
+    """One try at the step t -> t_next = t + h (the driver's implicit-kind stepper; same
+    contract as creatio.dynamics.solvers.radau.step): (outcome, factor, rhs evaluations,
+    jacobians, LU factorisations, whether fnew and dbuf hold the end-of-step evaluation)."""
+    rs, jac, lu, piv, U, dfdt, work, tmp, hermite = ws
+    rtol, atol = tol
+    n = y.size
+    evals = 0
+    n_jac = 0
+    n_lu = 0
+    if rs[RS_JAC_T] != t:
+        # J and df/dt at the step's start (kept for a retry from the same point)
+        evals += jacobian(t, y, f, jac, work, tmp, pp, lc, rot, en, free, px)
+        dt_ = 1.4901161193847656e-08 * max(1e-5, abs(t))
+        rhs_of(free, t + dt_, y, tmp, pp, lc, rot, en, False, px)
+        evals += 1
+        for j in range(n):
+            dfdt[j] = (tmp[j] - f[j]) / dt_
+        n_jac += 1
+        rs[RS_JAC_T] = t
+        rs[RS_LU_H] = -1.0
+    if rs[RS_LU_H] != h:
+        d = 1.0 / (h * _GAMMA)
+        for i in range(n):
+            for j in range(n):
+                lu[i, j] = -jac[i, j]
+            lu[i, i] += d
+        n_lu += 1
+        if not lu_factor(lu, piv):
+            rs[RS_LU_H] = -1.0
+            return NEWTON_FAILED, 0.5, evals, n_jac, n_lu, False
+        rs[RS_LU_H] = h
+    finite = True
+    for i in range(_S):
+        if i == 0:
+            for j in range(n):
+                tmp[j] = f[j]
+        else:
+            for j in range(n):
+                acc = y[j]
+                for q in range(i):
+                    acc += _A[i, q] * U[q, j]
+                work[j] = acc
+            rhs_of(free, t + _ALPHA[i] * h, work, tmp, pp, lc, rot, en, False, px)
+            evals += 1
+        hg = h * _GAMMAS[i]
+        for j in range(n):
+            acc = tmp[j] + hg * dfdt[j]
+            for q in range(i):
+                acc += _C[i, q] / h * U[q, j]
+            U[i, j] = acc
+            if not math.isfinite(acc):
+                finite = False
+        if not finite:
+            break
+        lu_solve(lu, piv, U[i])
+    if not finite:
+        return NEWTON_FAILED, 0.5, evals, n_jac, n_lu, False
+    s2 = 0.0
+    for j in range(n):
+        acc = y[j]
+        err = 0.0
+        for q in range(_S):
+            acc += _M[q] * U[q, j]
+            err += _E[q] * U[q, j]
+        ynew[j] = acc
+        sc = atol + max(abs(y[j]), abs(acc)) * rtol
+        s2 += (err / sc) ** 2
+    en_err = math.sqrt(s2 / n)
+    if not math.isfinite(en_err):
+        en_err = math.inf
+    ok, factor = step_factor(en_err, ERROR_ORDER, rejected)
+    if fixed:
+        if not math.isfinite(en_err):
+            return NEWTON_FAILED, 0.5, evals, n_jac, n_lu, False
+        factor = 1.0
+    elif not ok:
+        return ERROR_REJECTED, factor, evals, n_jac, n_lu, False
+    store(rhs_of(free, t_next, ynew, fnew, pp, lc, rot, en, True, px), dbuf)
+    evals += 1
+    for j in range(n):
+        hermite[0, j] = y[j]
+        hermite[1, j] = f[j]
+        hermite[2, j] = ynew[j]
+        hermite[3, j] = fnew[j]
+    rs[RS_T_OLD] = t
+    rs[RS_H_OLD] = h
+    return ACCEPTED, factor, evals, n_jac, n_lu, True
+
+
+@njit(cache=True)
+def dense(ws, t, yout):
+    """Dense output at t inside the last accepted step: the cubic Hermite polynomial through
+    both ends' states and derivatives (order 3)."""
+    rs = ws[0]
+    hermite = ws[8]
+    h = rs[RS_H_OLD]
+    x = (t - rs[RS_T_OLD]) / h
+    h00 = (1.0 + 2.0 * x) * (1.0 - x) ** 2
+    h10 = x * (1.0 - x) ** 2
+    h01 = x * x * (3.0 - 2.0 * x)
+    h11 = x * x * (x - 1.0)
+    for j in range(yout.size):
+        yout[j] = (h00 * hermite[0, j] + h * h10 * hermite[1, j] + h01 * hermite[2, j]
+                   + h * h11 * hermite[3, j])
