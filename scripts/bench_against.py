@@ -8,6 +8,7 @@ ratios now / then. Use it to check that a change keeps the core as fast as befor
 
     python scripts/bench_against.py                  # against the revision before HEAD
     python scripts/bench_against.py bdffec5 --repeats 15 --cases en02:rk4,en02:radau5
+    python scripts/bench_against.py HEAD --cases en02:radau5@0.05   # radau5 at a fixed 0.05 s
 """
 
 from __future__ import annotations
@@ -59,7 +60,10 @@ def compiled_call(pkg: str, study: str, method: str) -> Callable[[], object]:
         resolve = importlib.import_module(f"{pkg}.pipeline.config").resolve
     except ImportError:
         resolve = importlib.import_module(f"{pkg}.config").resolve
-    problem = dataclasses.replace(resolve(study).obj.sphere_problem(), method=method)
+    name, _, fixed_dt = method.partition("@")
+    problem = dataclasses.replace(resolve(study).obj.sphere_problem(), method=name)
+    if fixed_dt:  # "radau5@0.05": a fixed step of 0.05 s
+        problem = dataclasses.replace(problem, dt=float(fixed_dt), fixed_step=name != "rk4")
     if hasattr(problem, "compiled_call"):
         return problem.compiled_call()
     problem = dyn.SphereProblem(**dataclasses.asdict(problem))
@@ -82,7 +86,8 @@ def main() -> None:
                         help="git revision to compare with (default HEAD~1)")
     parser.add_argument("--repeats", type=int, default=12, help="rounds (default 12)")
     parser.add_argument("--cases", default="en02:rk4,en02:radau5",
-                        help="study:method pairs (default en02:rk4,en02:radau5)")
+                        help="study:method pairs, method@dt for a fixed step (default "
+                             "en02:rk4,en02:radau5)")
     args = parser.parse_args()
     cases = [tuple(c.split(":")) for c in args.cases.split(",")]
     rev = subprocess.run(["git", "rev-parse", "--short", args.revision], cwd=REPO,

@@ -299,32 +299,34 @@ def step(stepper, t, t_next, h, y, f, ynew, fnew, dbuf, ws, tol, fixed, rejected
         return NEWTON_FAILED, 0.5, evals, n_jac, n_lu, False
     for j in range(n):
         ynew[j] = y[j] + Z[2, j]
-    # error estimate: (mu_real/h I - J)^-1 (f + Z^T E / h)
-    for j in range(n):
-        ze = (Z[0, j] * _RE[0] + Z[1, j] * _RE[1] + Z[2, j] * _RE[2]) / h
-        tmp[j] = ze
-        err[j] = f[j] + ze
-    lu_solve(lur, pivr, err)
-    s2 = 0.0
-    for j in range(n):
-        sc = atol + max(abs(y[j]), abs(ynew[j])) * rtol
-        s2 += (err[j] / sc) ** 2
-    en_err = math.sqrt(s2 / n)
-    if rejected and en_err > 1.0 and not fixed:
+    # error estimate: (mu_real/h I - J)^-1 (f + Z^T E / h); a fixed step does not use it
+    en_err = 0.0
+    if not fixed:
         for j in range(n):
-            work[j] = y[j] + err[j]
-        rhs_of(free, t, work, rreal, pp, lc, rot, en, False, px)
-        evals += 1
-        for j in range(n):
-            err[j] = rreal[j] + tmp[j]
+            ze = (Z[0, j] * _RE[0] + Z[1, j] * _RE[1] + Z[2, j] * _RE[2]) / h
+            tmp[j] = ze
+            err[j] = f[j] + ze
         lu_solve(lur, pivr, err)
         s2 = 0.0
         for j in range(n):
             sc = atol + max(abs(y[j]), abs(ynew[j])) * rtol
             s2 += (err[j] / sc) ** 2
         en_err = math.sqrt(s2 / n)
-    if not math.isfinite(en_err):
-        en_err = math.inf
+        if rejected and en_err > 1.0:
+            for j in range(n):
+                work[j] = y[j] + err[j]
+            rhs_of(free, t, work, rreal, pp, lc, rot, en, False, px)
+            evals += 1
+            for j in range(n):
+                err[j] = rreal[j] + tmp[j]
+            lu_solve(lur, pivr, err)
+            s2 = 0.0
+            for j in range(n):
+                sc = atol + max(abs(y[j]), abs(ynew[j])) * rtol
+                s2 += (err[j] / sc) ** 2
+            en_err = math.sqrt(s2 / n)
+        if not math.isfinite(en_err):
+            en_err = math.inf
     factor, recompute = _factor(h, n_iter, rate, en_err, rs, fixed)
     if en_err > 1.0 and not fixed:
         rs[RS_LU_H] = -1.0
