@@ -74,10 +74,9 @@ from creatio.dynamics.problem import (
     P_R0,
     P_STOP_LEAVE,
 )
-from creatio.dynamics.structure import rhs_structure
+from creatio.dynamics.structure import rhs_structure, rhs_structure_on
+from creatio.dynamics.surface import surface
 from creatio.model.cavity import cavity_cell_offsets, cavity_radius, in_cavity_cell
-from creatio.model.laws import law_eval
-from creatio.model.offset import offset_jets
 from creatio.model.sphere import (
     acceleration_at_fixed_rates,
     attitude_rates,
@@ -98,17 +97,19 @@ def rhs(t, y, dy, pp, lc, rot, en, diag):
     pp = (R0, dR, k, A, Ka, m, b, g, mu, eps, I); lc = the 18 law coefficients (r, a, gamma).
     b kappa (the largest principal curvature times b) is computed only when diag is True.
     """
+    return rhs_on(surface(t, y[0], y[1], pp, lc), y, dy, pp, rot, en, diag)
+
+
+@njit(cache=True, inline="always")
+def rhs_on(sf: tuple, y: np.ndarray, dy: np.ndarray, pp: tuple, rot: bool, en: bool,
+           diag: bool) -> tuple:
+    """:func:`rhs` on the surface sf = creatio.dynamics.surface.surface at y's (t, R, alpha),
+    so that states sharing (t, R, alpha) share its evaluation."""
     R0, dR, k, A, Ka, m, b, g, mu, eps, inertia = pp
-    R = y[0]
+    pr, pa, gm, rho, z, n1, n2, n3, P, Q, Z = sf
     a = y[1]
     Rd = y[2]
     ad = y[3]
-    pr, pr1, pr2 = law_eval(lc[0], lc[1], lc[2], lc[3], lc[4], lc[5], t)
-    pa, pa1, pa2 = law_eval(lc[6], lc[7], lc[8], lc[9], lc[10], lc[11], t)
-    gm, g1, g2 = law_eval(lc[12], lc[13], lc[14], lc[15], lc[16], lc[17], t)
-    rho, z, n1, n2, n3, P, Q, Z = offset_jets(
-        R, a, R0, k, A, Ka, b, pr, pr1, pr2, pa, pa1, pa2, gm, g1, g2
-    )
     xR1, xR2, xR3, xa1, xa2, xa3, xt1, xt2, xt3 = centre_tangents(P, Q, Z)
     a01, a02, a03 = acceleration_at_fixed_rates(P, Q, Z, Rd, ad)
     N = normal_reaction(m, g, n1, n2, n3, a01, a02, a03)
@@ -195,6 +196,28 @@ def _rhs_of(free, t, y, dy, pp, lc, rot, en, diag, px):
     else:
         def impl(free, t, y, dy, pp, lc, rot, en, diag, px):
             return rhs(t, y, dy, pp, lc, rot, en, diag)
+    return impl
+
+
+def rhs_on_of(free: bool, sf: tuple, y: np.ndarray, dy: np.ndarray, pp: tuple, rot: bool,
+              en: bool, diag: bool, px: tuple) -> tuple:
+    """:func:`rhs_of` on a given surface sf (creatio.dynamics.surface.surface at y's t, R,
+    alpha): :func:`rhs_on` or creatio.dynamics.structure.rhs_structure_on (compiled code
+    only)."""
+    raise NotImplementedError("called only from compiled code")
+
+
+@overload(rhs_on_of, prefer_literal=True, inline="always")
+def _rhs_on_of(free, sf, y, dy, pp, rot, en, diag, px):
+    """Resolve rhs_on_of on the literal free, as rhs_of."""
+    if not isinstance(free, types.BooleanLiteral):
+        return None
+    if free.literal_value:
+        def impl(free, sf, y, dy, pp, rot, en, diag, px):
+            return rhs_structure_on(sf, y, dy, pp, rot, en, diag, px)
+    else:
+        def impl(free, sf, y, dy, pp, rot, en, diag, px):
+            return rhs_on(sf, y, dy, pp, rot, en, diag)
     return impl
 
 

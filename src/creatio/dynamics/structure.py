@@ -17,9 +17,10 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
+
 from creatio.dynamics.jit import njit
-from creatio.model.laws import law_eval
-from creatio.model.offset import offset_jets
+from creatio.dynamics.surface import surface
 from creatio.model.sphere import (
     acceleration_at_fixed_rates,
     attitude_rates,
@@ -30,7 +31,7 @@ from creatio.model.sphere import (
 )
 from creatio.model.structure import confinement_power, free_structure_solve
 
-__all__ = ["rhs_structure"]
+__all__ = ["rhs_structure", "rhs_structure_on"]
 
 
 @njit(cache=True)
@@ -40,9 +41,17 @@ def rhs_structure(t, y, dy, pp, lc, rot, en, diag, px):
 
     px = (1 / I_s, P): the structure's inverse inertia (0: fixed) and the normal preload.
     """
+    return rhs_structure_on(surface(t, y[0], y[1], pp, lc), y, dy, pp, rot, en, diag, px)
+
+
+@njit(cache=True, inline="always")
+def rhs_structure_on(sf: tuple, y: np.ndarray, dy: np.ndarray, pp: tuple, rot: bool,
+                     en: bool, diag: bool, px: tuple) -> tuple:
+    """:func:`rhs_structure` on the surface sf = creatio.dynamics.surface.surface at y's
+    (t, R, alpha), so that states sharing (t, R, alpha) share its evaluation."""
     R0, dR, k, A, Ka, m, b, g, mu, eps, inertia = pp
     inv_is, P = px
-    R = y[0]
+    pr, pa, gm, rho, z, n1, n2, n3, P_, Q, Z = sf
     a = y[1]
     Rd = y[2]
     ad = y[3]
@@ -50,12 +59,6 @@ def rhs_structure(t, y, dy, pp, lc, rot, en, diag, px):
     iy = ie + 3 if en else ie
     th = y[iy]
     Th = y[iy + 1]
-    pr, pr1, pr2 = law_eval(lc[0], lc[1], lc[2], lc[3], lc[4], lc[5], t)
-    pa, pa1, pa2 = law_eval(lc[6], lc[7], lc[8], lc[9], lc[10], lc[11], t)
-    gm, g1, g2 = law_eval(lc[12], lc[13], lc[14], lc[15], lc[16], lc[17], t)
-    rho, z, n1, n2, n3, P_, Q, Z = offset_jets(
-        R, a, R0, k, A, Ka, b, pr, pr1, pr2, pa, pa1, pa2, gm, g1, g2
-    )
     xR1, xR2, xR3, xa1, xa2, xa3, xt1, xt2, xt3 = centre_tangents(P_, Q, Z)
     a01, a02, a03 = acceleration_at_fixed_rates(P_, Q, Z, Rd, ad)
     X1 = P_[0]
