@@ -74,7 +74,7 @@ from creatio.dynamics.problem import (
     P_R0,
     P_STOP_LEAVE,
 )
-from creatio.dynamics.structure import rhs_structure, rhs_structure_on
+from creatio.dynamics.structure import rhs_structure
 from creatio.dynamics.surface import surface
 from creatio.model.cavity import cavity_cell_offsets, cavity_radius, in_cavity_cell
 from creatio.model.sphere import (
@@ -196,28 +196,6 @@ def _rhs_of(free, t, y, dy, pp, lc, rot, en, diag, px):
     else:
         def impl(free, t, y, dy, pp, lc, rot, en, diag, px):
             return rhs(t, y, dy, pp, lc, rot, en, diag)
-    return impl
-
-
-def rhs_on_of(free: bool, sf: tuple, y: np.ndarray, dy: np.ndarray, pp: tuple, rot: bool,
-              en: bool, diag: bool, px: tuple) -> tuple:
-    """:func:`rhs_of` on a given surface sf (creatio.dynamics.surface.surface at y's t, R,
-    alpha): :func:`rhs_on` or creatio.dynamics.structure.rhs_structure_on (compiled code
-    only)."""
-    raise NotImplementedError("called only from compiled code")
-
-
-@overload(rhs_on_of, prefer_literal=True, inline="always")
-def _rhs_on_of(free, sf, y, dy, pp, rot, en, diag, px):
-    """Resolve rhs_on_of on the literal free, as rhs_of."""
-    if not isinstance(free, types.BooleanLiteral):
-        return None
-    if free.literal_value:
-        def impl(free, sf, y, dy, pp, rot, en, diag, px):
-            return rhs_structure_on(sf, y, dy, pp, rot, en, diag, px)
-    else:
-        def impl(free, sf, y, dy, pp, rot, en, diag, px):
-            return rhs_on(sf, y, dy, pp, rot, en, diag)
     return impl
 
 

@@ -163,6 +163,7 @@ def _drive(stepper, p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, ato
     rows = np.int64(0)
     steps = np.int64(0)
     yes = np.bool_(True)
+    no = not yes
     t = 0.0
     status = st.OK
     # output grid of an adaptive run: n_int whole intervals, then t_end
@@ -355,8 +356,8 @@ def _drive(stepper, p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, ato
                     _implicit_dense(stepper, iws, tg, yout)
                 d = rhs_of(free, tg, yout, kst, pp, lc, rot, en, True, px)
                 evals += 1
-                status, wrote = observe(False, tg, yout, d, p, ext, out, rows, False, yes, rot,
-                                        en, free)
+                status, wrote = observe(no, tg, yout, d, p, ext, out, rows, no, yes, rot, en,
+                                        free)
                 rows += wrote
                 jn += 1
                 if status != st.OK:
