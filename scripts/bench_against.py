@@ -63,7 +63,8 @@ def compiled_call(pkg: str, study: str, method: str) -> Callable[[], object]:
     name, _, fixed_dt = method.partition("@")
     problem = dataclasses.replace(resolve(study).obj.sphere_problem(), method=name)
     if fixed_dt:  # "radau5@0.05": a fixed step of 0.05 s
-        problem = dataclasses.replace(problem, dt=float(fixed_dt), fixed_step=name != "rk4")
+        problem = dataclasses.replace(problem, dt=float(fixed_dt),
+                                      fixed_step=dyn.METHODS[name].adaptive)
     if hasattr(problem, "compiled_call"):
         return problem.compiled_call()
     problem = dyn.SphereProblem(**dataclasses.asdict(problem))

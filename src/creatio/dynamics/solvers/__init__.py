@@ -43,8 +43,9 @@ class Tableau:
     rounding); e (and e3 for the combined estimate) weigh the stages plus the end-of-step
     derivative, as in scipy's RungeKutta.E. Dense output: y(t + x h) = y + h sum_q K_q
     sum_k dense[q, k] x^(k + 1) over the stages, the end-of-step derivative and the stages
-    c_extra / a_extra computed only for it (a_extra's rows weigh every earlier stage); without
-    dense, the cubic Hermite interpolant of the step.
+    c_extra / a_extra computed only for it (a_extra's rows weigh every earlier stage), or
+    dense_nested, the weights of Hairer's nested form (tableaus.nested_dense_polynomial,
+    expanded on first use, not at import); without either, the step's cubic Hermite.
     """
 
     c: NDArray[np.float64]
@@ -56,6 +57,7 @@ class Tableau:
     e3: NDArray[np.float64] | None = None
     estimator: int = NO_ESTIMATE
     dense: NDArray[np.float64] | None = None
+    dense_nested: NDArray[np.float64] | None = None
     c_extra: NDArray[np.float64] | None = None
     a_extra: NDArray[np.float64] | None = None
 
@@ -96,18 +98,22 @@ class Tableau:
         """(c_extra, a_extra, dense) of the compiled dense output: a_extra as a dense
         (extra, s + 1 + extra) matrix, dense as (s + 1 + extra, degree)."""
         s = self.stages
-        if self.dense is None:
-            return (np.zeros(0), np.zeros((0, s + 1)),
-                    tb.hermite_dense_polynomial(self.weights()))
+        if self.dense_nested is not None:
+            dense = tb.nested_dense_polynomial(self.weights(), self.dense_nested)
+        elif self.dense is not None:
+            dense = np.ascontiguousarray(self.dense, float)
+        else:
+            dense = tb.hermite_dense_polynomial(self.weights())
         if self.c_extra is None or self.a_extra is None:
-            return np.zeros(0), np.zeros((0, s + 1)), np.ascontiguousarray(self.dense, float)
+            return np.zeros(0), np.zeros((0, s + 1)), dense
         return (np.ascontiguousarray(self.c_extra, float),
-                np.ascontiguousarray(self.a_extra, float),
-                np.ascontiguousarray(self.dense, float))
+                np.ascontiguousarray(self.a_extra, float), dense)
 
     @property
     def dense_order(self) -> int:
         """Order of the dense output (the interpolant's degree): 3 for the Hermite cubic."""
+        if self.dense_nested is not None:
+            return int(np.asarray(self.dense_nested).shape[0]) + 3
         return 3 if self.dense is None else int(np.asarray(self.dense).shape[1])
 
     def weights(self) -> NDArray[np.float64]:
@@ -192,7 +198,7 @@ METHODS: dict[str, Method] = {
                "Dormand-Prince 8(5,3), adaptive explicit pair with Hairer's error estimate",
                Tableau(tb.DOP853_C, tb.DOP853_A, tb.DOP853_B, e=tb.DOP853_E5,
                        e3=tb.DOP853_E3, estimator=COMBINED_5_3,
-                       dense=tb.dop853_dense_polynomial(), c_extra=tb.DOP853_C_EXTRA,
+                       dense_nested=tb.DOP853_D, c_extra=tb.DOP853_C_EXTRA,
                        a_extra=tb.DOP853_A_EXTRA)),
         Method("radau5", RADAU, 5, 3,
                "Radau IIA order 5, adaptive, L-stable (simplified Newton, Gustafsson control)",

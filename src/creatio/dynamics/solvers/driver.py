@@ -273,26 +273,22 @@ def _drive(stepper, p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, ato
                     factor = 1.0
                     ev = s - 1
                     have_f = not yes
-                elif fixed:
-                    # dense output needs the end-of-step derivative now: the next step's first
-                    # stage, with its diagnostics, evaluated here instead of at its top
-                    store(rhs_of(free, t_next, ynew, fnew, pp, lc, rot, en, True, px), dbuf)
-                    for j in range(n):
-                        K[s, j] = fnew[j]
-                    outcome = ACCEPTED
-                    factor = 1.0
-                    ev = s
-                    have_f = yes
                 else:
-                    # the error estimate needs the end-of-step derivative (FSAL): keep it
+                    # the error estimate (FSAL) or the dense output needs the end-of-step
+                    # derivative now: with its diagnostics, the next step's first stage
                     store(rhs_of(free, t_next, ynew, fnew, pp, lc, rot, en, True, px), dbuf)
                     for j in range(n):
                         K[s, j] = fnew[j]
-                    en_err = error_norm(K, y, ynew, h_use, e, e3, estimator, rtol, atol)
-                    ok, factor = step_factor(en_err, error_order, rejected)
-                    outcome = ACCEPTED if ok else ERROR_REJECTED
                     ev = s
-                    have_f = ok
+                    if fixed:
+                        outcome = ACCEPTED
+                        factor = 1.0
+                        have_f = yes
+                    else:
+                        en_err = error_norm(K, y, ynew, h_use, e, e3, estimator, rtol, atol)
+                        ok, factor = step_factor(en_err, error_order, rejected)
+                        outcome = ACCEPTED if ok else ERROR_REJECTED
+                        have_f = ok
             else:
                 outcome, factor, ev, nj, nl, have_f = _implicit_step(
                     stepper, t, t_next, h_use, y, f, ynew, fnew, dbuf, iws, tol, fixed,

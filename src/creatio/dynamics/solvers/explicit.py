@@ -14,7 +14,7 @@ from creatio.dynamics.jit import njit
 from creatio.dynamics.solvers import COMBINED_5_3, EMBEDDED
 
 __all__ = ["ACCEPTED", "ERROR_REJECTED", "MAX_FACTOR", "MIN_FACTOR", "NEWTON_FAILED", "SAFETY",
-           "error_norm", "step_factor"]
+           "error_norm", "scaled_rms", "step_factor"]
 
 SAFETY = 0.9
 MIN_FACTOR = 0.2
@@ -58,6 +58,18 @@ def error_norm(K, y, ynew, h, e, e3, estimator, rtol, atol):
     if not math.isfinite(err):
         err = math.inf
     return err
+
+
+@njit(cache=True, inline="always")
+def scaled_rms(err, y, ynew, rtol, atol):
+    """RMS of err / (atol + rtol max(|y|, |y_new|)): the implicit steppers' error norm, the
+    scale of the explicit pairs' (error_norm)."""
+    n = y.size
+    s2 = 0.0
+    for j in range(n):
+        sc = atol + max(abs(y[j]), abs(ynew[j])) * rtol
+        s2 += (err[j] / sc) ** 2
+    return math.sqrt(s2 / n)
 
 
 @njit(cache=True)

@@ -27,6 +27,7 @@ from creatio.dynamics.solvers.explicit import (
     MAX_FACTOR,
     MIN_FACTOR,
     NEWTON_FAILED,
+    scaled_rms,
 )
 from creatio.dynamics.solvers.linalg import lu_factor, lu_solve
 from creatio.dynamics.sphere import rhs_of, store
@@ -309,11 +310,7 @@ def step(stepper, t, t_next, h, y, f, ynew, fnew, dbuf, ws, tol, fixed, rejected
             tmp[j] = ze
             err[j] = f[j] + ze
         lu_solve(lur, pivr, err)
-        s2 = 0.0
-        for j in range(n):
-            sc = atol + max(abs(y[j]), abs(ynew[j])) * rtol
-            s2 += (err[j] / sc) ** 2
-        en_err = math.sqrt(s2 / n)
+        en_err = scaled_rms(err, y, ynew, rtol, atol)
         if rejected and en_err > 1.0:
             for j in range(n):
                 work[j] = y[j] + err[j]
@@ -322,11 +319,7 @@ def step(stepper, t, t_next, h, y, f, ynew, fnew, dbuf, ws, tol, fixed, rejected
             for j in range(n):
                 err[j] = rreal[j] + tmp[j]
             lu_solve(lur, pivr, err)
-            s2 = 0.0
-            for j in range(n):
-                sc = atol + max(abs(y[j]), abs(ynew[j])) * rtol
-                s2 += (err[j] / sc) ** 2
-            en_err = math.sqrt(s2 / n)
+            en_err = scaled_rms(err, y, ynew, rtol, atol)
         if not math.isfinite(en_err):
             en_err = math.inf
     factor, recompute = _factor(h, n_iter, rate, en_err, rs, fixed)

@@ -22,6 +22,7 @@ from creatio.dynamics.solvers.explicit import (
     ACCEPTED,
     ERROR_REJECTED,
     NEWTON_FAILED,
+    scaled_rms,
     step_factor,
 )
 from creatio.dynamics.solvers.linalg import lu_factor, lu_solve
@@ -125,7 +126,6 @@ def step(stepper, t, t_next, h, y, f, ynew, fnew, dbuf, ws, tol, fixed, rejected
         lu_solve(lu, piv, U[i])
     if not finite:
         return NEWTON_FAILED, 0.5, evals, n_jac, n_lu, False
-    s2 = 0.0
     for j in range(n):
         acc = y[j]
         err = 0.0
@@ -133,9 +133,8 @@ def step(stepper, t, t_next, h, y, f, ynew, fnew, dbuf, ws, tol, fixed, rejected
             acc += _M[q] * U[q, j]
             err += _E[q] * U[q, j]
         ynew[j] = acc
-        sc = atol + max(abs(y[j]), abs(acc)) * rtol
-        s2 += (err / sc) ** 2
-    en_err = math.sqrt(s2 / n)
+        work[j] = err
+    en_err = scaled_rms(work, y, ynew, rtol, atol)
     if not math.isfinite(en_err):
         en_err = math.inf
     ok, factor = step_factor(en_err, ERROR_ORDER, rejected)

@@ -131,7 +131,7 @@ DOP853_E3 = np.array([
 ])
 # DOP853's dense output of order 7 (Hairer's dop853.f, contd8): three more stages at
 # C_EXTRA from the 12 stages and the FSAL stage (rows of A_EXTRA over all 16), and the
-# weights D of the interpolant's four upper coefficients (see dop853_dense_polynomial).
+# weights D of the interpolant's four upper coefficients (see nested_dense_polynomial).
 DOP853_C_EXTRA = np.array([0.1, 0.2, 0.7777777777777778])
 DOP853_A_EXTRA = np.array([
     [0.056167502283047954, 0.0, 0.0, 0.0, 0.0, 0.0, 0.25350021021662483, -0.2462390374708025, -0.12419142326381637, 0.15329179827876568, 0.00820105229563469, 0.007567897660545699, -0.008298, 0.0, 0.0, 0.0],
@@ -239,24 +239,24 @@ def hermite_dense_polynomial(b: np.ndarray) -> np.ndarray:
     return P
 
 
-def dop853_dense_polynomial() -> np.ndarray:
-    """DOP853's order-7 interpolant in the polynomial form of hermite_dense_polynomial, over its
-    16 stages (12, FSAL, 3 extra): dop853.f's nested form F0 + (1 - x)(F1 + x(F2 + (1 - x)
-    (F3 + x(F4 + (1 - x)(F5 + x F6))))) times x, with F0 = y_new - y = h b.K,
-    F1 = h f0 - F0, F2 = 2 F0 - h (f0 + f1) and F3..F6 = h D.K, expanded in powers of x."""
-    from numpy.polynomial import polynomial as npp
-
-    n = DOP853_D.shape[1]
-    b = np.zeros(n)
-    b[: DOP853_B.size] = DOP853_B
+def nested_dense_polynomial(b: np.ndarray, d: np.ndarray) -> np.ndarray:
+    """Hairer's nested dense output (dop853.f, contd8) in the polynomial form of
+    hermite_dense_polynomial: x (F0 + (1 - x)(F1 + x(F2 + (1 - x)(F3 + x(F4 + ...))))) with
+    F0 = y_new - y = h b.K, F1 = h f0 - F0, F2 = 2 F0 - h (f0 + f1) and F3.. = h d.K, over
+    the s stages, the end-of-step one and the extra ones (d's columns), expanded in powers of
+    x. Degree d.shape[0] + 3 (DOP853: 7)."""
+    b = np.asarray(b, float)
+    d = np.asarray(d, float)
+    n = d.shape[1]
+    s = b.size
+    bb = np.zeros(n)
+    bb[:s] = b
     f0 = np.eye(n)[0]
-    f1 = np.eye(n)[DOP853_B.size]
-    F = [b, f0 - b, 2.0 * b - f0 - f1, *DOP853_D]
-    P = np.zeros((n, 7))
-    for q in range(n):
-        poly = np.zeros(1)
-        for i, row in enumerate(reversed(F)):
-            poly = npp.polyadd(poly, [row[q]])
-            poly = npp.polymul(poly, [0.0, 1.0] if i % 2 == 0 else [1.0, -1.0])
-        P[q, : poly.size - 1] = poly[1:8]
-    return P
+    f1 = np.eye(n)[s]
+    # poly[k, q]: the coefficient of x^k for stage q, built from the innermost term out
+    poly = np.zeros((1, n))
+    for i, row in enumerate(reversed([bb, f0 - bb, 2.0 * bb - f0 - f1, *d])):
+        poly[0] += row
+        times_x = np.vstack([np.zeros((1, n)), poly])
+        poly = times_x if i % 2 == 0 else np.vstack([poly, np.zeros((1, n))]) - times_x
+    return poly[1:].T.copy()
