@@ -106,6 +106,24 @@ def test_still_cavity_closed_forms(cfg) -> None:
         still_cavity(0.18, k, 6, 1.11, 0.2, 9.81)
 
 
+def test_sliding_closed_form_is_the_offset_surfaces_hessian_over_its_metric(cfg) -> None:
+    """omega_slide^2 = g (d2 X_z / dq^2) / |X_q|^2 at the bottom, from the centre's exact jets
+    (creatio.model.offset), which the closed form does not use: the offset surface's
+    curvature kappa / (1 - b kappa) in both directions; the Hessian is diagonal there."""
+    from creatio.model.offset import offset_jets
+    from creatio.model.sphere import centre_tangents
+
+    cf = en04.closed_forms(cfg.bases["en02"])
+    k = 2.0 * math.pi / 1.72
+    _, _, _, _, _, P, Q, Z = offset_jets(0.43, math.pi / 6, 0.68, k, 0.18, 6.0, 0.12, 0.0, 0.0,
+                                         0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+    tangents = centre_tangents(P, Q, Z)
+    XR, Xa = np.array(tangents[0:3]), np.array(tangents[3:6])
+    assert abs(Z[5]) < 1e-15 and abs(Z[1]) < 1e-15 and abs(Z[2]) < 1e-15
+    assert 9.81 * Z[4] / (XR @ XR) == pytest.approx(cf.slide_R**2, rel=1e-13)
+    assert 9.81 * Z[7] / (Xa @ Xa) == pytest.approx(cf.slide_alpha**2, rel=1e-13)
+
+
 def test_still_cavity_frequencies_equal_the_closed_forms(oscillation) -> None:
     """Measured (zero crossings of every step) against the closed forms, within the stated
     tolerance 2 (kappa a)^2 (the shift is second order in the amplitude a), plus for rolling
