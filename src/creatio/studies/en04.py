@@ -42,7 +42,7 @@ from creatio.model.laws import LawKind, law_eval
 from creatio.model.numerics import steps_in
 from creatio.model.oscillation import StillCavity, regularised_rolling, still_cavity
 from creatio.model.sphere import inertia
-from creatio.model.surface import Motion, Surface, wavenumber
+from creatio.model.surface import Motion, Surface, Wave, wavenumber
 from creatio.studies.registry import Part
 from creatio.studies.schema import MISSING, DynamicConfig, require
 
@@ -52,16 +52,22 @@ if TYPE_CHECKING:
 __all__ = [
     "DIRECTIONS",
     "ActuationConfig",
+    "Demand",
     "En04Config",
     "En04Study",
+    "ExtremaGridConfig",
     "Oscillation",
     "QuadratureConfig",
     "StillCavityConfig",
     "actuation_problem",
+    "closed_forms",
+    "demand",
     "measure_oscillation",
     "oscillation_tolerance",
     "parts",
     "run",
+    "run_actuation",
+    "run_oscillation",
     "still_problem",
 ]
 
@@ -349,8 +355,6 @@ def demand(cfg: En04Config, name: str) -> Demand:
     _, wt_cf = act.time_maximum(lambda x: act.normal_rate_bounds(surface, motion, x)[0], 0.0, T)
     _, wtt_cf = act.time_maximum(lambda x: act.normal_rate_bounds(surface, motion, x)[1], 0.0, T)
     ang = act.angular_law_bounds(surface, motion)
-    from creatio.model.surface import Wave
-
     W_t_worst = Wave(surface, motion, ex.worst[0], ex.worst[1], grid).W_t
     _, bandwidth = act.time_maximum(lambda x: act.local_frequency(motion, x), 0.0, T)
     bandwidth99 = act.energy_frequency(W_t_worst, a.sample_interval, a.energy_fraction)
