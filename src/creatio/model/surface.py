@@ -94,16 +94,19 @@ class Wave:
     def __init__(
         self, surface: Surface, motion: Motion, alpha: ArrayLike, R: ArrayLike, t: ArrayLike
     ) -> None:
-        alpha, R, t = np.broadcast_arrays(
-            np.asarray(alpha, float), np.asarray(R, float), np.asarray(t, float)
-        )
+        alpha, R, t = np.asarray(alpha, float), np.asarray(R, float), np.asarray(t, float)
+        # the laws at the times as given (often far fewer than the broadcast points), then
+        # broadcast: elementwise the same numbers
         pr, pa, gm = motion.at(t)
+        (alpha, R, t, pr_v, pr_1, pr_2, pa_v, pa_1, pa_2, g_v, g_1, g_2, sg, cg) = (
+            np.broadcast_arrays(alpha, R, t, pr.value, pr.d1, pr.d2, pa.value, pa.d1, pa.d2,
+                                gm.value, gm.d1, gm.d2, np.sin(gm.value), np.cos(gm.value)))
         A, k, Ka = surface.A, surface.k, surface.Ka
         self.surface, self.alpha, self.R, self.t = surface, alpha, R, t
-        u = k * R + pr.value
-        v = Ka * alpha + pa.value
+        u = k * R + pr_v
+        v = Ka * alpha + pa_v
         su, cu, sv, cv = np.sin(u), np.cos(u), np.sin(v), np.cos(v)
-        r1, r2, a1, a2 = pr.d1, pr.d2, pa.d1, pa.d2
+        r1, r2, a1, a2 = pr_1, pr_2, pa_1, pa_2
         self.W = A * su * cv
         self.W_R = A * k * cu * cv
         self.W_a = -A * Ka * su * sv
@@ -116,8 +119,8 @@ class Wave:
         self.W_tt = A * (
             r2 * cu * cv - a2 * su * sv - (r1**2 + a1**2) * su * cv - 2.0 * r1 * a1 * cu * sv
         )
-        self.g, self.dg, self.ddg = gm.value, gm.d1, gm.d2
-        self.sg, self.cg = np.sin(self.g), np.cos(self.g)
+        self.g, self.dg, self.ddg = g_v, g_1, g_2
+        self.sg, self.cg = sg, cg
         self.sa, self.ca = np.sin(alpha), np.cos(alpha)
 
 

@@ -184,6 +184,9 @@ STUDIES: dict[str, Study] = {
         Study("en03m", SPHERE, En03mConfig, "creatio.studies.en03m:run",
               "creatio.reports.beyond:write_en03m", _timestep_parts("en03m"), in_all=False,
               summary="creatio.reports.beyond:en03m_summary"),
+        Study("en04", SPHERE, "creatio.studies.en04:En04Config", "creatio.studies.en04:run",
+              "creatio.reports.en04:write_report", "creatio.studies.en04:parts", in_all=False,
+              summary="creatio.reports.en04:en04_summary"),
         *(Study(name, ANALYSIS, f"creatio.studies.{name}:{schema}", f"creatio.studies.{name}:run",
                 f"creatio.reports.{name}:write_report", f"creatio.studies.{name}:parts",
                 group="analysis", in_all=False)

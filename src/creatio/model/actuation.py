@@ -1,0 +1,497 @@
+"""What a prescribed cycle asks of the actuators (docs/model.md s.12.1).
+
+Pure NumPy over the surface of creatio.model.surface (its material velocity c_t and
+acceleration c_tt, evaluated once here through :class:`~creatio.model.surface.Frame`):
+
+* the load: the power the membrane puts into the sphere, P_surface = (N n + f) . c_t at the
+  contact point, from a run's recorded (t, R, alpha, N, f) (:func:`load_power`);
+* the membrane itself, of areal density sigma per unit reference area
+  (dm = sigma (R0 + R) dR dalpha): its kinetic energy K_m and the inertia, gravity and
+  damping powers, by a tensor quadrature (trapezoid in alpha, Gauss-Legendre in R) refined
+  until every integral is stable (:func:`membrane_integrals`, :func:`converge_quadrature`),
+  checked by the closed form of the flat annulus (:func:`annulus_kinetic_energy`);
+* the normal motion W: stroke, largest |W_t| and |W_tt| with their spatial closed forms
+  (:func:`normal_rate_bounds`), numeric maxima over the surface and the cycle
+  (:func:`normal_rate_maxima`), and the bandwidth (:func:`local_frequency`,
+  :func:`energy_frequency`).
+
+Nothing here runs a simulation: a study passes in the histories of one.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from creatio.model.laws import LawKind
+from creatio.model.surface import Frame, Motion, Surface, Wave
+
+__all__ = [
+    "INTEGRALS",
+    "Convergence",
+    "MembraneIntegrals",
+    "NormalExtrema",
+    "Quadrature",
+    "annulus_kinetic_energy",
+    "angular_law_bounds",
+    "converge_quadrature",
+    "energy_frequency",
+    "load_power",
+    "local_frequency",
+    "membrane_integrals",
+    "normal_rate_bounds",
+    "normal_rate_maxima",
+    "quadrature",
+    "refine_maximum",
+    "time_maximum",
+]
+
+Array = NDArray[np.float64]
+
+#: The membrane integrals, in the order of MembraneIntegrals' arrays and of the convergence
+#: table: kinetic energy K_m and the inertia, gravity and damping powers.
+INTEGRALS = ("kinetic", "inertia", "gravity", "damping")
+
+
+@dataclass(frozen=True)
+class Quadrature:
+    """Nodes and weights of the reference annulus: sum(weight * f(alpha, R)) approximates
+    int_0^2pi int_0^dR f (R0 + R) dR dalpha (the weight includes the area factor R0 + R)."""
+
+    alpha: Array
+    R: Array
+    weight: Array
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        """(n_alpha, n_R)."""
+        return self.weight.shape
+
+
+def quadrature(surface: Surface, n_alpha: int, n_R: int) -> Quadrature:
+    """The tensor rule: n_alpha equal steps in alpha (the trapezoid rule of a periodic
+    integrand, exact for every harmonic below n_alpha) times n_R Gauss-Legendre nodes on
+    [0, dR]."""
+    if n_alpha < 1 or n_R < 1:
+        raise ValueError(f"quadrature needs n_alpha, n_R >= 1, got {n_alpha}, {n_R}")
+    alpha = 2.0 * math.pi * np.arange(n_alpha) / n_alpha
+    x, w = np.polynomial.legendre.leggauss(n_R)
+    half = 0.5 * surface.dR
+    R = half * (x + 1.0)
+    wR = half * w * (surface.R0 + R)
+    weight = np.full(n_alpha, 2.0 * math.pi / n_alpha)[:, None] * wR[None, :]
+    return Quadrature(alpha, R, weight)
+
+
+@dataclass(frozen=True)
+class MembraneIntegrals:
+    """The membrane integrals at times t (docs/model.md s.12.1), each shape t.shape:
+
+    kinetic  K_m      = 1/2 sigma int |c_t|^2 dA          (J)
+    inertia  P_inertia = sigma int c_t . c_tt dA = dK_m/dt (W)
+    gravity  P_gravity = -sigma int g . c_t dA             (W, lifting the membrane)
+    damping  P_damping = c_d int |c_t|^2 dA                (W)
+
+    with dA = (R0 + R) dR dalpha; ``speed_square`` is int |c_t|^2 dA (m^4 s^-2), so that
+    the damping power of any other c_d is c_d times it. ``scale`` holds, per integral, the
+    same integral of the integrand's absolute value: what a relative change of the
+    quadrature is measured against (an integral that vanishes, like the gravity power of the
+    flat annulus, has a non-zero scale).
+    """
+
+    t: Array
+    kinetic: Array
+    inertia: Array
+    gravity: Array
+    damping: Array
+    speed_square: Array
+    scale: Array
+
+    def values(self) -> Array:
+        """The four integrals stacked along a last axis, in the order of INTEGRALS."""
+        return np.stack([self.kinetic, self.inertia, self.gravity, self.damping], axis=-1)
+
+
+def membrane_integrals(surface: Surface, motion: Motion, t: ArrayLike, rule: Quadrature,
+                       sigma: float, c_d: float, g: float, chunk: int = 100_000
+                       ) -> MembraneIntegrals:
+    """K_m, P_inertia, P_gravity, P_damping at times t by the rule, in chunks of times of at
+    most ``chunk`` nodes x times (arrays that stay in cache: four times faster than one
+    pass here). Gravity is (0, 0, -g)."""
+    t = np.atleast_1d(np.asarray(t, float))
+    n_nodes = rule.weight.size
+    step = max(1, chunk // n_nodes)
+    out = np.empty((t.size, 4))
+    scale = np.empty((t.size, 4))
+    square = np.empty(t.size)
+    a = rule.alpha[None, :, None]
+    R = rule.R[None, None, :]
+    w = rule.weight[None, :, :]
+    for start in range(0, t.size, step):
+        tt = t[start:start + step, None, None]
+        frame = Frame(surface, motion, a, R, tt)
+        ct = frame.c_t
+        ctt = frame.c_tt
+        speed2 = np.einsum("...i,...i->...", ct, ct)
+        power = np.einsum("...i,...i->...", ct, ctt)
+        lift = g * ct[..., 2]  # -g_vec . c_t with g_vec = (0, 0, -g)
+        sl = slice(start, start + tt.shape[0])
+        out[sl, 0] = 0.5 * sigma * np.sum(w * speed2, axis=(1, 2))
+        out[sl, 1] = sigma * np.sum(w * power, axis=(1, 2))
+        out[sl, 2] = sigma * np.sum(w * lift, axis=(1, 2))
+        square[sl] = np.sum(w * speed2, axis=(1, 2))
+        out[sl, 3] = c_d * square[sl]
+        scale[sl, 0] = out[sl, 0]
+        scale[sl, 1] = sigma * np.sum(w * np.abs(power), axis=(1, 2))
+        scale[sl, 2] = sigma * np.sum(w * np.abs(lift), axis=(1, 2))
+        scale[sl, 3] = out[sl, 3]
+    return MembraneIntegrals(t, out[:, 0], out[:, 1], out[:, 2], out[:, 3], square, scale)
+
+
+@dataclass(frozen=True)
+class Convergence:
+    """The quadrature's own convergence: the grids tried, in order, and for each after the
+    first the relative change of every integral from the grid before (NaN for the first).
+
+    A relative change is max over t of |I_new - I_old| divided by max over t of the
+    integral's scale (MembraneIntegrals.scale); an integral whose scale is zero (damping
+    with c_d = 0) changes by 0. ``rule`` is the last grid, the one the study uses.
+    """
+
+    levels: tuple[tuple[int, int], ...]
+    rel_change: Array
+    rtol: float
+    rule: Quadrature
+
+    @property
+    def converged(self) -> bool:
+        """Whether the last refinement changed every integral by at most rtol."""
+        return bool(len(self.levels) > 1 and np.all(self.rel_change[-1] <= self.rtol))
+
+    @property
+    def final_rel_change(self) -> float:
+        """The largest relative change of the last refinement (NaN with a single grid)."""
+        return float(np.max(self.rel_change[-1])) if len(self.levels) > 1 else math.nan
+
+
+def _relative_change(new: MembraneIntegrals, old: MembraneIntegrals) -> Array:
+    diff = np.max(np.abs(new.values() - old.values()), axis=0)
+    scale = np.max(new.scale, axis=0)
+    return np.where(scale > 0.0, diff / np.where(scale > 0.0, scale, 1.0), 0.0)
+
+
+def converge_quadrature(surface: Surface, motion: Motion, t: ArrayLike, sigma: float,
+                        c_d: float, g: float, n_alpha: int, n_R: int, rtol: float = 1e-10,
+                        growth: float = 1.5, max_levels: int = 12) -> Convergence:
+    """Refine the rule from (n_alpha, n_R), each count multiplied by ``growth`` and made odd
+    per level, until one refinement changes every integral at times t by at most rtol
+    (relative, see :class:`Convergence`) or max_levels grids were tried.
+
+    Odd counts that are not nested keep two successive alpha grids from aliasing the same
+    harmonic (a doubling sequence would integrate a harmonic that is a multiple of both
+    counts equally wrongly, and look converged).
+    """
+    def odd(x: float) -> int:
+        return 2 * int(round(x / 2.0)) + 1
+
+    levels = [(odd(n_alpha), odd(n_R))]
+    rule = quadrature(surface, *levels[0])
+    prev = membrane_integrals(surface, motion, t, rule, sigma, c_d, g)
+    changes = [np.full(4, math.nan)]
+    while len(levels) < max_levels:
+        na, nr = levels[-1]
+        nxt = (max(odd(na * growth), na + 2), max(odd(nr * growth), nr + 2))
+        rule_next = quadrature(surface, *nxt)
+        cur = membrane_integrals(surface, motion, t, rule_next, sigma, c_d, g)
+        changes.append(_relative_change(cur, prev))
+        levels.append(nxt)
+        rule, prev = rule_next, cur
+        if np.all(changes[-1] <= rtol):
+            break
+    return Convergence(tuple(levels), np.array(changes), rtol, rule)
+
+
+def _flat(motion: Motion) -> bool:
+    """Whether the inclination law is identically zero (every coefficient 0)."""
+    return bool(np.all(motion.gamma.coefficients()[[0, 1, 2, 4]] == 0.0))
+
+
+def annulus_kinetic_energy(surface: Surface, motion: Motion, t: ArrayLike, sigma: float
+                           ) -> tuple[Array, Array]:
+    """K_m and P_inertia = dK_m/dt of the flat annulus (gamma = 0 at all times) in closed
+    form, for any radial and angular phase laws (docs/model.md s.12.1):
+
+        K_m = (sigma pi A^2 / 2) [phi_r'^2 (M/2 + S) + phi_a'^2 (M/2 - S)]
+        M = R0 dR + dR^2 / 2,   S = dR sin(2 phi_r) / (4 k)
+
+    Raises ValueError for an inclination law that is not identically zero.
+    """
+    if not _flat(motion):
+        raise ValueError("the closed form holds on the flat annulus only (gamma = 0)")
+    pr, pa = motion.phi_r(t), motion.phi_a(t)
+    A, k, R0, dR = surface.A, surface.k, surface.R0, surface.dR
+    M = R0 * dR + 0.5 * dR * dR
+    S = dR * np.sin(2.0 * pr.value) / (4.0 * k)
+    dS = dR * pr.d1 * np.cos(2.0 * pr.value) / (2.0 * k)
+    c = 0.5 * sigma * math.pi * A * A
+    K = c * (pr.d1**2 * (0.5 * M + S) + pa.d1**2 * (0.5 * M - S))
+    P = c * (2.0 * pr.d1 * pr.d2 * (0.5 * M + S) + 2.0 * pa.d1 * pa.d2 * (0.5 * M - S)
+             + (pr.d1**2 - pa.d1**2) * dS)
+    return np.asarray(K, float), np.asarray(P, float)
+
+
+def load_power(surface: Surface, motion: Motion, t: ArrayLike, R: ArrayLike, alpha: ArrayLike,
+               N: ArrayLike, f: ArrayLike) -> Array:
+    """P_surface = (N n + f) . c_t at the contact points (R, alpha) at times t: the power the
+    membrane delivers to the sphere (docs/model.md s.5), n and c_t evaluated there."""
+    frame = Frame(surface, motion, alpha, R, t)
+    force = np.asarray(N, float)[..., None] * frame.normal + np.asarray(f, float)
+    return np.einsum("...i,...i->...", force, frame.c_t)
+
+
+# ------------------------------------------------------------------------ normal motion W
+def normal_rate_bounds(surface: Surface, motion: Motion, t: ArrayLike) -> tuple[Array, Array]:
+    """max over the surface of |W_t| and of |W_tt| at each time t, in closed form.
+
+    W_t = A x^T diag(phi_r', -phi_a') y and W_tt = A x^T M y with x = (cos u, sin u),
+    y = (cos v, sin v) and M = [[phi_r'', -2 phi_r' phi_a'], [-(phi_r'^2 + phi_a'^2),
+    -phi_a'']]. Over the annulus u covers whole periods (k dR = 2 pi Kr) independently of
+    v, so each maximum is A times the largest singular value: A max(|phi_r'|, |phi_a'|) and
+    A sigma_max(M). W does not depend on gamma, so this holds on every surface of the family.
+    """
+    pr, pa = motion.phi_r(t), motion.phi_a(t)
+    A = surface.A
+    w_t = A * np.maximum(np.abs(pr.d1), np.abs(pa.d1))
+    m11, m12 = pr.d2, -2.0 * pr.d1 * pa.d1
+    m21, m22 = -(pr.d1**2 + pa.d1**2), -pa.d2
+    fro = m11**2 + m12**2 + m21**2 + m22**2
+    det = m11 * m22 - m12 * m21
+    smax = np.sqrt(0.5 * (fro + np.sqrt(np.maximum(fro * fro - 4.0 * det * det, 0.0))))
+    return np.asarray(w_t, float), np.asarray(A * smax, float)
+
+
+def time_maximum(fun: Callable[[Array], Array], t0: float, t1: float, samples: int = 20001
+                 ) -> tuple[float, float]:
+    """(t*, max) of a smooth scalar function of time on [t0, t1]: the best of a uniform
+    sampling, refined by :func:`refine_maximum`."""
+    t = np.linspace(t0, t1, samples)
+    return refine_maximum(fun, t, np.asarray(fun(t), float))
+
+
+def refine_maximum(fun: Callable[[Array], Array], t: Array, values: Array,
+                   xtol: float = 1e-13) -> tuple[float, float]:
+    """(t*, max) of a smooth function sampled as values at increasing times t: golden-section
+    search between the neighbours of the best sample (fun takes an array of times)."""
+    i = int(np.argmax(values))
+    lo, hi = float(t[max(i - 1, 0)]), float(t[min(i + 1, t.size - 1)])
+    g = 0.5 * (math.sqrt(5.0) - 1.0)
+
+    def f(x: float) -> float:
+        return float(np.asarray(fun(np.array([x])), float)[0])
+
+    a, b = hi - g * (hi - lo), lo + g * (hi - lo)
+    fa, fb = f(a), f(b)
+    while hi - lo > xtol * max(1.0, abs(hi)):
+        if fa < fb:
+            lo, a, fa = a, b, fb
+            b = lo + g * (hi - lo)
+            fb = f(b)
+        else:
+            hi, b, fb = b, a, fa
+            a = hi - g * (hi - lo)
+            fa = f(a)
+    best = max((float(values[i]), float(t[i])), (fa, a), (fb, b))
+    return best[1], best[0]
+
+
+def angular_law_bounds(surface: Surface, motion: Motion) -> dict[str, float]:
+    """Closed forms of the angular law (phi_r constant) over the cycle: the stroke, max |W_t|
+    and max |W_tt| at the worst point, for a phase law phi0 + rate t + delta s(t / T)
+    (constant, linear or quintic kinds; NaN for others or when phi_r moves).
+
+    With phi_r constant, W = A sin u cos v at fixed (alpha, R), so the worst point has
+    |sin u| = 1 and: stroke = A (range of cos over the swept phase) = 2 A sin(min(w, pi)/2)
+    for a sweep of width w; max |W_t| = A max |phi_a'|; max |W_tt| = A max sqrt(phi_a'^4 +
+    phi_a''^2), whose square is a polynomial in t over the cycle, maximised at the real
+    roots of its derivative.
+    """
+    nan = {"stroke": math.nan, "max_W_t": math.nan, "max_W_tt": math.nan}
+    r, a = motion.phi_r, motion.phi_a
+    if r.kind not in (LawKind.constant,) or r.rate != 0.0 or r.delta != 0.0 \
+            or r.amplitude != 0.0:
+        return nan
+    if a.kind not in (LawKind.constant, LawKind.linear, LawKind.quintic) or a.amplitude != 0.0:
+        return nan
+    A, T, D, w0 = surface.A, a.T, a.delta, a.rate
+    if w0 != 0.0:  # the sweep grows without bound: every phase is swept
+        width = math.inf
+    else:
+        width = abs(D)
+    stroke = 2.0 * A * math.sin(0.5 * min(width, math.pi))
+    P = np.polynomial.Polynomial
+    tau = P([0.0, 1.0])
+    d1 = w0 + D / T * 30.0 * tau**2 * (1.0 - tau) ** 2
+    d2 = D / T**2 * 60.0 * tau * (1.0 - tau) * (1.0 - 2.0 * tau)
+    sq = d1**4 + d2**2
+    candidates = [0.0, 1.0]
+    for p in (d1 * d1, sq):
+        roots = p.deriv().roots()
+        candidates += [float(x.real) for x in roots if abs(x.imag) < 1e-12 and 0 < x.real < 1]
+    c = np.array(candidates)
+    return {"stroke": stroke, "max_W_t": A * float(np.sqrt(np.max(d1(c) ** 2))),
+            "max_W_tt": A * float(np.sqrt(np.max(sq(c))))}
+
+
+@dataclass(frozen=True)
+class NormalExtrema:
+    """Numeric extrema of the normal motion W over the surface and a set of times.
+
+    stroke: max over points of (max_t W - min_t W); max_W_t, max_W_tt: max over points and
+    times of |W_t|, |W_tt|; ``worst`` is the (alpha, R) of the largest |W_t| (the point whose
+    spectrum sets the bandwidth), ``stroke_point`` that of the stroke.
+    """
+
+    stroke: float
+    stroke_point: tuple[float, float]
+    max_W_t: float
+    max_W_tt: float
+    worst: tuple[float, float]
+
+
+def normal_rate_maxima(surface: Surface, motion: Motion, t: ArrayLike, n_alpha: int,
+                       n_R: int, polish: bool = True) -> NormalExtrema:
+    """Stroke, max |W_t|, max |W_tt| over an (alpha, R) grid (n_alpha x n_R, both edges of
+    [0, dR] included) and the times t, then each maximum polished by a local search in
+    (alpha, R, t) (Nelder-Mead from the best grid point; the stroke's search is in (alpha,
+    R) with the extremes over t taken on the samples). Independent of the closed forms."""
+    t = np.atleast_1d(np.asarray(t, float))
+    alpha = 2.0 * math.pi * np.arange(n_alpha) / n_alpha
+    R = np.linspace(0.0, surface.dR, n_R)
+    hi = np.full((n_alpha, n_R), -np.inf)
+    lo = np.full((n_alpha, n_R), np.inf)
+    best_t = np.zeros((n_alpha, n_R))
+    best_wt = np.full((n_alpha, n_R), -np.inf)
+    best_tt = (-np.inf, 0.0, 0.0, 0.0)
+    step = max(1, 100_000 // (n_alpha * n_R))
+    for start in range(0, t.size, step):
+        tt = t[start:start + step]
+        w = Wave(surface, motion, alpha[None, :, None], R[None, None, :], tt[:, None, None])
+        hi = np.maximum(hi, w.W.max(axis=0))
+        lo = np.minimum(lo, w.W.min(axis=0))
+        awt = np.abs(w.W_t)
+        i = np.argmax(awt, axis=0)
+        cand = np.take_along_axis(awt, i[None], axis=0)[0]
+        better = cand > best_wt
+        best_wt = np.where(better, cand, best_wt)
+        best_t = np.where(better, tt[i], best_t)
+        awtt = np.abs(w.W_tt)
+        j = np.unravel_index(int(np.argmax(awtt)), awtt.shape)
+        if awtt[j] > best_tt[0]:
+            best_tt = (float(awtt[j]), float(tt[j[0]]), float(alpha[j[1]]), float(R[j[2]]))
+    rng = hi - lo
+    si = np.unravel_index(int(np.argmax(rng)), rng.shape)
+    wi = np.unravel_index(int(np.argmax(best_wt)), best_wt.shape)
+    stroke = float(rng[si])
+    stroke_point = (float(alpha[si[0]]), float(R[si[1]]))
+    max_wt = float(best_wt[wi])
+    worst = (float(alpha[wi[0]]), float(R[wi[1]]))
+    max_wtt = best_tt[0]
+    if polish:
+        t0, t1 = float(t[0]), float(t[-1])
+
+        def at(x: Sequence[float], name: str) -> float:
+            a_, r_, s_ = x
+            if not (0.0 <= r_ <= surface.dR and t0 <= s_ <= t1):
+                return 0.0
+            return float(abs(getattr(Wave(surface, motion, a_, r_, s_), name)))
+
+        x, max_wt = _nelder_mead(lambda x: at(x, "W_t"),
+                                 [worst[0], worst[1], float(best_t[wi])], max_wt)
+        worst = (float(x[0]), float(x[1]))
+        _, max_wtt = _nelder_mead(lambda x: at(x, "W_tt"),
+                                  [best_tt[2], best_tt[3], best_tt[1]], max_wtt)
+
+        def span(x: Sequence[float]) -> float:
+            a_, r_ = x
+            if not 0.0 <= r_ <= surface.dR:
+                return 0.0
+            w = Wave(surface, motion, a_, r_, t).W
+            return float(w.max() - w.min())
+
+        x, stroke = _nelder_mead(span, list(stroke_point), stroke)
+        stroke_point = (float(x[0]), float(x[1]))
+    return NormalExtrema(stroke, stroke_point, max_wt, max_wtt, worst)
+
+
+def _nelder_mead(fun: Callable[[Sequence[float]], float], x0: list[float], f0: float
+                 ) -> tuple[list[float], float]:
+    """Maximise fun from x0 (a plain Nelder-Mead, relative steps 1e-2): the better of the
+    search's result and the start."""
+    n = len(x0)
+    pts = [np.array(x0, float)]
+    for i in range(n):
+        p = np.array(x0, float)
+        p[i] += 1e-2 * max(abs(p[i]), 1e-2)
+        pts.append(p)
+    vals = [-fun(p) for p in pts]
+    for _ in range(400 * n):
+        order = np.argsort(vals)
+        pts = [pts[i] for i in order]
+        vals = [vals[i] for i in order]
+        if abs(vals[-1] - vals[0]) <= 1e-15 * max(1.0, abs(vals[0])):
+            break
+        centre = np.mean(pts[:-1], axis=0)
+        xr = centre + (centre - pts[-1])
+        fr = -fun(xr)
+        if fr < vals[0]:
+            xe = centre + 2.0 * (centre - pts[-1])
+            fe = -fun(xe)
+            pts[-1], vals[-1] = (xe, fe) if fe < fr else (xr, fr)
+        elif fr < vals[-2]:
+            pts[-1], vals[-1] = xr, fr
+        else:
+            xc = centre + 0.5 * (pts[-1] - centre)
+            fc = -fun(xc)
+            if fc < vals[-1]:
+                pts[-1], vals[-1] = xc, fc
+            else:
+                pts = [pts[0] + 0.5 * (p - pts[0]) for p in pts]
+                vals = [-fun(p) for p in pts]
+    i = int(np.argmin(vals))
+    if -vals[i] > f0:
+        return list(pts[i]), -vals[i]
+    return x0, f0
+
+
+def local_frequency(motion: Motion, t: ArrayLike) -> Array:
+    """The highest local frequency of W at times t (Hz): W = (A/2)[sin(u + v) + sin(u - v)]
+    at a fixed point turns at |phi_r' +- phi_a'|, so (|phi_r'| + |phi_a'|) / (2 pi)."""
+    return np.asarray((np.abs(motion.phi_r(t).d1) + np.abs(motion.phi_a(t).d1))
+                      / (2.0 * math.pi), float)
+
+
+def energy_frequency(signal: ArrayLike, dt: float, fraction: float = 0.99, pad: int = 8
+                     ) -> float:
+    """The frequency (Hz) below which ``fraction`` of a sampled signal's energy lies.
+
+    The signal is taken as zero outside its samples (a transient: the membrane is still
+    before and after the cycle) and zero-padded to ``pad`` times its length, so the energy
+    spectrum |X(f)|^2 is sampled every 1 / (pad x duration); the one-sided energy is
+    accumulated bin by bin (Parseval) and the first bin reaching the fraction is returned.
+    """
+    x = np.asarray(signal, float)
+    n = pad * x.size
+    spec = np.abs(np.fft.rfft(x, n)) ** 2
+    weight = np.full(spec.size, 2.0)
+    weight[0] = 1.0
+    if n % 2 == 0:
+        weight[-1] = 1.0
+    energy = np.cumsum(weight * spec)
+    if energy[-1] <= 0.0:
+        return 0.0
+    i = int(np.searchsorted(energy, fraction * energy[-1]))
+    return float(np.fft.rfftfreq(n, dt)[min(i, spec.size - 1)])

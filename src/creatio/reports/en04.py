@@ -1,0 +1,376 @@
+"""Report of EN-04: what the actuators must deliver, and the still-cavity check (docs/studies.md,
+docs/model.md s.12).
+
+From the study's datasets (``en04_actuation``, ``en04_oscillation``) the sphere kind's files:
+``en04.json`` (the contract: ``actuation.<study>``, ``oscillation.alpha`` / ``oscillation.R``,
+and ``control``, which a later part of the study fills; the checks beside them),
+``en04.md``, ``en04.png`` (the powers over the cycle), ``en04_history.csv`` (the actuation
+histories), ``en04_trajectory.png`` (the still-cavity oscillations) and
+``en04_convergence.png`` (the quadrature's convergence, its closed-form check and the load
+energy against the run's own bookkeeping). Nothing here recomputes a study.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import xarray as xr
+
+from creatio.reports.beyond import _finish, _start
+from creatio.reports.common import plt, table, write_text
+from creatio.studies.en04 import oscillation_tolerance
+
+__all__ = ["ACTUATION_KEYS", "en04_summary", "write_report"]
+
+#: The contract keys of ``actuation.<study>`` and the dataset variable each comes from.
+ACTUATION_KEYS = (
+    ("sigma_kg_m2", "sigma"),
+    ("K_m_max_J", "K_m_max"),
+    ("K_m_max_closed_form_J", "K_m_max_closed_form"),
+    ("P_surface_peak_W", "P_surface_peak"),
+    ("W_surface_J", "W_surface"),
+    ("P_inertia_peak_W", "P_inertia_peak"),
+    ("P_actuator_peak_W", "P_actuator_peak"),
+    ("E_actuator_J", "P_actuator_energy"),
+    ("stroke_m", "stroke"),
+    ("max_W_t_m_s", "max_W_t"),
+    ("max_W_tt_m_s2", "max_W_tt"),
+    ("bandwidth_hz", "bandwidth"),
+    ("bandwidth99_hz", "bandwidth99"),
+    ("quadrature_rel_change", "quadrature_rel_change"),
+)
+
+#: The checks beside the contract: key and dataset variable.
+_CHECK_KEYS = (
+    ("K_m_closed_form_rel_error", "K_m_closed_form_rel_error"),
+    ("P_inertia_closed_form_rel_error", "P_inertia_closed_form_rel_error"),
+    ("K_m_max_time_s", "K_m_max_time"),
+    ("W_surface_run_J", "W_surface_run"),
+    ("W_surface_fine_J", "W_surface_fine"),
+    ("W_surface_run_fine_J", "W_surface_run_fine"),
+    ("fine_dt_s", "fine_dt"),
+    ("stroke_angular_law_m", "stroke_angular_law"),
+    ("max_W_t_closed_form_m_s", "max_W_t_closed_form"),
+    ("max_W_t_angular_law_m_s", "max_W_t_angular_law"),
+    ("max_W_tt_closed_form_m_s2", "max_W_tt_closed_form"),
+    ("max_W_tt_angular_law_m_s2", "max_W_tt_angular_law"),
+    ("worst_alpha_rad", "worst_alpha"),
+    ("worst_R_m", "worst_R"),
+    ("quadrature_n_alpha", "quadrature_n_alpha"),
+    ("quadrature_n_R", "quadrature_n_R"),
+    ("P_surface_mean_W", "P_surface_mean"),
+    ("P_inertia_mean_W", "P_inertia_mean"),
+    ("P_gravity_peak_W", "P_gravity_peak"),
+    ("P_gravity_mean_W", "P_gravity_mean"),
+    ("P_damping_peak_W", "P_damping_peak"),
+    ("P_actuator_mean_W", "P_actuator_mean"),
+)
+
+
+def _split(runs: Sequence[xr.Dataset]) -> dict[str, xr.Dataset]:
+    return {str(ds.attrs.get("part")): ds for ds in runs}
+
+
+def _actuation(ds: xr.Dataset) -> tuple[dict, dict, dict]:
+    """(contract, damped case, checks) per case of the actuation dataset."""
+    contract, damped, checks = {}, {}, {}
+    for i, case in enumerate(ds.case.values):
+        row = ds.isel(case=i)
+        contract[str(case)] = {k: float(row[v]) for k, v in ACTUATION_KEYS}
+        damped[str(case)] = {
+            "c_d_N_s_m3": float(row["damped_c_d"]),
+            "P_damping_peak_W": float(row["P_damping_damped_peak"]),
+            "E_damping_J": float(row["P_damping_damped_energy"]),
+            "P_actuator_peak_W": float(row["P_actuator_damped_peak"]),
+            "E_actuator_J": float(row["P_actuator_damped_energy"]),
+        }
+        c = {k: float(row[v]) for k, v in _CHECK_KEYS}
+        c["W_surface_difference_J"] = c["W_surface_run_J"] - float(row["W_surface"])
+        c["W_surface_difference_fine_J"] = c["W_surface_run_fine_J"] - c["W_surface_fine_J"]
+        c["quadrature_converged"] = bool(row["quadrature_converged"])
+        c["run_status"] = str(row["status"].values)
+        checks[str(case)] = c
+    return contract, damped, checks
+
+
+def _oscillation(ds: xr.Dataset) -> tuple[dict, dict]:
+    """(contract, checks) per direction: sliding at mu = 0, rolling at the largest mu, both at
+    the first amplitude; the zero-amplitude extrapolations and the regularised prediction."""
+    contract, checks = {}, {}
+    amp = float(np.min(ds.amplitude.values))
+    roll_mu = float(np.max(ds.mu.values))
+    for direction in ("alpha", "R"):
+        def pick(mu: float, d: str = direction) -> int:
+            sel = np.flatnonzero((ds.direction.values == d) & (ds.mu.values == mu)
+                                 & (ds.amplitude.values == amp))
+            return int(sel[0])
+
+        def mode(mu: float, d: str = direction) -> float:
+            sel = np.flatnonzero((ds.mode_direction.values == d) & (ds.mode_mu.values == mu))
+            return float(ds.omega_zero_amplitude.values[sel[0]])
+
+        s, r = pick(0.0), pick(roll_mu)
+        kappa = float(ds.attrs["kappa_alpha" if direction == "alpha" else "kappa_R"])
+        slide, slide_cf = float(ds.omega.values[s]), float(ds.attrs[f"slide_{direction}"])
+        roll, roll_cf = float(ds.omega.values[r]), float(ds.attrs[f"roll_{direction}"])
+        reg = float(ds.omega_regularised.values[r])
+        tol = oscillation_tolerance(kappa, amp)
+        offset = abs(reg - roll_cf) / roll_cf
+        contract[direction] = {
+            "slide_rad_s": slide,
+            "slide_closed_form_rad_s": slide_cf,
+            "roll_rad_s": roll,
+            "roll_closed_form_rad_s": roll_cf,
+        }
+        checks[direction] = {
+            "amplitude_m": amp,
+            "roll_mu": roll_mu,
+            "kappa_1_m": kappa,
+            "slide_rel_difference": (slide - slide_cf) / slide_cf,
+            "slide_tolerance_rel": tol,
+            "roll_rel_difference": (roll - roll_cf) / roll_cf,
+            "roll_regularisation_offset_rel": offset,
+            "roll_tolerance_rel": tol + offset,
+            "within_tolerance": bool(abs(slide - slide_cf) <= tol * slide_cf
+                                     and abs(roll - roll_cf) <= (tol + offset) * roll_cf),
+            "slide_zero_amplitude_rad_s": mode(0.0),
+            "roll_zero_amplitude_rad_s": mode(roll_mu),
+            "roll_regularised_rad_s": reg,
+            "roll_decay_1_s": float(ds.decay.values[r]),
+            "roll_decay_regularised_1_s": float(ds.decay_regularised.values[r]),
+            "statuses": sorted({str(v) for v in ds.status.values}),
+        }
+    return contract, checks
+
+
+def en04_summary(datasets: xr.Dataset | Sequence[xr.Dataset]) -> dict[str, Any]:
+    """The JSON report of EN-04: ``actuation``, ``oscillation`` and ``control`` (null until
+    the closed loop is built), each with its checks beside it."""
+    runs = [datasets] if isinstance(datasets, xr.Dataset) else list(datasets)
+    parts = _split(runs)
+    out: dict[str, Any] = {"study": "en04"}
+    statuses: list[str] = []
+    if "actuation" in parts:
+        contract, damped, checks = _actuation(parts["actuation"])
+        out["actuation"] = contract
+        out["actuation_damped"] = damped
+        out["actuation_checks"] = checks
+        statuses += [c["run_status"] for c in checks.values()]
+    if "oscillation" in parts:
+        contract, checks = _oscillation(parts["oscillation"])
+        out["oscillation"] = contract
+        out["oscillation_checks"] = checks
+        statuses += [str(s) for s in parts["oscillation"].status.values]
+    out["control"] = None  # the closed loop of docs/model.md s.12.2: a later part
+    out["status"] = "ok" if all(s == "ok" for s in statuses) else "failed"
+    return out
+
+
+_LABELS = {"en02": "EN-02", "en02r": "EN-02R"}
+
+
+def _powers(ds: xr.Dataset, path: Path) -> None:
+    """The powers over the cycle, one panel per study."""
+    n = ds.sizes["case"]
+    fig, axes = plt.subplots(n, 1, figsize=(10, 3.4 * n), squeeze=False)
+    for i, case in enumerate(ds.case.values):
+        ax = axes[i, 0]
+        row = ds.isel(case=i)
+        t = ds.time.values
+        for name, style in (("P_surface", "-"), ("P_inertia", "-"), ("P_gravity", ":"),
+                            ("P_actuator", "--")):
+            ax.plot(t, 1e3 * row[name].values, style, lw=1.2 if name != "P_actuator" else 1.6,
+                    label=name.replace("_", " "))
+        ax.axhline(0.0, color="0.7", lw=0.6)
+        label = _LABELS.get(str(case), str(case))
+        ax.set_title(f"{label}: powers over the cycle (sigma = {float(row['sigma']):g} kg/m^2, "
+                     f"c_d = {float(row['c_d']):g}); W_surface = "
+                     f"{float(row['W_surface']):.4g} J, E_actuator = "
+                     f"{float(row['P_actuator_energy']):.4g} J", fontsize=9)
+        ax.set_xlabel("t (s)")
+        ax.set_ylabel("power (mW)")
+        ax.legend(fontsize=8, ncol=4)
+    _finish(fig, path)
+
+
+def _oscillations(ds: xr.Dataset, path: Path) -> None:
+    """Each still-cavity run's displacement; beside it, the measured frequencies against the
+    closed forms."""
+    dirs = ("alpha", "R")
+    fig, axes = plt.subplots(len(dirs), 2, figsize=(13, 3.6 * len(dirs)), squeeze=False,
+                             gridspec_kw={"width_ratios": [2.2, 1]})
+    t = ds.time.values
+    for j, d in enumerate(dirs):
+        ax = axes[j, 0]
+        for i in np.flatnonzero(ds.direction.values == d):
+            ax.plot(t, 1e3 * ds.displacement.values[i], lw=0.8,
+                    label=f"mu = {float(ds.mu.values[i]):g}, a = "
+                          f"{1e3 * float(ds.amplitude.values[i]):g} mm")
+        ax.set_xlabel("t (s)")
+        ax.set_ylabel("displacement (mm)")
+        ax.set_title(f"along {d}: contact displacement from the still cavity's bottom",
+                     fontsize=9)
+        ax.legend(fontsize=7, ncol=2)
+        bx = axes[j, 1]
+        sel = np.flatnonzero(ds.direction.values == d)
+        rel = (ds.omega.values[sel] - ds.omega_closed_form.values[sel]) \
+            / ds.omega_closed_form.values[sel]
+        labels = [f"mu {float(ds.mu.values[i]):g}\na {1e3 * float(ds.amplitude.values[i]):g}"
+                  for i in sel]
+        bx.bar(range(sel.size), rel, color=["tab:blue" if ds.mu.values[i] == 0 else "tab:orange"
+                                            for i in sel])
+        reg = (ds.omega_regularised.values[sel] - ds.omega_closed_form.values[sel]) \
+            / ds.omega_closed_form.values[sel]
+        bx.plot(range(sel.size), reg, "k_", ms=18, mew=2, label="regularised prediction")
+        bx.axhline(0.0, color="0.5", lw=0.6)
+        bx.set_xticks(range(sel.size), labels, fontsize=7)
+        bx.set_ylabel("(measured - closed form) / closed form")
+        bx.set_title(f"along {d}: slide (mu = 0) and roll", fontsize=9)
+        bx.legend(fontsize=7)
+    _finish(fig, path)
+
+
+def _convergence(act: xr.Dataset | None, path: Path) -> None:
+    """The quadrature's refinement, the closed-form check of K_m, and the load energy
+    against the run's own bookkeeping."""
+    fig, (a1, a2, a3) = plt.subplots(1, 3, figsize=(15, 4.2))
+    if act is not None:
+        for i, case in enumerate(act.case.values):
+            label = _LABELS.get(str(case), str(case))
+            na = act.level_n_alpha.values[i]
+            nr = act.level_n_R.values[i]
+            ok = na > 0
+            for k, name in enumerate(act.integral.values):
+                y = act.level_rel_change.values[i, :, k][ok]
+                if not np.any(y > 0):  # identically zero (damping at c_d = 0)
+                    continue
+                x = (na[ok] * nr[ok]).astype(float)
+                y = np.where(y > 0, y, np.nan)
+                a1.semilogy(x, y, "o-", ms=3, lw=0.8, label=f"{label} {name}")
+            t = act.time.values
+            K = act.K_m.values[i]
+            Kc = act.K_m_closed_form.values[i]
+            a2.plot(t, (K - Kc) / np.nanmax(np.abs(Kc)), ".", ms=1, label=label)
+            d = act.load_work.values[i] - act.surface_work.values[i]
+            a3.plot(t, d, lw=0.8, label=f"{label}, dt = {float(act.dt.values[i]):g} s")
+        a1.axhline(float(act.attrs.get("quadrature_rtol", math.nan)), color="k", ls=":",
+                   lw=0.8, label="rtol")
+    a1.set_xlabel("nodes (n_alpha x n_R)")
+    a1.set_ylabel("relative change from the grid before")
+    a1.set_title("membrane quadrature: refinement", fontsize=9)
+    a1.legend(fontsize=6, ncol=2)
+    a2.set_xlabel("t (s)")
+    a2.set_ylabel("(K_m quadrature - closed form) / max K_m")
+    a2.set_title("K_m: quadrature against the flat-annulus closed form", fontsize=9)
+    a2.legend(fontsize=7)
+    a3.set_xlabel("t (s)")
+    a3.set_ylabel("J")
+    a3.set_title("W_surface from (N n + f) . c_t minus the run's surface work", fontsize=9)
+    a3.legend(fontsize=7)
+    _finish(fig, path)
+
+
+def _csv(act: xr.Dataset, path: Path) -> None:
+    """The actuation histories every output interval of the studies (the sphere reports'
+    sampling), one column per study and variable (units in the header)."""
+    from creatio.reports.beyond import _write_csv
+
+    every = float(act.attrs.get("history_interval", act.attrs["sample_interval"]))
+    step = max(1, round(every / float(act.attrs["sample_interval"])))
+    act = act.isel(time=slice(None, None, step))
+    names = [v for v in act.data_vars if act[v].dims == ("case", "time")]
+    header = ["time_s"] + [f"{c}_{v} ({act[v].attrs.get('units', '')})"
+                           for c in act.case.values for v in names]
+    cols = [act.time.values] + [act[v].values[i] for i in range(act.sizes["case"])
+                                for v in names]
+    _write_csv(path, header, list(zip(*cols, strict=True)))
+
+
+def write_report(datasets: Sequence[Path], outdir: str | Path) -> dict[str, Path]:
+    """Write en04.json/.md/.png, _history.csv (actuation histories), _trajectory.png (the
+    still-cavity oscillations), _convergence.png (quadrature, closed form, load energy)."""
+    runs, s, paths = _start(datasets, outdir, en04_summary)
+    parts = _split(runs)
+    act = parts.get("actuation")
+    osc = parts.get("oscillation")
+    if act is not None:
+        _powers(act, paths["png"])
+        _csv(act, paths["csv"])
+    else:
+        write_text(paths["csv"], "time_s\n")
+    if osc is not None:
+        _oscillations(osc, paths["trajectory"])
+    _convergence(act, paths["convergence"])
+    lines = [f"# {runs[0].attrs.get('title', 'EN-04')}", "",
+             f"config sha256 `{str(runs[0].attrs.get('config_sha256', ''))[:12]}`, creatio "
+             f"{runs[0].attrs.get('creatio_version')}, commit "
+             f"{str(runs[0].attrs.get('git_commit', ''))[:10]} (docs/model.md s.12, "
+             "docs/studies.md).", ""]
+    if "actuation" in s:
+        cases = list(s["actuation"])
+        lines += ["## Actuation demand of the prescribed cycles", "",
+                  "Each study's own run (its config under `bases`), its load power "
+                  "P_surface = (N n + f) . c_t at the contact point, and a membrane of areal "
+                  "density sigma over the reference annulus. Peaks are max |P| over the cycle.",
+                  "",
+                  *table(["figure", *[_LABELS.get(c, c) for c in cases]],
+                         [(k, *[s["actuation"][c][k] for c in cases])
+                          for k, _ in ACTUATION_KEYS]),
+                  "", "### Damped membrane", "",
+                  *table(["figure", *[_LABELS.get(c, c) for c in cases]],
+                         [(k, *[s["actuation_damped"][c][k] for c in cases])
+                          for k in next(iter(s["actuation_damped"].values()))]),
+                  "", "### Checks", "",
+                  *table(["check", *[_LABELS.get(c, c) for c in cases]],
+                         [(k, *[s["actuation_checks"][c][k] for c in cases])
+                          for k in next(iter(s["actuation_checks"].values()))]),
+                  "", "K_m_closed_form_rel_error: the quadrature against the flat-annulus "
+                  "closed form, max over the sample grid over max K_m. W_surface_difference: "
+                  "the run's own surface work minus the time integral of the load power "
+                  "from its samples, at dt and at dt / refine (the gap is the scheme's "
+                  "truncation: it shrinks about 16x when dt halves).", "",
+                  f"![powers]({paths['png'].name})", ""]
+    if "oscillation" in s:
+        rows = []
+        for d, v in s["oscillation"].items():
+            c = s["oscillation_checks"][d]
+            rows.append((d, "slide (mu = 0)", v["slide_rad_s"], v["slide_closed_form_rad_s"],
+                         c["slide_rel_difference"], c["slide_tolerance_rel"],
+                         c["slide_zero_amplitude_rad_s"] / v["slide_closed_form_rad_s"] - 1.0))
+            rows.append((d, f"roll (mu = {c['roll_mu']:g})", v["roll_rad_s"],
+                         v["roll_closed_form_rad_s"], c["roll_rel_difference"],
+                         c["roll_tolerance_rel"],
+                         c["roll_zero_amplitude_rad_s"] / c["roll_regularised_rad_s"] - 1.0))
+        decay = [(d, c["roll_decay_1_s"], c["roll_decay_regularised_1_s"],
+                  c["roll_regularisation_offset_rel"])
+                 for d, c in s["oscillation_checks"].items()]
+        amp = next(iter(s["oscillation_checks"].values()))["amplitude_m"]
+        lines += ["## Still-cavity oscillations", "",
+                  f"The sphere at rest in the still cavity, its contact displaced by {amp:g} m "
+                  "(and twice that) along each principal direction; frequencies from the zero "
+                  "crossings of every step (docs/model.md s.12.3).", "",
+                  *table(["direction", "motion", "measured (rad/s)", "closed form (rad/s)",
+                          "rel. difference", "tolerance", "zero amplitude: rel. difference"],
+                         rows),
+                  "", "Tolerance 2 (kappa a)^2: the frequency shift is second order in the "
+                  "amplitude a; for rolling, plus the regularised friction's own offset from "
+                  "rolling without slip (below). The zero-amplitude column extrapolates the "
+                  "two amplitudes (shift ~ a^2) and compares with the closed form (sliding) "
+                  "or with the regularised-friction prediction (rolling).", "",
+                  *table(["direction", "roll decay measured (1/s)",
+                          "regularised prediction (1/s)",
+                          "regularised roll vs rolling without slip (rel.)"], decay),
+                  "", "Is the rolling limit reached? The regularised friction couples the slip "
+                  "with rate mu g / eps; its linearised prediction differs from rolling "
+                  "without slip by the last column, and the measurement follows the "
+                  "prediction, decay included.", "",
+                  f"![oscillations]({paths['trajectory'].name})", ""]
+    lines += ["## Control", "", "Not computed yet: the closed loop of docs/model.md s.12.2 is "
+              "a later part of this study (`control` is null in en04.json).", "",
+              f"![convergence]({paths['convergence'].name})", ""]
+    write_text(paths["md"], "\n".join(lines))
+    return paths

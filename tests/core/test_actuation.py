@@ -1,0 +1,217 @@
+"""Actuation demand of a prescribed cycle (docs/model.md s.12.1): the membrane quadrature
+against the flat annulus's closed form and against finite differences of its own energies,
+its refinement, and the normal motion's extrema against their closed forms.
+
+Everything here is NumPy (creatio.model.actuation); the sphere's load power against the
+run's own energy bookkeeping is in test_en04.py (it needs a simulation).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from creatio.model import actuation as act
+from creatio.model.laws import Law
+from creatio.model.surface import Frame, Motion, Surface
+
+SURFACE = Surface(R0=0.68, dR=1.72, A=0.18, Kr=1, Ka=6)
+T = 120.0
+FLAT = Law.constant(0.0)
+#: EN-02: the pattern turns -360 deg (phi_a = 12 pi s(t / T)), phi_r = 0.
+EN02 = Motion(FLAT, Law.quintic(0.0, 12.0 * math.pi, T), FLAT)
+#: EN-02R: phi_r = -pi s, phi_a = -12 pi s.
+EN02R = Motion(Law.quintic(0.0, -math.pi, T), Law.quintic(0.0, -12.0 * math.pi, T), FLAT)
+#: Both phases moving from non-zero phases (the closed form's S term sin(2 phi_r) != 0).
+MIXED = Motion(Law.linear(0.4, 0.3), Law.quintic(1.1, 5.0, 30.0), FLAT)
+SIGMA, G = 0.5, 9.81
+
+
+def _converged(motion: Motion, t: np.ndarray) -> act.Convergence:
+    return act.converge_quadrature(SURFACE, motion, t, SIGMA, 0.0, G, 9, 5)
+
+
+def test_quadrature_weights_integrate_the_reference_area_and_a_harmonic() -> None:
+    """sum(weight) = 2 pi (R0 dR + dR^2 / 2); a harmonic below n_alpha integrates to 0."""
+    rule = act.quadrature(SURFACE, 7, 6)
+    area = 2.0 * math.pi * (SURFACE.R0 * SURFACE.dR + 0.5 * SURFACE.dR**2)
+    assert rule.weight.sum() == pytest.approx(area, rel=1e-15)
+    f = np.cos(6.0 * rule.alpha)[:, None] * np.ones_like(rule.R)[None, :]
+    assert abs(np.sum(rule.weight * f)) < 1e-14 * area
+    # the trapezoid rule aliases a harmonic that is a multiple of n_alpha: a rule that can fail
+    g = np.cos(7.0 * rule.alpha)[:, None] * np.ones_like(rule.R)[None, :]
+    assert np.sum(rule.weight * g) == pytest.approx(area, rel=1e-14)
+
+
+@pytest.mark.parametrize("motion", [EN02, EN02R, MIXED], ids=["en02", "en02r", "mixed"])
+def test_kinetic_energy_quadrature_equals_the_closed_form(motion: Motion) -> None:
+    """K_m by the converged quadrature equals the flat-annulus closed form to 1e-10 relative
+    (it reaches rounding), at every time of a cycle; P_inertia likewise."""
+    t = np.linspace(0.0, T, 241)
+    conv = _converged(motion, t)
+    assert conv.converged and conv.final_rel_change <= 1e-10
+    mi = act.membrane_integrals(SURFACE, motion, t, conv.rule, SIGMA, 0.0, G)
+    K, P = act.annulus_kinetic_energy(SURFACE, motion, t, SIGMA)
+    assert np.max(K) > 1e-3  # a moving membrane, not two zeros agreeing
+    assert np.max(np.abs(mi.kinetic - K)) <= 1e-10 * np.max(K)
+    assert np.max(np.abs(mi.inertia - P)) <= 1e-10 * np.max(np.abs(P))
+    # the flat annulus lifts nothing on balance: int W_t dA = 0 at every time
+    assert np.max(np.abs(mi.gravity)) <= 1e-12 * np.max(mi.scale[:, 2])
+
+
+def test_a_coarse_grid_misses_the_closed_form_and_refinement_is_monotone() -> None:
+    """The first grids differ from the closed form far beyond 1e-10 (the check can fail), and
+    each refinement's change falls until the last is at rounding."""
+    t = np.linspace(0.0, T, 121)
+    K, _ = act.annulus_kinetic_energy(SURFACE, EN02, t, SIGMA)
+    coarse = act.membrane_integrals(SURFACE, EN02, t, act.quadrature(SURFACE, 9, 5), SIGMA,
+                                    0.0, G)
+    assert np.max(np.abs(coarse.kinetic - K)) > 1e-3 * np.max(K)
+    conv = _converged(EN02, t)
+    kinetic = conv.rel_change[1:, 0]
+    assert np.all(np.diff(kinetic) < 0.0)
+    assert len(conv.levels) >= 3
+
+
+def test_closed_form_power_is_the_derivative_of_the_closed_form_energy() -> None:
+    """P_inertia = dK_m/dt in closed form against 4th-order central differences of K_m (the
+    S' term of a moving radial phase included)."""
+    t = np.linspace(1.0, 25.0, 13)
+    h = 1e-3
+    K = [act.annulus_kinetic_energy(SURFACE, MIXED, t + k * h, SIGMA)[0] for k in (-2, -1, 1, 2)]
+    fd = (K[0] - 8.0 * K[1] + 8.0 * K[2] - K[3]) / (12.0 * h)
+    _, P = act.annulus_kinetic_energy(SURFACE, MIXED, t, SIGMA)
+    assert np.max(np.abs(P - fd)) <= 1e-9 * np.max(np.abs(P))
+
+
+def test_inclined_membrane_powers_are_derivatives_of_its_energies() -> None:
+    """On a cone whose inclination oscillates (no closed form), the quadrature's P_inertia is
+    dK_m/dt and P_gravity is the rate of the membrane's potential energy sigma g int z dA
+    (c_z by the same rule), both against 4th-order central differences."""
+    motion = Motion(Law.linear(0.2, 0.5), Law.quintic(0.3, 6.0, 20.0),
+                    Law.sinusoid(0.4, 0.3, 0.8))
+    rule = act.quadrature(SURFACE, 41, 25)
+    t = np.linspace(2.0, 18.0, 9)
+    h = 1e-3
+
+    def integrals(x: np.ndarray) -> act.MembraneIntegrals:
+        return act.membrane_integrals(SURFACE, motion, x, rule, SIGMA, 0.0, G)
+
+    def potential(x: np.ndarray) -> np.ndarray:
+        z = Frame(SURFACE, motion, rule.alpha[None, :, None], rule.R[None, None, :],
+                  x[:, None, None]).position[..., 2]
+        return SIGMA * G * np.sum(rule.weight[None] * z, axis=(1, 2))
+
+    def d(f) -> np.ndarray:
+        v = [f(t + k * h) for k in (-2, -1, 1, 2)]
+        return (v[0] - 8.0 * v[1] + 8.0 * v[2] - v[3]) / (12.0 * h)
+
+    mi = integrals(t)
+    assert np.max(np.abs(mi.gravity)) > 1e-2  # the cone lifts and lowers the membrane
+    assert np.max(np.abs(mi.inertia - d(lambda x: integrals(x).kinetic))) \
+        <= 1e-8 * np.max(np.abs(mi.inertia))
+    assert np.max(np.abs(mi.gravity - d(potential))) <= 1e-8 * np.max(np.abs(mi.gravity))
+
+
+def test_closed_form_refuses_an_inclined_surface() -> None:
+    motion = Motion(FLAT, Law.quintic(0.0, 1.0, T), Law.constant(0.1))
+    with pytest.raises(ValueError, match="flat annulus"):
+        act.annulus_kinetic_energy(SURFACE, motion, [1.0], SIGMA)
+
+
+@pytest.mark.parametrize("motion", [EN02, EN02R, MIXED], ids=["en02", "en02r", "mixed"])
+def test_normal_rate_closed_forms_equal_the_numeric_maxima(motion: Motion) -> None:
+    """max |W_t| and max |W_tt| over the surface and the cycle: the spatial closed forms
+    (largest singular values) maximised in time against a search over (alpha, R, t) that
+    does not use them (grid, then Nelder-Mead); equal to 1e-9."""
+    end = motion.phi_a.T
+    t = np.linspace(0.0, end, 601)
+    ex = act.normal_rate_maxima(SURFACE, motion, t, 48, 33)
+    _, wt = act.time_maximum(lambda x: act.normal_rate_bounds(SURFACE, motion, x)[0], 0, end)
+    _, wtt = act.time_maximum(lambda x: act.normal_rate_bounds(SURFACE, motion, x)[1], 0, end)
+    assert ex.max_W_t == pytest.approx(wt, rel=1e-9)
+    assert ex.max_W_tt == pytest.approx(wtt, rel=1e-9)
+    # the bounds are maxima: no sample of the surface exceeds them
+    assert ex.max_W_t <= wt * (1 + 1e-12) and ex.max_W_tt <= wtt * (1 + 1e-12)
+
+
+def test_angular_law_closed_forms() -> None:
+    """EN-02's angular law: max |W_t| = A 1.875 |delta| / T (the quintic's peak rate), the
+    stroke 2 A, max |W_tt| = A max sqrt(phi'^4 + phi''^2) from polynomial roots; all equal to
+    the spatial closed forms maximised in time, and the stroke to the numeric one."""
+    delta = 12.0 * math.pi
+    ang = act.angular_law_bounds(SURFACE, EN02)
+    assert ang["max_W_t"] == pytest.approx(SURFACE.A * 1.875 * delta / T, rel=1e-14)
+    assert ang["stroke"] == pytest.approx(2.0 * SURFACE.A, rel=1e-15)
+    _, wtt = act.time_maximum(lambda x: act.normal_rate_bounds(SURFACE, EN02, x)[1], 0, T)
+    assert ang["max_W_tt"] == pytest.approx(wtt, rel=1e-12)
+    t = np.linspace(0.0, T, 12001)
+    ex = act.normal_rate_maxima(SURFACE, EN02, t, 48, 33)
+    # the stroke's extremes over t come from the samples: cos v misses its extreme by at most
+    # (phi_a' dt)^2 / 8 relative, 5e-6 at dt = 0.01 s and phi_a' <= 0.59 rad/s
+    assert ex.stroke == pytest.approx(ang["stroke"], rel=5e-6)
+    assert act.angular_law_bounds(SURFACE, EN02R)["stroke"] != act.angular_law_bounds(
+        SURFACE, EN02R)["stroke"]  # NaN: phi_r moves, no angular-law closed form
+
+
+def test_stroke_of_a_partial_sweep() -> None:
+    """A sweep of width w < pi strokes 2 A sin(w / 2) at the worst point (numeric search)."""
+    w = math.pi / 3
+    motion = Motion(FLAT, Law.quintic(0.2, w, 10.0), FLAT)
+    ang = act.angular_law_bounds(SURFACE, motion)
+    assert ang["stroke"] == pytest.approx(2.0 * SURFACE.A * math.sin(w / 2), rel=1e-15)
+    ex = act.normal_rate_maxima(SURFACE, motion, np.linspace(0.0, 10.0, 2001), 48, 33)
+    assert ex.stroke == pytest.approx(ang["stroke"], rel=1e-7)
+
+
+def test_bandwidth_of_a_steady_pattern_is_its_phase_rate() -> None:
+    """A pattern turning at a constant rate w makes every point oscillate at w / (2 pi): the
+    local frequency says so, and half of W_t's energy at a point lies below it (to a
+    spectral bin)."""
+    w = 2.0 * math.pi * 0.5  # 0.5 Hz
+    motion = Motion(FLAT, Law.linear(0.0, w), FLAT)
+    duration, dt = 40.0, 0.01
+    t = np.arange(0.0, duration + dt / 2, dt)
+    assert np.all(act.local_frequency(motion, t) == pytest.approx(0.5, rel=1e-15))
+    from creatio.model.surface import Wave
+
+    W_t = Wave(SURFACE, motion, 0.3, 0.43, t).W_t
+    assert act.energy_frequency(W_t, dt, 0.5) == pytest.approx(0.5, abs=1.0 / duration)
+    # the radial phase adds its rate: |phi_r'| + |phi_a'|
+    both = Motion(Law.linear(0.0, -1.0), Law.linear(0.0, w), FLAT)
+    assert act.local_frequency(both, [3.0])[0] == pytest.approx((w + 1.0) / (2 * math.pi))
+
+
+def test_energy_frequency_of_a_gaussian_pulse() -> None:
+    """x = exp(-(t - t0)^2 / (2 s^2)) sin(2 pi f0 t) has the energy spectrum of a Gaussian of
+    standard deviation 1 / (2 sqrt(2) pi s) about f0 (f0 >> it): 99 % of its energy lies
+    below f0 + 2.3263 sigma_f, 50 % below f0; to the zero-padded bin 1 / (8 x duration)."""
+    duration, dt, s, f0 = 40.0, 0.01, 4.0, 0.8
+    t = np.arange(0.0, duration + dt / 2, dt)
+    x = np.exp(-((t - 20.0) ** 2) / (2 * s * s)) * np.sin(2 * math.pi * f0 * t)
+    sigma_f = 1.0 / (2.0 * math.sqrt(2.0) * math.pi * s)
+    bin_ = 1.0 / (8 * (t.size * dt))
+    assert act.energy_frequency(x, dt, 0.99) == pytest.approx(f0 + 2.3263 * sigma_f,
+                                                              abs=1.5 * bin_)
+    assert act.energy_frequency(x, dt, 0.5) == pytest.approx(f0, abs=1.5 * bin_)
+
+
+def test_en02_bandwidth_closed_form() -> None:
+    """EN-02's highest local frequency: 1.875 x 12 pi / (2 pi T) = 0.09375 Hz at T / 2."""
+    tmax, f = act.time_maximum(lambda x: act.local_frequency(EN02, x), 0.0, T)
+    assert f == pytest.approx(1.875 * 6.0 / T, rel=1e-14)
+    assert tmax == pytest.approx(T / 2, abs=1e-6)
+
+
+def test_load_power_is_zero_on_a_still_membrane_and_follows_c_t() -> None:
+    """P_surface = (N n + f) . c_t: zero where the membrane is still, and for a pure normal
+    push on the flat annulus N n_z W_t (c_t = W_t e_z)."""
+    still = Motion(FLAT, Law.constant(0.3), FLAT)
+    p = act.load_power(SURFACE, still, [1.0], [0.5], [0.2], [9.81], [[0.1, -0.2, 0.05]])
+    assert p[0] == 0.0
+    fr = Frame(SURFACE, EN02, 0.2, 0.5, 40.0)
+    p = act.load_power(SURFACE, EN02, [40.0], [0.5], [0.2], [2.0], [[0.0, 0.0, 0.0]])
+    assert p[0] == pytest.approx(2.0 * fr.normal[2] * fr.w.W_t, rel=1e-14)
+    assert abs(p[0]) > 1e-3
