@@ -173,9 +173,10 @@ class En05Sample:
 
         cfg = self.resolved.obj
         sens, unc = cfg.study.sensitivity, cfg.uncertainty
-        X = to_inputs(unc.inputs, sobol_design(unc.names, max(sens.base_sizes), sens.seed))
+        X = to_inputs(unc.distributions,
+                      sobol_design(unc.names, max(sens.base_sizes), sens.seed))
         axes = tuple((d.key, tuple(repr(float(x)) for x in X[:, j]))
-                     for j, d in enumerate(unc.inputs.values()))
+                     for j, d in enumerate(unc.distributions))
         return PointPlan(unc.study, axes, self.base, self.name, self.outdir, self.batch_size,
                          figures="creatio.studies.en05:point_outputs")
 

@@ -109,7 +109,7 @@ def en05_summary(datasets: Sequence[xr.Dataset]) -> dict[str, Any]:
             "coverage_95": _mapping(keys, cal.coverage_95.values),
             "seeds": int(cal.sizes["seed"]),
             "cycle_s": float(cal.attrs["cycle_s"]),
-            "window_s": [float(v) for v in cal.attrs["window_s"]],
+            "window_s": [float(cal.attrs["window_start_s"]), float(cal.attrs["window_end_s"])],
             "flags": str(cal.attrs["flags"]),
             "alone": {"key": str(cal.attrs["alone_key"]), "seeds": int(cal.sizes["spread_seed"]),
                       "spread": float(cal.attrs["alone_spread"]),
@@ -270,7 +270,8 @@ def _calibration_figure(ds: xr.Dataset, path: Path) -> None:
     ax.legend(fontsize=8)
     ax.ticklabel_format(axis="x", useOffset=False)
     fig.suptitle(f"EN-05 calibration round trip: EN-02 at T = {ds.attrs['cycle_s']:g} s, "
-                 f"camera over {list(ds.attrs['window_s'])} s (synthetic tracks)", fontsize=11)
+                 f"camera over [{ds.attrs['window_start_s']:g}, {ds.attrs['window_end_s']:g}] s "
+                 "(synthetic tracks)", fontsize=11)
     fig.tight_layout()
     save_figure(fig, path, dpi=110)
     plt.close(fig)

@@ -83,14 +83,14 @@ KINEMATIC_OUTPUTS = ("final_radius", "max_abs_lag", "cumulative_spin", "min_norm
 
 
 # ------------------------------------------------------------------------- distributions
-def to_inputs(inputs: Mapping[str, InputDistribution], U: np.ndarray) -> np.ndarray:
-    """Map points of the unit cube (n x d, columns in the order of ``inputs``) to input
-    values through each distribution's inverse CDF (scipy.stats)."""
+def to_inputs(inputs: Sequence[InputDistribution], U: np.ndarray) -> np.ndarray:
+    """Map points of the unit cube (n x d, column j for ``inputs[j]``) to input values
+    through each distribution's inverse CDF (scipy.stats)."""
     from scipy import stats
 
     U = np.atleast_2d(np.asarray(U, float))
     X = np.empty_like(U)
-    for j, d in enumerate(inputs.values()):
+    for j, d in enumerate(inputs):
         u = U[:, j]
         if d.dist is Dist.uniform:
             X[:, j] = d.low + (d.high - d.low) * u
@@ -182,7 +182,7 @@ def sobol_dataset(cfg: En05Config, rows: Mapping[str, np.ndarray]) -> Any:
     d = len(names)
     n_max = max(sens.base_sizes)
     U = sobol_design(names, n_max, sens.seed)
-    X = to_inputs(cfg.uncertainty.inputs, U)
+    X = to_inputs(cfg.uncertainty.distributions, U)
     n = n_max * (d + 2)
     status = np.asarray(rows["status"]).astype(str)
     if status.size != n:
@@ -274,7 +274,7 @@ def ishigami_dataset(cfg: En05Config) -> Any:
     sizes = list(sens.base_sizes)
     est = {k: np.empty((len(sizes), 3)) for k in ("S1", "ST", "S1_conf", "ST_conf")}
     for i, N in enumerate(sizes):
-        X = to_inputs(cube, sobol_design(names, N, sens.seed))
+        X = to_inputs(list(cube.values()), sobol_design(names, N, sens.seed))
         si = sobol_indices(names, ishigami(X, sens.ishigami_a, sens.ishigami_b),
                            sens.resamples, sens.confidence, sens.seed)
         for k in est:
@@ -620,7 +620,8 @@ def experiment_dataset(cfg: En05Config, progress: Callable[[str], None] | None =
     }, coords={"mu": ("mu", np.array(mus), {"long_name": "friction coefficient", "units": "1"}),
                "cycle": ("cycle", np.array(Ts), {"long_name": "cycle length T", "units": "s"})})
     ds.attrs.update({"camera_noise_m": cam.noise_m, "camera_hz": cam.rate_hz,
-                     "camera_coordinates": " ".join(cam.coordinates), "steps": list(des.steps),
+                     "camera_coordinates": " ".join(cam.coordinates),
+                     "step": float(des.steps[0]), "check_step": float(des.steps[1]),
                      "target": des.target, "confidence": des.confidence, "z": z,
                      "eps": float(cfg.base.sphere.eps),
                      "title": "EN-05 design of the experiment: Cramer-Rao sigma_mu"})
@@ -715,7 +716,8 @@ def calibration_dataset(cfg: En05Config, progress: Callable[[str], None] | None 
                "spread_seed": ("spread_seed", np.arange(cal.spread_seeds))})
     ds.attrs.update({
         "noise_m": cam.noise_m, "camera_hz": cam.rate_hz, "cycle_s": cal.cycle_s,
-        "window_s": list(cal.window_s), "example_seed": cal.example_seed,
+        "window_start_s": float(cal.window_s[0]), "window_end_s": float(cal.window_s[1]),
+        "example_seed": cal.example_seed,
         "residual_rms_m": f.residual_rms_m, "condition": f.condition, "status": f.status,
         "evaluations": f.evaluations,
         "flags": "; ".join(f"{k}: {v}" for k, v in f.flags.items()),

@@ -122,8 +122,14 @@ class UncertaintyConfig:
 
     @property
     def names(self) -> list[str]:
-        """Input names in config order."""
-        return list(self.inputs)
+        """Input names, sorted: the design's column order, the same however the config was
+        written (a resolved config file sorts its keys)."""
+        return sorted(self.inputs)
+
+    @property
+    def distributions(self) -> list[InputDistribution]:
+        """The distributions in the order of :attr:`names`."""
+        return [self.inputs[n] for n in self.names]
 
 
 @dataclass
