@@ -156,9 +156,9 @@ def test_a_synthetic_track_is_fitted_back_within_its_interval(round_trip, cfg):
     the estimate's joint 95 % confidence region (each key's own interval misses it in 5 % of
     seeds: the coverage test counts that), and the residual rms is the stated noise."""
     cal, cam = cfg.study.calibration, cfg.study.camera
-    start = en05._cycle(cfg.base, cam, cal.cycle_s, {})
-    frames = en05._window_frames(cam, cal.window_s)
-    X = en05.model_centre(en05._truth_config(cfg), cam.interval, frames)[0]
+    start = en05.cycle_config(cfg.base, cam, cal.cycle_s, {})
+    frames = en05.window_frames(cam, cal.window_s)
+    X = en05.model_centre(en05.truth_config(cfg), cam.interval, frames)[0]
     exact = en05.Track(frames * cam.interval, X[:, :2], ("x", "y"), cam.noise_m, "en02")
     f = en05.fit_track(start, exact, cal.fit, None, en05.physical_ranges(cfg.uncertainty.inputs))
     assert f.estimate == pytest.approx(cal.truth, rel=1e-6)
@@ -205,7 +205,7 @@ def test_en02_own_cycle_says_little_about_mu(cfg):
     track pins mu / eps, not mu: the Cramer-Rao sigma_mu of the 1 mm, 30 Hz camera is above
     1 with eps known and far above mu's whole physical range with eps unknown."""
     cam = cfg.study.camera
-    base = en05._cycle(cfg.base, cam, 120.0, {})
+    base = en05.cycle_config(cfg.base, cam, 120.0, {})
     frames = np.arange(0, 3601)
     cr = en05.cramer_rao(base, cam, frames, "sphere.mu", 0.01, others=("sphere.eps",))
     assert not cr["lost"] and cr["sigma"] > 1.0 and cr["sigma_joint"] > 100.0
@@ -216,7 +216,7 @@ def test_a_track_of_a_sticking_sphere_flags_both_keys_not_identifiable(cfg):
     gives intervals wider than their physical ranges, strongly correlated, and both keys
     are flagged."""
     cam = cfg.study.camera
-    truth = en05._cycle(cfg.base, cam, 10.0, {"sphere.mu": 0.3})
+    truth = en05.cycle_config(cfg.base, cam, 10.0, {"sphere.mu": 0.3})
     track = en05.synthetic_track(truth, cam, [1.0, 10.0], 7)
     f = en05.fit_track(truth, track, ["sphere.mu", "sphere.eps"], None,
                        en05.physical_ranges(cfg.uncertainty.inputs), scan=0)
@@ -235,8 +235,9 @@ def test_design_step_check_and_lost_runs_follow_the_runs(cfg):
     ds = en05.experiment_dataset(small)
     for i, mu in enumerate(ds.mu.values):
         for j, T in enumerate(ds.cycle.values):
-            c = en05._cycle(small.base, small.study.camera, float(T), {"sphere.mu": float(mu)})
-            res = simulate(en05._sampled_problem(c, small.study.camera.interval, float(T)))
+            c = en05.cycle_config(small.base, small.study.camera, float(T),
+                                  {"sphere.mu": float(mu)})
+            res = simulate(en05.sampled_problem(c, small.study.camera.interval, float(T)))
             if not (res.status == "ok" and res.carried):
                 assert ds.lost.values[i, j] == 1
                 assert math.isnan(ds.sigma_mu.values[i, j])

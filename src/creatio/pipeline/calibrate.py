@@ -268,11 +268,11 @@ def write_example_track(resolved: Resolved, out: Path | None = None) -> Path:
     on EN-02 with EN05's cycle, the camera's frames within the window, noise of the example
     seed), written as a track CSV that says what it is."""
     from creatio.pipeline.io import atomic_write
-    from creatio.studies.en05 import _truth_config, synthetic_track
+    from creatio.studies.en05 import synthetic_track, truth_config
 
     cfg = resolved.obj
     cal, cam = cfg.study.calibration, cfg.study.camera
-    track = synthetic_track(_truth_config(cfg), cam, cal.window_s, cal.example_seed)
+    track = synthetic_track(truth_config(cfg), cam, cal.window_s, cal.example_seed)
     truth = " ".join(f"{k}={v!r}" for k, v in zip(cal.fit, cal.truth, strict=True))
     out = Path(out) if out else EXAMPLE_TRACK
     out.parent.mkdir(parents=True, exist_ok=True)

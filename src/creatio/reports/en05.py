@@ -150,7 +150,8 @@ def _index_figure(ds: xr.Dataset, path: Path) -> None:
         j = outs.index(name)
         if not np.all(np.isfinite(ds.S1.values[-1, j])):
             why = (f"{int(ds.runs_missing.values[-1, j])} runs did not produce it"
-                   if ds.runs_missing.values[-1, j] else "constant over the design")
+                   if ds.runs_missing.values[-1, j] else
+                   f"constant over the design\n(= {float(ds[name].values[0]):g} in every run)")
             ax.text(0.5, 0.5, f"{name}\nno indices:\n{why}", ha="center", va="center",
                     transform=ax.transAxes)
             ax.set_xticks([])
@@ -211,6 +212,8 @@ def _design_figure(ds: xr.Dataset, path: Path) -> None:
 def _residual_axes(axes: Any, ds: xr.Dataset, noise: float) -> None:
     """Residuals against time per coordinate, and their histogram in units of the noise."""
     t = ds.time.values
+    if np.issubdtype(t.dtype, np.timedelta64):  # xarray decodes a time in "s" as a duration
+        t = t / np.timedelta64(1, "s")
     for c, name in enumerate(ds.coordinate.values):
         axes[0].plot(t, ds.residual.values[:, c] * 1e3, ".", ms=2, label=f"{name}")
     axes[0].set_xlabel("t (s)")
@@ -261,7 +264,7 @@ def _calibration_figure(ds: xr.Dataset, path: Path) -> None:
     alone = ds.alone_estimate.values
     cr = float(ds.attrs["cramer_rao_sigma"])
     truth0 = float(ds.truth.values[0])
-    ax.hist(alone, bins=25, density=True, alpha=0.6, label="fitted alone, per seed")
+    ax.hist(alone, bins=15, density=True, alpha=0.6, label="fitted alone, per seed")
     g = np.linspace(truth0 - 4 * cr, truth0 + 4 * cr, 200)
     ax.plot(g, np.exp(-0.5 * ((g - truth0) / cr) ** 2) / (cr * math.sqrt(2 * math.pi)), "k",
             label=f"N(truth, Cramer-Rao {cr:.3g})")

@@ -48,6 +48,7 @@ __all__ = [
     "Track",
     "calibration_dataset",
     "cramer_rao",
+    "cycle_config",
     "experiment_dataset",
     "fit_track",
     "frame_grid",
@@ -60,11 +61,14 @@ __all__ = [
     "point_outputs",
     "run",
     "run_outputs",
+    "sampled_problem",
     "sobol_dataset",
     "sobol_design",
     "sobol_indices",
     "synthetic_track",
     "to_inputs",
+    "truth_config",
+    "window_frames",
 ]
 
 #: EN-05's outputs of one run (docs/model.md s.13.1): name -> (units, description).
@@ -312,7 +316,7 @@ def frame_grid(t: np.ndarray, tol: float = 1e-6) -> tuple[float, np.ndarray]:
     return interval, k.astype(np.int64)
 
 
-def _sampled_problem(cfg: DynamicConfig, interval: float, t_end: float) -> SphereProblem:
+def sampled_problem(cfg: DynamicConfig, interval: float, t_end: float) -> SphereProblem:
     """The config's run to t_end, rows every `interval` from each step's dense output, the
     trajectory only (what a camera sees); a fixed step beyond the friction stability limit
     refined to dt / ceil(dt / limit) (so a fit can try any mu and eps)."""
@@ -330,7 +334,7 @@ def model_centre(cfg: DynamicConfig, interval: float, frames: np.ndarray
     """The sphere centre (n x 3) of the config's run at times frames * interval (rows past a
     stop are NaN), the run's status and whether it stayed in its cavity."""
     frames = np.asarray(frames, np.int64)
-    res = simulate(_sampled_problem(cfg, interval, float(frames[-1]) * interval))
+    res = simulate(sampled_problem(cfg, interval, float(frames[-1]) * interval))
     X = np.full((frames.size, 3), np.nan)
     have = frames < res.t.size
     X[have] = res.X[frames[have]]
@@ -359,7 +363,7 @@ def synthetic_track(cfg: DynamicConfig, camera: CameraConfig, window: Sequence[f
                     seed: int, truth_X: np.ndarray | None = None) -> Track:
     """The model's centre on the camera's frames within window [t0, t1] plus Gaussian noise
     of camera.noise_m per coordinate (numpy's default generator seeded by ``seed``)."""
-    frames = _window_frames(camera, window)
+    frames = window_frames(camera, window)
     X = model_centre(cfg, camera.interval, frames)[0] if truth_X is None else truth_X
     cols = ["xyz".index(c) for c in camera.coordinates]
     rng = np.random.default_rng(seed)
@@ -368,7 +372,8 @@ def synthetic_track(cfg: DynamicConfig, camera: CameraConfig, window: Sequence[f
                  BASE, f"synthetic, seed {seed}")
 
 
-def _window_frames(camera: CameraConfig, window: Sequence[float]) -> np.ndarray:
+def window_frames(camera: CameraConfig, window: Sequence[float]) -> np.ndarray:
+    """The camera's frame numbers k (t = k / rate) within the window [t0, t1]."""
     t0, t1 = float(window[0]), float(window[1])
     first = math.ceil(t0 * camera.rate_hz - 1e-9)
     last = math.floor(t1 * camera.rate_hz + 1e-9)
@@ -440,7 +445,7 @@ def fit_track(cfg: DynamicConfig, track: Track, keys: Sequence[str],
 
     def model(x: np.ndarray) -> tuple[np.ndarray, str, bool]:
         calls["n"] += 1
-        # the step is refined to the stability limit of each trial (_sampled_problem)
+        # the step is refined to the stability limit of each trial (sampled_problem)
         c = vary(cfg, _link({**{k: float(v) for k, v in zip(keys, x, strict=True)},
                             "solver.allow_unstable": True}))
         X, status, carried = model_centre(c, interval, frames)
@@ -560,7 +565,7 @@ def cramer_rao(cfg: DynamicConfig, camera: CameraConfig, frames: np.ndarray, key
     return {"sigma": sigma, "sigma_joint": joint, "lost": False, "status": status}
 
 
-def _cycle(cfg: DynamicConfig, camera: CameraConfig, T: float, changes: Mapping[str, float]
+def cycle_config(cfg: DynamicConfig, camera: CameraConfig, T: float, changes: Mapping[str, float]
            ) -> DynamicConfig:
     """The base on one cycle of length T, sampled on the camera's frame grid."""
     return vary(cfg, {"phases.T": T, "study.duration": T, "solver.dense_output": True,
@@ -583,7 +588,7 @@ def experiment_dataset(cfg: En05Config, progress: Callable[[str], None] | None =
     status = np.full(shape, "", dtype=object)
     for i, mu in enumerate(mus):
         for j, T in enumerate(Ts):
-            c = _cycle(cfg.base, cam, T, {"sphere.mu": mu})
+            c = cycle_config(cfg.base, cam, T, {"sphere.mu": mu})
             frames = np.arange(0, math.floor(T * cam.rate_hz + 1e-9) + 1, dtype=np.int64)
             for n, h in enumerate(des.steps):
                 r = cramer_rao(c, cam, frames, "sphere.mu", h,
@@ -629,9 +634,10 @@ def experiment_dataset(cfg: En05Config, progress: Callable[[str], None] | None =
 
 
 # -------------------------------------------------------------------------- calibration
-def _truth_config(cfg: En05Config) -> DynamicConfig:
+def truth_config(cfg: En05Config) -> DynamicConfig:
+    """EN-02 at the round trip's true values on its cycle, sampled on the camera's frames."""
     cal, cam = cfg.study.calibration, cfg.study.camera
-    return _cycle(cfg.base, cam, cal.cycle_s, dict(zip(cal.fit, cal.truth, strict=True)))
+    return cycle_config(cfg.base, cam, cal.cycle_s, dict(zip(cal.fit, cal.truth, strict=True)))
 
 
 def calibration_dataset(cfg: En05Config, progress: Callable[[str], None] | None = None) -> Any:
@@ -642,10 +648,10 @@ def calibration_dataset(cfg: En05Config, progress: Callable[[str], None] | None 
     import xarray as xr
 
     cal, cam = cfg.study.calibration, cfg.study.camera
-    truth_cfg = _truth_config(cfg)
-    start_cfg = _cycle(cfg.base, cam, cal.cycle_s, {})
+    truth_cfg = truth_config(cfg)
+    start_cfg = cycle_config(cfg.base, cam, cal.cycle_s, {})
     start = [float(_get(start_cfg, k)) for k in cal.fit]
-    frames = _window_frames(cam, cal.window_s)
+    frames = window_frames(cam, cal.window_s)
     X_true = model_centre(truth_cfg, cam.interval, frames)[0]
     ranges = physical_ranges(cfg.uncertainty.inputs)
     p = len(cal.fit)
