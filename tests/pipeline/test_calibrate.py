@@ -151,7 +151,8 @@ def test_point_list_runs_through_the_sweep_batches_and_reuses_points(small_sampl
 def test_mass_total_index_is_zero_within_its_interval_on_kinematic_outputs(small_sample):
     """docs/model.md s.13.1: the kinematic outputs do not depend on m, so ST of m is zero
     within its bootstrap interval for each (an output constant over the design has no
-    index: min N / (m g) is 1 at the start of every run); W_surface depends on it."""
+    index: min N / (m g) is 1 at the start of every run); W_surface depends on it (exactly
+    as m: tests/core/test_en05.py)."""
     resolved, sample, _ = small_sample
     ds = points.sobol_dataset(resolved, sample)
     j = list(ds.input.values).index("m")
@@ -162,6 +163,8 @@ def test_mass_total_index_is_zero_within_its_interval_on_kinematic_outputs(small
             assert np.ptp(ds[out].values) == 0.0, out  # constant: no index
             continue
         assert abs(st) <= conf, (out, st, conf)
+        assert abs(st) < 1e-6  # the integrator's tolerance, not the estimator's noise
+    # W_surface is m times an m-free integral: its ST of m is of the order of the others'
     k = list(ds.output.values).index("surface_work")
-    assert ds.ST.values[-1, k, j] > ds.ST_conf.values[-1, k, j]
+    assert ds.ST.values[-1, k, j] > 1e-2
     assert ds.runs_not_ok.values[-1] == int(np.sum(ds.status.values != "ok"))
