@@ -46,7 +46,8 @@ commands:
             creatio task scene dataset en02 OUT.nc [--override K=V ...] [--reuse en02=NC]
             creatio task en05 batch|sobol|track --config-file CONFIG.yaml   (EN-05's steps)
 
-Studies: {studies} (snakemake all); {beyond} (snakemake beyond). Configs live in {conf}.
+Studies: {studies} (snakemake all); {beyond} (snakemake beyond); en05 (snakemake en05).
+Configs live in {conf}.
 """
 
 
@@ -313,7 +314,7 @@ def _usage() -> str:
     from creatio.pipeline.config import CONF_DIR
     from creatio.studies import registry
 
-    beyond = [s.id for s in registry.STUDIES.values() if not s.in_all and s.kind.name != "analysis"]
+    beyond = [s.id for s in registry.STUDIES.values() if not s.in_all and s.kind.name == "sphere"]
     return USAGE.format(studies=", ".join(s.id for s in registry.select(in_all=True)),
                         beyond=", ".join(beyond),
                         analyses=", ".join(s.id for s in registry.select(kind="analysis"))

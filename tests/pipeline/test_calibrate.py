@@ -168,3 +168,39 @@ def test_mass_total_index_is_zero_within_its_interval_on_kinematic_outputs(small
     k = list(ds.output.values).index("surface_work")
     assert ds.ST.values[-1, k, j] > 1e-2
     assert ds.runs_not_ok.values[-1] == int(np.sum(ds.status.values != "ok"))
+
+
+def test_the_en05_target_builds_everything_into_its_hash_dir(tmp_path):
+    """`snakemake en05` on a small configuration (N = 4 and 8, 3 seeds, two cycles): the
+    sample's batch jobs, the parts, the Sobol' dataset, the report contract, the example's
+    calibration; a second invocation has nothing to do."""
+    import json
+
+    small = ["study.sensitivity.base_sizes=[4,8]", "study.calibration.seeds=3",
+             "study.calibration.spread_seeds=3", "study.design.cycles_s=[8.0,120.0]",
+             "study.design.mu=[0.05]"]
+    cmd = [sys.executable, "-m", "snakemake", "-s", str(REPO / "Snakefile"), "-d",
+           str(tmp_path), "-c", "2", "en05", "--config",
+           "overrides=[" + ",".join(f'"{o}"' for o in small) + "]"]
+    proc = subprocess.run(cmd, capture_output=True, text=True, timeout=1800)
+    assert proc.returncode == 0, proc.stdout[-3000:] + proc.stderr[-3000:]
+    root = tmp_path / "data" / "runs" / resolve("en05", small).key
+    data = json.loads((root / "reports" / "en05.json").read_text())
+    assert set(data) >= {"sobol", "ishigami", "carried_fraction", "calibration", "design"}
+    assert set(data["sobol"]) == {"4", "8"}
+    entry = data["sobol"]["8"]["final_radius"]
+    assert set(entry) >= {"S1", "ST", "S1_conf", "ST_conf", "runs", "runs_not_ok"}
+    assert entry["runs"] == 64 and set(entry["S1"]) == {"mu", "eps", "b", "m", "A", "T"}
+    assert set(data["ishigami"]) >= {"S1", "ST", "S1_closed_form", "ST_closed_form"}
+    assert set(data["calibration"]) >= {"truth", "estimate", "stderr", "interval_95",
+                                        "residual_rms_m", "noise_m", "coverage_95", "seeds"}
+    assert set(data["design"]) >= {"T_s", "mu", "sigma_mu", "camera_noise_m", "camera_hz",
+                                   "pins_mu_to_0_01"}
+    assert data["design"]["pins_mu_to_0_01"] == {"0.05": [8.0]}
+    for name in ("en05.md", "en05.png", "en05_sobol.csv", "en05_calibration.png",
+                 "en05_design.png"):
+        assert (root / "reports" / name).stat().st_size > 0
+    assert (tmp_path / "data" / "calibration" / "en02_example" / "calibration.json").is_file()
+    assert len(list((tmp_path / "data" / "sweeps" / "en05").glob("*/batches/p*.nc"))) == 8
+    again = subprocess.run([*cmd, "-n"], capture_output=True, text=True, timeout=600)
+    assert "Nothing to be done" in again.stdout + again.stderr

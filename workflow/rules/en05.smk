@@ -9,7 +9,7 @@
 # The ishigami, calibration and experiment datasets are the study's registry parts (the
 # generic study_dataset rule); the sample's batches (en05_points) go to the point store
 # data/sweeps/en05/<sample>/ (points reused by config hash), its indices to en05_sobol.nc.
-from creatio.pipeline.calibrate import EXAMPLE_OVERRIDES
+from creatio.pipeline.calibrate import EXAMPLE_OVERRIDES, EXAMPLE_TRACK
 from creatio.pipeline.points import En05Runs
 
 EN05 = En05Runs(JOBS, config.get("overrides"))
@@ -99,7 +99,7 @@ rule en05_report:
 
 rule calibrate_example:
     input:
-        track="examples/tracks/en02_synthetic.csv",
+        track=str(EXAMPLE_TRACK),  # in the repository, whatever the working directory
     output:
         nc="data/calibration/en02_example/calibration.nc",
         json="data/calibration/en02_example/calibration.json",
