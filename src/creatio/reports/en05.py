@@ -212,8 +212,6 @@ def _design_figure(ds: xr.Dataset, path: Path) -> None:
 def _residual_axes(axes: Any, ds: xr.Dataset, noise: float) -> None:
     """Residuals against time per coordinate, and their histogram in units of the noise."""
     t = ds.time.values
-    if np.issubdtype(t.dtype, np.timedelta64):  # xarray decodes a time in "s" as a duration
-        t = t / np.timedelta64(1, "s")
     for c, name in enumerate(ds.coordinate.values):
         axes[0].plot(t, ds.residual.values[:, c] * 1e3, ".", ms=2, label=f"{name}")
     axes[0].set_xlabel("t (s)")
@@ -354,7 +352,8 @@ def _csv(ds: xr.Dataset, path: Path) -> None:
 
 def write_report(datasets: Sequence[Path], outdir: Path) -> dict[str, Path]:
     """EN-05's report files from its four datasets."""
-    loaded = [xr.load_dataset(p, engine="netcdf4") for p in datasets]
+    # times stay seconds (decoded, a time in "s" would become a date)
+    loaded = [xr.load_dataset(p, engine="netcdf4", decode_times=False) for p in datasets]
     parts = _by_title(loaded)
     summary = en05_summary(loaded)
     outdir = Path(outdir)
