@@ -1,7 +1,7 @@
 """`creatio calibrate` and EN-05's pipeline: every bad track refused in one line with exit 2
 and nothing written; the committed example track is what the model makes; the Sobol'
 sample's point list runs through the sweep batch runner, its points reused by config hash;
-the mass's total index on the kinematic outputs is zero within its interval."""
+the mass's total index on the kinematic outputs is zero within the estimator's noise."""
 
 from __future__ import annotations
 
@@ -148,23 +148,29 @@ def test_point_list_runs_through_the_sweep_batches_and_reuses_points(small_sampl
         assert set(en05.OUTPUTS) <= set(ds.data_vars)
 
 
-def test_mass_total_index_is_zero_within_its_interval_on_kinematic_outputs(small_sample):
-    """docs/model.md s.13.1: the kinematic outputs do not depend on m, so ST of m is zero
-    within its bootstrap interval for each (an output constant over the design has no
-    index: min N / (m g) is 1 at the start of every run); W_surface depends on it (exactly
-    as m: tests/core/test_en05.py)."""
+def test_mass_total_index_is_zero_within_the_estimators_noise_on_kinematic_outputs(
+        small_sample):
+    """docs/model.md s.13.1: the kinematic outputs do not depend on m, so the ST of m is
+    zero within the estimator's noise (the largest bootstrap half-width of that output's
+    indices) and below 1e-6: what is left is radau5's step sequence seeing m through the
+    energy accumulators' scale (1e-10 on the final radius), not an estimator's resolution.
+    (Its own half-width measures the spread of that deterministic remainder: at N = 512 the
+    study finds 7e-10 +- 5e-10 on the final radius, so "within its own interval" is not what
+    holds; docs/studies.md EN-05.) An output constant over the design has no index: min N /
+    (m g) is 1 at the start of every run. W_surface depends on m, exactly as m
+    (tests/core/test_en05.py)."""
     resolved, sample, _ = small_sample
     ds = points.sobol_dataset(resolved, sample)
     j = list(ds.input.values).index("m")
     for out in en05.KINEMATIC_OUTPUTS:
         k = list(ds.output.values).index(out)
-        st, conf = ds.ST.values[-1, k, j], ds.ST_conf.values[-1, k, j]
+        st = ds.ST.values[-1, k, j]
         if math.isnan(st):
             assert np.ptp(ds[out].values) == 0.0, out  # constant: no index
             continue
-        assert abs(st) <= conf, (out, st, conf)
-        assert abs(st) < 1e-6  # the integrator's tolerance, not the estimator's noise
-    # W_surface is m times an m-free integral: its ST of m is of the order of the others'
+        noise = float(np.max(ds.ST_conf.values[-1, k]))
+        assert abs(st) <= noise, (out, st, noise)
+        assert abs(st) < 1e-6, (out, st)
     k = list(ds.output.values).index("surface_work")
     assert ds.ST.values[-1, k, j] > 1e-2
     assert ds.runs_not_ok.values[-1] == int(np.sum(ds.status.values != "ok"))
