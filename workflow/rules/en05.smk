@@ -13,7 +13,8 @@ from creatio.pipeline.calibrate import EXAMPLE_OVERRIDES, EXAMPLE_TRACK
 from creatio.pipeline.points import En05Runs
 
 EN05 = En05Runs(JOBS, config.get("overrides"))
-JOBS.fallbacks.append(lambda: EN05.runs.plans)
+# first: the planners before it refuse overrides only EN-05 has (study.sensitivity...)
+JOBS.fallbacks.insert(0, EN05.fallback)
 
 
 localrules:

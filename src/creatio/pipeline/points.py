@@ -238,6 +238,15 @@ class En05Runs:
         self.data_dir = data_dir
         self._samples: dict[str, tuple[str, En05Sample]] = {}
 
+    def fallback(self) -> None:
+        """Plan EN-05 for a job re-invoked alone (a `run:` job, a cluster job), which parses
+        the workflow anew without its targets; overrides EN-05 does not have mean the job
+        is not one of EN-05's, and another planner finds it."""
+        try:
+            self.runs.plans  # noqa: B018 - planning registers the job configs
+        except ConfigError:
+            pass
+
     def _plan(self) -> dict[str, tuple[str, En05Sample]]:
         if not self._samples:
             for p in self.runs.plans.values():
