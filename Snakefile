@@ -12,6 +12,7 @@
 #   snakemake all --workflow-profile profiles/slurm    the same on a SLURM cluster
 #   snakemake scenes -c 2            the notebook's viewers: data/scenes/<scene>/ (creatio.scenes)
 #   snakemake beyond -c 2            EN-02G, EN-03, EN-03M, EN-02F (beyond the notebook, outside all)
+#   snakemake en05 -c 2              EN-05: Sobol' indices, calibration, which test pins mu
 #   snakemake --report data/report.html    Snakemake's report of everything built
 #
 # Overrides are Hydra overrides, applied to every study whose config has the key. Study ids,
@@ -72,6 +73,7 @@ include: "workflow/rules/sweeps.smk"
 include: "workflow/rules/release.smk"
 include: "workflow/rules/scenes.smk"
 include: "workflow/rules/beyond.smk"
+include: "workflow/rules/en05.smk"
 
 
 # Cheap aggregation, reports and plots run where Snakemake runs, not as cluster jobs.

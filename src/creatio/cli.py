@@ -2,6 +2,7 @@
 
     creatio run [study=ID | analysis=ID] [KEY=VALUE ...]   run one study (a Hydra app)
     creatio probe [alpha=DEG R=R t=T KEY=VALUE]          surface quantities at one point
+    creatio calibrate study=ID track=CSV fit=[KEYS]      fit a study to a measured track
     creatio release VERSION | verify | list             freeze the default outputs
     creatio diff A B                                     compare datasets, dirs or releases
     creatio task dataset|report|sweep|compare            one workflow step (the Snakefile's)
@@ -31,6 +32,8 @@ commands:
             creatio run analysis=stability_map           (analyses: {analyses})
   probe   position, velocity, normal and J at one surface point (Hydra app)
             creatio probe alpha=30 R=0.5 t=1.0 phases.gamma.phi0=45 phases.gamma.unit=deg
+  calibrate  fit a study's parameters to a measured track (least squares on the centre)
+            creatio calibrate study=en02 track=track.csv 'fit=[sphere.mu,sphere.eps]' phases.T=10
   release make, verify or list versioned releases of the default outputs
             creatio release 0.2.0    creatio release verify latest    creatio release list
   diff    compare datasets, data directories or releases (exit 0 same, 1 differs, 2 error)
@@ -41,8 +44,10 @@ commands:
             creatio task report ct02 OUTDIR DATASET.nc [DATASET.nc ...]
             creatio task compare OUTDIR EN02.nc EN02R.nc
             creatio task scene dataset en02 OUT.nc [--override K=V ...] [--reuse en02=NC]
+            creatio task en05 batch|sobol|track --config-file CONFIG.yaml   (EN-05's steps)
 
-Studies: {studies} (snakemake all); {beyond} (snakemake beyond). Configs live in {conf}.
+Studies: {studies} (snakemake all); {beyond} (snakemake beyond); en05 (snakemake en05).
+Configs live in {conf}.
 """
 
 
@@ -309,7 +314,7 @@ def _usage() -> str:
     from creatio.pipeline.config import CONF_DIR
     from creatio.studies import registry
 
-    beyond = [s.id for s in registry.STUDIES.values() if not s.in_all and s.kind.name != "analysis"]
+    beyond = [s.id for s in registry.STUDIES.values() if not s.in_all and s.kind.name == "sphere"]
     return USAGE.format(studies=", ".join(s.id for s in registry.select(in_all=True)),
                         beyond=", ".join(beyond),
                         analyses=", ".join(s.id for s in registry.select(kind="analysis"))
@@ -372,7 +377,15 @@ def _dispatch(argv: list[str]) -> int:
             from creatio.scenes.cli import main as scene_main
 
             return scene_main(rest[1:])
+        if rest[:1] == ["en05"]:
+            from creatio.pipeline.points import main as en05_main
+
+            return en05_main(rest[1:])
         return _task(rest)
+    if command == "calibrate":
+        from creatio.pipeline.calibrate import main as calibrate_main
+
+        return calibrate_main(rest)
     if command == "release":
         from creatio.pipeline.release import main as release_main
 

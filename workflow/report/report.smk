@@ -107,7 +107,8 @@ def report_extras() -> list:
         out += SCENES.built()
     except Exception as e:  # noqa: BLE001 - a report never fails on an extra
         print(f"creatio: report: scenes left out: {e}", file=sys.stderr)
-    for targets in (lambda: ANALYSES.targets(), lambda: SWEEPS.worked("en02_mu")):
+    for targets in (lambda: ANALYSES.targets(), lambda: SWEEPS.worked("en02_mu"),
+                    lambda: EN05.targets()):
         try:
             files = targets()
         except Exception as e:  # noqa: BLE001

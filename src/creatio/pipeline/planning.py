@@ -144,7 +144,7 @@ def analysis_ids() -> list[str]:
 # carries their hash as a parameter, so new code reruns what it would compute differently.
 CODE = {
     "datasets": ("model", "dynamics", "studies", "pipeline/run.py", "pipeline/io.py",
-                 "pipeline/cf.py", "pipeline/sweep.py"),
+                 "pipeline/cf.py", "pipeline/sweep.py", "pipeline/points.py"),
     "reports": ("reports", "pipeline/run.py", "pipeline/io.py"),
     "scenes": ("scenes", "pipeline/io.py"),
 }

@@ -72,5 +72,8 @@ def run_resolved(resolved: Resolved, data_dir: Path = Path("data")) -> Path:
     entry = resolved.entry
     outs = [compute_dataset(resolved, Path(entry.dataset_dir(str(root))) / f"{p.name}.nc", p.name)
             for p in entry.parts(resolved.obj)]
+    extra = entry.extra_function()
+    if extra is not None:  # datasets the workflow makes in batch jobs, here in this process
+        outs += extra(resolved, root)
     write_report(resolved.study, root / entry.kind.report_dir, outs)
     return root

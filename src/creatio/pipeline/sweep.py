@@ -90,9 +90,18 @@ class SweepPlan:
         """Every batch file (the inputs of the aggregate)."""
         return [self.batch_file(k) for k in range(self.n_batches)]
 
+    def indices(self, index: int) -> tuple[int, ...]:
+        """The value of each axis that the point with flat index `index` takes: row-major
+        over the product (creatio.pipeline.points lists its points instead)."""
+        return _unravel(index, self.shape)
+
+    def row(self, entry: registry.Study, obj: Any) -> dict[str, Any]:
+        """The figures a batch keeps of one computed point: its study's summary."""
+        return _run_point(entry, obj)
+
     def overrides(self, index: int) -> tuple[str, ...]:
         """The sweep overrides of the point with flat index `index`."""
-        idx = _unravel(index, self.shape)
+        idx = self.indices(index)
         return tuple(f"{k}={v[i]}" for (k, v), i in zip(self.axes, idx, strict=True))
 
     @property
@@ -342,7 +351,7 @@ def run_batch(plan: SweepPlan, k: int, out: str | Path | None = None,
     compute_s = 0.0
     t0 = last = time.perf_counter()
     for done, index in enumerate(indices, start=1):
-        idx = _unravel(index, plan.shape)
+        idx = plan.indices(index)
         changes = {key: vals[i] for (key, vals), i in zip(base.values, idx, strict=True)}
         changes.update({dep: changes[src] for src, deps in base.links.items()
                         if src in changes for dep in deps})
@@ -359,7 +368,7 @@ def run_batch(plan: SweepPlan, k: int, out: str | Path | None = None,
                 counts["reused"] += 1
             else:
                 tc = time.perf_counter()
-                row = {"status": "ok", **_run_point(entry, obj), "message": "",
+                row = {"status": "ok", **plan.row(entry, obj), "message": "",
                        "point_key": key}
                 compute_s += time.perf_counter() - tc
                 counts["computed"] += 1

@@ -57,9 +57,11 @@ KINEMATIC = Kind("kinematic", "studies", "reports", (".json", ".md", ".png", "_f
 SPHERE = Kind("sphere", "studies", "reports", (".json", ".md", ".png", "_history.csv",
                                                 "_trajectory.png", "_convergence.png"))
 ANALYSIS = Kind("analysis", "benchmarks", "benchmarks", (".json", ".md", ".png"))
+UNCERTAINTY = Kind("uncertainty", "studies", "reports", (".json", ".md", ".png", "_sobol.csv",
+                                                         "_calibration.png", "_design.png"))
 
 #: Every kind, by name.
-KINDS = {k.name: k for k in (KINEMATIC, SPHERE, ANALYSIS)}
+KINDS = {k.name: k for k in (KINEMATIC, SPHERE, ANALYSIS, UNCERTAINTY)}
 
 
 def _one_part(study_id: str) -> Callable[[Any], list[Part]]:
@@ -102,6 +104,13 @@ class Study:
     published: Mapping[str, Any] = field(default_factory=dict)
     in_all: bool = True
     summary: str = ""
+    extra: str = ""
+
+    def extra_function(self) -> Callable[..., Any] | None:
+        """The pipeline's function (resolved config, output root) -> [dataset paths] that
+        makes the datasets its batch jobs compute (EN-05's Sobol' sample), run in one
+        process by `creatio run`; None for a study whose parts are all there is."""
+        return _load(self.extra) if self.extra else None
 
     @property
     def schema(self) -> type:
@@ -187,6 +196,12 @@ STUDIES: dict[str, Study] = {
         Study("en04", SPHERE, "creatio.studies.en04:En04Config", "creatio.studies.en04:run",
               "creatio.reports.en04:write_report", "creatio.studies.en04:parts", in_all=False,
               summary="creatio.reports.en04:en04_summary"),
+        # EN-05 (docs/studies.md): its own target, `snakemake en05`; its Sobol' sample runs as
+        # batch jobs of the pipeline (creatio.pipeline.points), its other parts as datasets
+        Study("en05", UNCERTAINTY, "creatio.studies.en05_schema:En05Config",
+              "creatio.studies.en05:run", "creatio.reports.en05:write_report",
+              "creatio.studies.en05:parts", in_all=False,
+              extra="creatio.pipeline.points:run_study_sample"),
         *(Study(name, ANALYSIS, f"creatio.studies.{name}:{schema}", f"creatio.studies.{name}:run",
                 f"creatio.reports.{name}:write_report", f"creatio.studies.{name}:parts",
                 group="analysis", in_all=False)
