@@ -72,8 +72,8 @@ def kinematic_summary(ds: xr.Dataset) -> dict[str, Any]:
         i = int(np.argmax(rate))
         out["pattern_max_rate_rad_s"] = float(rate[i])
         out["pattern_max_rate_time_s"] = float(ds.time.values[i])
-        out["pattern_travel_deg"] = float(
-            np.rad2deg(ds.pattern_angle.values[-1] - ds.pattern_angle.values[0]))
+        out["pattern_travel_deg"] = float(ds.pattern_angle.values[-1]
+                                          - ds.pattern_angle.values[0])
         out["pattern_fd_error"] = float(np.abs(ds.pattern_rate - ds.pattern_rate_fd).max())
     out["config_sha256"] = ds.attrs.get("config_sha256", "")
     return out
