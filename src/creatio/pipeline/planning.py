@@ -130,6 +130,12 @@ class StudyPlan:
         return self.entry.reports(self.root)
 
 
+def published_groups(study: str) -> str:
+    """What the notebook publishes of a study (``fd_error pattern regularity``; empty for
+    none): the report rules' parameter, so that captions promise only what a study has."""
+    return " ".join(sorted(registry.get(study).published))
+
+
 def default_studies() -> list[str]:
     """The studies `snakemake all` builds (the registry's, analyses aside)."""
     return [s.id for s in registry.select(in_all=True)]
