@@ -54,6 +54,7 @@ def test_reports_follow_the_contract(workdir, study):
         assert (rep / f"{study}{ext}").stat().st_size > 0
     assert (workdir / "data" / "studies" / study / f"{study}.nc").is_file()
     assert not any(p.name.startswith(".") for p in (rep.parent / "studies" / study).iterdir())
+    assert f"reports/{study}.html" in (workdir / "data" / "index.html").read_text()
 
 
 def test_nothing_reruns_when_nothing_changed(workdir):
@@ -78,6 +79,13 @@ def test_override_reruns_exactly_the_changed_study(workdir):
     assert f"data/runs/{key}" in proc.stderr  # the path is announced
     assert (workdir / "data" / "runs" / key / "reports" / "ct02.json").is_file()
     assert default.stat().st_mtime_ns == before
+    # the hash-named folder says what made it, and the index lists it with its overrides
+    record = json.loads((workdir / "data" / "runs" / key / "overrides.json").read_text())
+    assert record["overrides"] == ["study.feature_h=2e-4"] and record["name"] == "ct02"
+    assert record["changes"] == {"study.feature_h": [1e-4, 2e-4]}
+    assert "creatio: results listed in data/index.html" in proc.stderr
+    page = (workdir / "data" / "index.html").read_text()
+    assert f"runs/{key}/ct02" in page and "study.feature_h=2e-4" in page
 
 
 def test_an_override_equal_to_the_default_reruns_nothing(workdir):
