@@ -162,13 +162,18 @@ def zoom_box(runs: Sequence[tuple[str, xr.Dataset]], outer: float
     return cx - side / 2, cx + side / 2, cy - side / 2, cy + side / 2
 
 
+#: Where each run's time labels sit beside their marks (points): runs that cross at the
+#: same time mark keep their labels apart.
+LABEL_OFFSETS = ((4, 4), (4, -12), (-26, 4), (-26, -12))
+
+
 def _time_ticks(ax, x: np.ndarray, y: np.ndarray, t: np.ndarray, color: str, marker: str,
-                every: float) -> None:
+                every: float, offset: tuple[int, int] = LABEL_OFFSETS[0]) -> None:
     """Markers every ``every`` seconds along a path, each labelled with its time."""
     for tk in np.arange(0.0, t[-1] + 1e-9, every)[1:]:
         k = int(np.argmin(np.abs(t - tk)))
         ax.plot(x[k], y[k], marker, ms=5, color=color, zorder=4)
-        ax.annotate(f"{tk:g} s", (x[k], y[k]), textcoords="offset points", xytext=(4, 4),
+        ax.annotate(f"{tk:g} s", (x[k], y[k]), textcoords="offset points", xytext=offset,
                     fontsize=7, color=color, zorder=4,
                     bbox={"boxstyle": "round,pad=0.15", "fc": "white", "ec": "none",
                           "alpha": 0.8})
@@ -190,7 +195,8 @@ def _draw_paths(ax, runs: Sequence[tuple[str, xr.Dataset]], norm: Any, legend: b
             ax.plot(x, y, lw=2.0, color=color, ls=style, label=label if legend else None,
                     zorder=3)
             _time_ticks(ax, x, y, t, color, markers[k % len(markers)],
-                        every=_tick_interval(float(t[-1])))
+                        every=_tick_interval(float(t[-1])),
+                        offset=LABEL_OFFSETS[k % len(LABEL_OFFSETS)])
         # A start and an end that coincide (a whole cycle) must both stay visible: an open
         # circle around the start, a cross inside it for the end.
         ax.plot(x[0], y[0], "o", ms=13, mfc="none", mec="green", mew=2.2, zorder=5)
