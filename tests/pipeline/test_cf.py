@@ -314,3 +314,30 @@ def test_a_study_no_table_knows_is_still_compliant(suite, tmp_path):
     assert back["drift"].attrs == {"units": "metres, roughly"}
     assert back["lap"].attrs == {"units": "deg"} and back["wobble"].attrs == {}
     assert list(back["verdict"].values) == ["a", "b", "cc", ""]
+
+
+#: Angle variables of every kind of dataset (docs/datasets.md, "Angles"): in degree.
+ANGLES = {"centre_azimuth", "contact_alpha", "pattern_angle", "angular_lag", "cumulative_spin",
+          "inclination", "phase_r", "phase_a", "displacement", "pattern_rotation",
+          "radial_phase", "cavity_cell_u", "cavity_cell_v", "start_alpha", "event_alpha"}
+
+
+def test_one_unit_per_kind_of_angle_and_one_meaning_per_name(written):
+    """contact_alpha was rad beside centre_azimuth in degree, a scene's inclination rad
+    beside CT-02's degree, and a scene's `friction` a magnitude where the studies' is the
+    force vector: every angle is in degree, every angular rate in rad s-1, no variable
+    anywhere in rad, `friction` always has its three components."""
+    seen = set()
+    for kind, path in written.items():
+        back, _ = read_dataset(path)
+        for name, var in back.variables.items():
+            units = var.attrs.get("units")
+            assert units != "rad", (kind, name)
+            if name in ANGLES:
+                assert units == "degree", (kind, name, units)
+                seen.add(name)
+            if units == "rad s-1":
+                assert name in ("omega", "spin_rate", "pattern_rate", "pattern_rate_fd"), name
+            if name == "friction":
+                assert "component" in var.dims and var.attrs["units"] == "N", kind
+    assert {"contact_alpha", "centre_azimuth", "inclination", "phase_r", "phase_a"} <= seen

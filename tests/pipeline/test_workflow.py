@@ -191,3 +191,23 @@ def test_dynamic_study_runs_both_timesteps_into_its_hash_dir(tmp_path):
                  "en02_convergence.png"):
         assert (root / "reports" / name).stat().st_size > 0
     assert not (tmp_path / "data" / "reports").exists()  # defaults untouched
+
+
+def test_job_commands_name_the_interpreter_relative_to_the_working_directory(tmp_path):
+    """The report's job parameters showed the clone's absolute .venv path: run from a
+    directory holding the environment (the clone itself, here a link to its .venv), the
+    commands name it relative (`.venv/bin/python -m creatio.cli`)."""
+    venv = Path(sys.executable).parent.parent
+    if not (venv / "pyvenv.cfg").is_file():
+        pytest.skip("not running from a virtual environment")
+    (tmp_path / ".venv").symlink_to(venv)
+    proc = subprocess.run(
+        [str(tmp_path / ".venv" / "bin" / "python"), "-m", "snakemake", "-s",
+         str(REPO / "Snakefile"), "-n", "-p", "-c", "1", "all", "--config",
+         'studies=["ct02"]'],
+        cwd=tmp_path, capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    jobs = [ln for ln in (proc.stdout + proc.stderr).splitlines() if "creatio.cli" in ln]
+    assert any('".venv/bin/python" -m creatio.cli task dataset ct02' in ln
+               for ln in jobs), jobs
+    assert not any(str(venv) in ln or str(tmp_path) in ln for ln in jobs), jobs

@@ -32,6 +32,9 @@ def test_a_sphere_scene_holds_what_it_draws_and_nothing_else(short_en02):
                "R0", "dR", "A", "Kr", "Ka"}
     assert set(ds.data_vars) == drawn | readouts | per_run
     assert not any("energy" in name for name in ds.data_vars)
+    # one meaning per name: the studies' friction is the force vector, this is its magnitude
+    assert "friction" not in ds and ds.friction_magnitude.attrs["units"] == "N"
+    assert ds.phase_a.attrs["units"] == ds.inclination.attrs["units"] == "degree"
     assert "computed" in str(ds.source.values[0]) and "state size 12" in str(ds.source.values[0])
 
 
