@@ -326,10 +326,12 @@ def test_one_unit_per_kind_of_angle_and_one_meaning_per_name(written):
     """contact_alpha was rad beside centre_azimuth in degree, a scene's inclination rad
     beside CT-02's degree, and a scene's `friction` a magnitude where the studies' is the
     force vector: every angle is in degree, every angular rate in rad s-1, no variable
-    anywhere in rad, `friction` always has its three components."""
+    anywhere in rad, `friction` always has its three components (the units as a reader's
+    xarray.open_dataset gives them)."""
     seen = set()
     for kind, path in written.items():
-        back, _ = read_dataset(path)
+        with xr.open_dataset(path) as opened:
+            back = opened.load()
         for name, var in back.variables.items():
             units = var.attrs.get("units")
             assert units != "rad", (kind, name)
