@@ -52,7 +52,8 @@ CONVENTIONS: tuple[Convention, ...] = (
     Convention("0.2.0", ("time",), "simulated time is an elapsed time, not a CF calendar "
                "instant: no standard_name time", dropped=(("standard_name", "time"),)),
     Convention("0.2.0", ("start_alpha", "cavity_cell_u", "cavity_cell_v", "event_alpha",
-                         "phase_r", "phase_a", "inclination"), _ANGLE, old_units="rad",
+                         "stroke_alpha", "worst_alpha", "phase_r", "phase_a", "inclination"),
+               _ANGLE, old_units="rad",
                new_units="degree", convert=np.degrees),
     Convention("0.2.0", ("friction_magnitude",), "one meaning per name: friction is the "
                "force vector, its magnitude is friction_magnitude", old_name="friction"),
