@@ -8,6 +8,8 @@ STAMP := $(VENV)/.installed
 
 all: $(STAMP)
 	$(BIN)/snakemake all -c 2
+	@echo "results: data/index.html (every study, run, sweep, scene and benchmark built;" \
+	  "in a terminal: $(BIN)/creatio ls, then $(BIN)/creatio open NAME)"
 
 test: $(STAMP)
 	$(BIN)/python -m pytest

@@ -18,6 +18,7 @@
 # Overrides are Hydra overrides, applied to every study whose config has the key. Study ids,
 # their files and report rules come from the study registry (creatio.studies.registry).
 import sys
+from pathlib import Path
 
 from snakemake.utils import min_version
 
@@ -35,7 +36,11 @@ from creatio.studies.registry import KINDS
 min_version("9.0")
 check_workflow_config(config, workflow.source_path("workflow/schemas/config.schema.yaml"))
 
-CREATIO = f'"{sys.executable}" -m creatio.cli'
+# The interpreter relative to the working directory when it lives there (.venv/bin/python):
+# jobs run from it, and the report's job parameters show no clone's absolute path.
+_PY = Path(sys.executable)
+_PY = _PY.relative_to(Path.cwd()) if _PY.is_relative_to(Path.cwd()) else _PY
+CREATIO = f'"{_PY}" -m creatio.cli'
 STUDY_IDS = wildcard_pattern(folder="studies")
 ANALYSIS_IDS = wildcard_pattern(folder="benchmarks")
 JOBS = JobConfigs()
@@ -74,6 +79,7 @@ include: "workflow/rules/release.smk"
 include: "workflow/rules/scenes.smk"
 include: "workflow/rules/beyond.smk"
 include: "workflow/rules/en05.smk"
+include: "workflow/rules/index.smk"
 
 
 # Cheap aggregation, reports and plots run where Snakemake runs, not as cluster jobs.
@@ -95,9 +101,10 @@ localrules:
     scenes,
     scene_library,
     scene_page,
+    index,
 
 
 rule all:
     default_target: True
     input:
-        lambda wc: RUNS.targets() + report_extras(),
+        lambda wc: RUNS.targets() + report_extras() + ["data/index.html"],

@@ -5,6 +5,7 @@
     creatio calibrate study=ID track=CSV fit=[KEYS]      fit a study to a measured track
     creatio release VERSION | verify | list             freeze the default outputs
     creatio diff A B                                     compare datasets, dirs or releases
+    creatio ls | open NAME                               what is built, and where
     creatio task dataset|report|sweep|compare            one workflow step (the Snakefile's)
     creatio task scene library|dataset|page|media        one step of a scene (scenes.smk)
     creatio --version
@@ -38,6 +39,10 @@ commands:
             creatio release 0.2.0    creatio release verify latest    creatio release list
   diff    compare datasets, data directories or releases (exit 0 same, 1 differs, 2 error)
             creatio diff latest data    creatio diff 0.1.0 0.2.0 --json    creatio diff --help
+  ls      every built study, run, sweep, scene and benchmark: overrides, status, file to open
+            creatio ls    creatio ls --json    (the same list: data/index.html)
+  open    the file to open of one result (its path; --browser opens it)
+            creatio open en02    creatio open sweeps/en02-c781    creatio open scenes/compare
   task    one workflow step, as the Snakefile calls it
             creatio task dataset ct02 OUT.nc [--part NAME] [--override K=V ...]
             creatio task sweep-batch --study en02 --sweep sphere.mu=0,0.1 --batch 0
@@ -328,7 +333,7 @@ def _completion(argv: list[str]) -> int:
 
     line = os.environ.get("COMP_LINE", "")
     words = line.split()
-    commands = ("run", "probe", "release", "diff", "task")
+    commands = ("run", "probe", "release", "diff", "task", "ls", "open")
     if any(a.startswith("query") for a in argv[1:]):
         command = words[1] if len(words) > 1 else ""
         if command not in ("run", "probe") or (len(words) == 2 and not line.endswith(" ")):
@@ -394,6 +399,10 @@ def _dispatch(argv: list[str]) -> int:
         from creatio.diff import main as diff_main
 
         return diff_main(rest)
+    if command in ("ls", "open"):
+        from creatio.pipeline.index import main as index_main
+
+        return index_main([command, *rest])
     print(f"creatio: unknown command {command!r} (creatio --help lists them)", file=sys.stderr)
     return 2
 

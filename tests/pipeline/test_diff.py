@@ -333,3 +333,79 @@ def test_exit_zero_and_text_out_for_the_workflow(tmp_path, capsys):
     text = out_txt.read_text()
     assert "exit 1" in text and "energy" in text
     assert len(text.splitlines()) < 40
+
+
+# ------------------------------------------------------------------------------ conventions
+RELEASED_EN02 = (Path(__file__).resolve().parents[2] / "data" / "releases" / "0.1.0" / "studies"
+                 / "en02" / "en02_dt0.002.nc")
+
+
+def todays_encoding(path: Path) -> xr.Dataset:
+    """A 0.1.0 sphere dataset as today's code writes the same numbers: contact_alpha in
+    degree (numpy.degrees, as studies.sphere does), time without standard_name."""
+    from creatio.pipeline.io import read_dataset
+
+    ds, _ = read_dataset(path)
+    ds["contact_alpha"] = ("time", np.degrees(ds.contact_alpha.values),
+                           {**ds.contact_alpha.attrs, "units": "degree"})
+    ds["time"].attrs.pop("standard_name")
+    return ds
+
+
+def test_a_release_in_rad_compares_value_for_value_with_todays_degrees(tmp_path, capsys):
+    """0.1.0 wrote contact_alpha in rad and time with standard_name time (the input that
+    made `creatio diff 0.1.0 data` count them): the documented conventions map the old side
+    (same numpy.degrees), 0 differences at atol = rtol = 0, each mapping named as provenance."""
+    new = write_dataset(todays_encoding(RELEASED_EN02), tmp_path / "new.nc")
+    code, out, _ = run(capsys, str(RELEASED_EN02), str(new), "--atol", "0", "--rtol", "0")
+    assert code == 0, out
+    assert "0 difference(s)" in out
+    assert "contact_alpha units (converted before comparing): rad -> degree" in out
+    assert "time:standard_name: time -> None" in out
+    result = diff(str(RELEASED_EN02), str(new))
+    notes = {p["name"]: p for p in result["provenance"]}
+    assert notes["contact_alpha units (converted before comparing)"]["kind"] == "convention"
+    assert result["counts"]["structure"] == result["counts"]["data"] == 0
+
+
+def test_a_mapped_convention_still_finds_a_changed_value(tmp_path):
+    """The mapping converts, it does not hide: one ulp moved in today's degrees, or units no
+    convention names, is still counted."""
+    ds = todays_encoding(RELEASED_EN02)
+    ds["contact_alpha"].values[7] = np.nextafter(ds["contact_alpha"].values[7], np.inf)
+    moved = write_dataset(ds, tmp_path / "moved.nc")
+    result = diff(str(RELEASED_EN02), str(moved))
+    assert result["exit_code"] == 1
+    assert result["datasets"]["en02_dt0.002.nc vs moved.nc"]["data"]["contact_alpha"][
+        "n_beyond"] == 1
+    ds = todays_encoding(RELEASED_EN02)
+    ds["contact_alpha"].attrs["units"] = "grad"
+    other = write_dataset(ds, tmp_path / "grad.nc")
+    kinds = {s["kind"] for s in diff(str(RELEASED_EN02), str(other))["datasets"][
+        "en02_dt0.002.nc vs grad.nc"]["structure"]}
+    assert "units" in kinds
+
+
+def test_time_stored_with_a_placeholder_date_reads_back_in_seconds(tmp_path, capsys):
+    """A dataset of the 0.1.x line stored time as 'seconds since 1970-01-01' (plain xarray
+    gave 1970 dates): read_dataset gives seconds, the diff compares it value for value and
+    names the encoding change as provenance."""
+    import netCDF4
+
+    from creatio.pipeline.io import read_dataset
+
+    a = dataset()
+    a["time"].attrs["units"] = "s"
+    pa, pb = write_pair(tmp_path, a, a)
+    with netCDF4.Dataset(pa, "a") as nc:  # what conform wrote before 0.2
+        nc["time"].setncatts({"units": "seconds since 1970-01-01 00:00:00", "calendar": "standard",
+                              "standard_name": "time", "axis": "T", "creatio_units": "s",
+                              "creatio_added": "long_name standard_name calendar axis"})
+    back, _ = read_dataset(pa)
+    assert back.time.attrs == {"units": "s"} and back.time.values[1] == 0.1
+    code, out, _ = run(capsys, pa, pb)
+    assert code == 0, out
+    assert "time stored units (read back as 's'): seconds since 1970-01-01" in out
+    with xr.open_dataset(pb) as ds:
+        assert ds.time.dtype == np.float64 and float(ds.energy.sel(time=0.2)) == float(
+            a.energy.sel(time=0.2))

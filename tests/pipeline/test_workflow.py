@@ -54,6 +54,7 @@ def test_reports_follow_the_contract(workdir, study):
         assert (rep / f"{study}{ext}").stat().st_size > 0
     assert (workdir / "data" / "studies" / study / f"{study}.nc").is_file()
     assert not any(p.name.startswith(".") for p in (rep.parent / "studies" / study).iterdir())
+    assert f"reports/{study}.html" in (workdir / "data" / "index.html").read_text()
 
 
 def test_nothing_reruns_when_nothing_changed(workdir):
@@ -78,6 +79,13 @@ def test_override_reruns_exactly_the_changed_study(workdir):
     assert f"data/runs/{key}" in proc.stderr  # the path is announced
     assert (workdir / "data" / "runs" / key / "reports" / "ct02.json").is_file()
     assert default.stat().st_mtime_ns == before
+    # the hash-named folder says what made it, and the index lists it with its overrides
+    record = json.loads((workdir / "data" / "runs" / key / "overrides.json").read_text())
+    assert record["overrides"] == ["study.feature_h=2e-4"] and record["name"] == "ct02"
+    assert record["changes"] == {"study.feature_h": [1e-4, 2e-4]}
+    assert "creatio: results listed in data/index.html" in proc.stderr
+    page = (workdir / "data" / "index.html").read_text()
+    assert f"runs/{key}/ct02" in page and "study.feature_h=2e-4" in page
 
 
 def test_an_override_equal_to_the_default_reruns_nothing(workdir):
@@ -183,3 +191,23 @@ def test_dynamic_study_runs_both_timesteps_into_its_hash_dir(tmp_path):
                  "en02_convergence.png"):
         assert (root / "reports" / name).stat().st_size > 0
     assert not (tmp_path / "data" / "reports").exists()  # defaults untouched
+
+
+def test_job_commands_name_the_interpreter_relative_to_the_working_directory(tmp_path):
+    """The report's job parameters showed the clone's absolute .venv path: run from a
+    directory holding the environment (the clone itself, here a link to its .venv), the
+    commands name it relative (`.venv/bin/python -m creatio.cli`)."""
+    venv = Path(sys.executable).parent.parent
+    if not (venv / "pyvenv.cfg").is_file():
+        pytest.skip("not running from a virtual environment")
+    (tmp_path / ".venv").symlink_to(venv)
+    proc = subprocess.run(
+        [str(tmp_path / ".venv" / "bin" / "python"), "-m", "snakemake", "-s",
+         str(REPO / "Snakefile"), "-n", "-p", "-c", "1", "all", "--config",
+         'studies=["ct02"]'],
+        cwd=tmp_path, capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    jobs = [ln for ln in (proc.stdout + proc.stderr).splitlines() if "creatio.cli" in ln]
+    assert any('".venv/bin/python" -m creatio.cli task dataset ct02' in ln
+               for ln in jobs), jobs
+    assert not any(str(venv) in ln or str(tmp_path) in ln for ln in jobs), jobs

@@ -84,10 +84,10 @@ def _assert_surface_is_the_models(probe: list[dict], ds, r: int, k: int) -> None
 
     if "run" in ds.dims:
         geo = [float(ds[n].values[r]) for n in ("R0", "dR", "A", "Kr", "Ka")]
-        ph = [float(ds[n].values[r, k]) for n in ("phase_r", "phase_a", "inclination")]
+        ph = [math.radians(ds[n].values[r, k]) for n in ("phase_r", "phase_a", "inclination")]
     else:
         geo = [float(ds.attrs[n]) for n in ("R0", "dR", "A", "Kr", "Ka")]
-        ph = [float(ds[n].values[r, k]) for n in ("phase_r", "phase_a", "inclination")]
+        ph = [math.radians(ds[n].values[r, k]) for n in ("phase_r", "phase_a", "inclination")]
     surface = Surface(geo[0], geo[1], geo[2], int(geo[3]), int(geo[4]))
     motion = Motion(*(Law.constant(p) for p in ph))
     for v in probe:
@@ -113,7 +113,7 @@ def test_the_surface_family_page_follows_the_slider(browser, scenes):
     assert state["inclination"] == 45 and state["surface_class"] == "cone"
     a = ds.attrs
     surface = Surface(a["R0"], a["dR"], a["A"], int(a["Kr"]), int(a["Ka"]))
-    motion = Motion(Law.constant(float(ds.phase_r)), Law.constant(float(ds.phase_a)),
+    motion = Motion(Law.constant(math.radians(ds.phase_r)), Law.constant(math.radians(ds.phase_a)),
                     Law.constant(math.radians(45)))
     for v in state["surface"]:
         np.testing.assert_allclose(v["xyz"], Frame(surface, motion, v["alpha"], v["R"], 0.0)

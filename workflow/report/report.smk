@@ -23,14 +23,14 @@ REPORTED = {
     "kinematic": {
         ".png": ("kinematic_figure.rst", "figure: derivative check"),
         "_fd_error.csv": ("kinematic_table.rst", "table: derivative check"),
-        ".md": ("study_markdown.rst", "report (markdown)"),
+        ".html": ("study_markdown.rst", "report tables"),
     },
     "sphere": {
         ".png": ("sphere_histories.rst", "figure: time histories"),
         "_trajectory.png": ("sphere_trajectory.rst", "figure: centre path"),
         "_convergence.png": ("sphere_convergence.rst", "figure: dt vs dt/2, energy residual"),
         "_history.csv": ("sphere_table.rst", "table: time histories"),
-        ".md": ("study_markdown.rst", "report (markdown)"),
+        ".html": ("study_markdown.rst", "report tables"),
     },
     "analysis": {
         ".png": ("analysis_figure.rst", "figure"),

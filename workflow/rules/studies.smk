@@ -5,6 +5,10 @@
 # jobs read that file, and carry the hash of the code that computes them (CODE in
 # creatio.pipeline.planning): new code reruns them. A dataset's part (the file stem:
 # en02_dt0.001, ...) selects which dataset of the study it computes.
+#
+# A report job's `published` parameter names what the notebook publishes of its study (empty
+# for none): the report captions promise only what the study has.
+from creatio.pipeline.planning import published_groups
 
 
 rule study_config:
@@ -50,6 +54,7 @@ rule kinematic_report:
     params:
         creatio=CREATIO,
         code=code_version("reports"),
+        published=lambda wc: published_groups(wc.study),
     conda:
         "../envs/creatio.yaml"
     log:
@@ -68,6 +73,7 @@ rule sphere_report:
     params:
         creatio=CREATIO,
         code=code_version("reports"),
+        published=lambda wc: published_groups(wc.study),
     conda:
         "../envs/creatio.yaml"
     log:

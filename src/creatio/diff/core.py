@@ -293,7 +293,13 @@ def _compare_variable(name: str, va: xr.DataArray, vb: xr.DataArray,
 
 def diff_datasets(a: xr.Dataset, b: xr.Dataset, config_a: dict, config_b: dict,
                   tol: Tolerance, all_attrs: bool = False) -> dict[str, Any]:
-    """Everything that differs between two datasets (A old, B new), by category."""
+    """Everything that differs between two datasets (A old, B new), by category. A is first
+    mapped onto B's conventions where a documented change explains a difference
+    (creatio.diff.conventions): those changes are reported as provenance."""
+    from creatio.diff.conventions import apply_conventions, encoding_notes
+
+    encoding = encoding_notes(a, b)
+    a, conventions = apply_conventions(a, b)
     structure: list[dict[str, Any]] = []
     for dim in sorted(set(a.sizes) | set(b.sizes), key=str):
         na, nb = a.sizes.get(dim), b.sizes.get(dim)
@@ -369,7 +375,7 @@ def diff_datasets(a: xr.Dataset, b: xr.Dataset, config_a: dict, config_b: dict,
     sha_a, sha_b = a.attrs.get("config_sha256"), b.attrs.get("config_sha256")
     if not config_all and sha_a != sha_b:
         config.append({"key": "config_sha256", "old": sha_a, "new": sha_b, "change": "changed"})
-    provenance = [x for x in attrs if x["category"] == "provenance"]
+    provenance = [x for x in attrs if x["category"] == "provenance"] + conventions + encoding
     result: dict[str, Any] = {
         "kind": "dataset",
         "structure": structure,
@@ -647,8 +653,13 @@ def _aggregate_provenance(datasets: dict[str, Any]) -> list[dict[str, Any]]:
             key = (p["name"], json.dumps(_jsonable(p["old"])), json.dumps(_jsonable(p["new"])))
             group = groups.setdefault(key, {"name": p["name"], "old": p["old"], "new": p["new"],
                                             "files": []})
+            for extra in ("kind", "why"):
+                if extra in p:
+                    group[extra] = p[extra]
             group["files"].append(rel)
-    return list(groups.values())
+    # documented convention changes first, then versions and commits, then stored encodings
+    order = {"convention": 0, "encoding": 2}
+    return sorted(groups.values(), key=lambda g: order.get(g.get("kind", ""), 1))
 
 
 # ------------------------------------------------------------------------------ text

@@ -248,7 +248,7 @@ def _dataset(resolved: Resolved, track: Any, fit: Any, noise: float, source: str
                    {"long_name": "standard error from s^2 (J^T J)^-1"}),
         "interval_95": (("parameter", "bound"), fit.interval, {"long_name": "95 % interval"}),
         "correlation": (("parameter", "parameter2"), fit.correlation, {"units": "1"}),
-    }, coords={"time": ("frame", track.t, {"standard_name": "time", "units": "s"}),
+    }, coords={"time": ("frame", track.t, {"units": "s"}),
                "coordinate": ("coordinate", list(track.coordinates)),
                "parameter": ("parameter", list(fit.keys)),
                "parameter2": ("parameter2", list(fit.keys)), "bound": ("bound", ["low", "high"])})

@@ -4,12 +4,13 @@ The studies, analyses, sweeps and scenes build their datasets in the project's o
 (``deg``, ``m/s``, the model length unit ``u``, a few prose unit strings, string labels).
 :func:`conform` turns that into what CF tools read (docs/datasets.md): UDUNITS unit strings,
 a ``long_name`` on every variable (from the table below, else derived from the name),
-``standard_name`` where the CF table has one, a CF time coordinate, no ``_FillValue`` on
-coordinates and string labels as character arrays (:func:`encoding`). Values are never
-touched. :func:`restore` is its inverse for the project's own reader: the attributes as the
-computing code stated them (conform marks what it added in ``creatio_added`` and keeps the
-units it rewrote in ``creatio_units``) and string labels as strings, so that reports, scenes
-and ``creatio diff`` (against releases written before) see what the studies wrote.
+``standard_name`` where the CF table has one, simulated time as an elapsed time in ``s``,
+no ``_FillValue`` on coordinates and string labels as character arrays (:func:`encoding`).
+Values are never touched. :func:`restore` is its inverse for the project's own reader: the
+attributes as the computing code stated them (conform marks what it added in
+``creatio_added`` and keeps the units it rewrote in ``creatio_units``) and string labels as
+strings, so that reports, scenes and ``creatio diff`` (against releases written before) see
+what the studies wrote.
 """
 
 from __future__ import annotations
@@ -28,7 +29,9 @@ __all__ = [
     "MODEL_LENGTH_NOTE",
     "ORIGINAL_UNITS",
     "STANDARD_NAMES",
+    "STORED_UNITS",
     "TIME_UNITS",
+    "decode_time",
     "VARIABLES",
     "conform",
     "encoding",
@@ -43,8 +46,12 @@ CONVENTIONS = "CF-1.10"
 ORIGINAL_UNITS = "creatio_units"
 #: Attribute naming the attributes conform added (space-separated); read_dataset drops them.
 ADDED = "creatio_added"
-#: CF needs a reference date; the runs have none, so the clock starts at a placeholder one.
-TIME_UNITS = "seconds since 1970-01-01 00:00:00"
+#: Simulated time is an elapsed time (the runs have no date): plain seconds, no ``since``.
+#: CF-1.11 s.4.4 reserves ``since`` units, standard_name time and axis T for instants in a
+#: calendar; an elapsed time is an ordinary coordinate in a unit of time (docs/datasets.md).
+TIME_UNITS = "s"
+#: How releases before 0.2 wrote it (read back as seconds: :func:`decode_time`).
+PLACEHOLDER_TIME_UNITS = "seconds since 1970-01-01 00:00:00"
 #: Global attribute of a dataset whose lengths are in the model length unit u.
 MODEL_LENGTH_NOTE = (
     "u: the notebook's model length unit (the CT-02 geometry, R0 = 0.68 u). Every length in "
@@ -77,16 +84,17 @@ MIXED_UNITS = {
     "setting_value": "rtol (units 1) or the fixed step dt (s), as setting_kind says",
 }
 
-#: CF standard names of the variables that have one (the CF table is made for the earth
-#: sciences: of the project's quantities only time is in it).
-STANDARD_NAMES = {"time": "time"}
+#: CF standard names of the variables that have one. The CF table is made for the earth
+#: sciences: none of the project's quantities is in it (``time`` names an instant of a
+#: calendar, not the elapsed time of a run), so none is written.
+STANDARD_NAMES: dict[str, str] = {}
 
 L = "L"  # placeholder of the dataset's length unit (u or m) in the table below
 #: long_name and units (project notation) of every variable the pipeline writes, used where
 #: the dataset does not state them itself. None: no units (labels, mixed units).
 VARIABLES: dict[str, tuple[str, str | None]] = {
     # shared coordinates and labels
-    "time": ("time", "s"),
+    "time": ("simulated time since the start of the run", "s"),
     "component": ("Cartesian component (x, y, z)", None),
     "quaternion_component": ("quaternion component (w, x, y, z; scalar first)", None),
     "derivative": ("differentiated coordinate of c (c_R, c_alpha, c_t)", None),
@@ -141,7 +149,7 @@ VARIABLES: dict[str, tuple[str, str | None]] = {
 
 _U = re.compile(r"(?<![A-Za-z_])u(?![A-Za-z_])")
 _FACTOR = re.compile(r"^([A-Za-z_]+|1)\^?(-?\d+)?$")
-_SECONDS = {"s", "second", "seconds"}
+_SINCE = re.compile(r"^\s*(s|sec|second|seconds)\s+since\s+", re.IGNORECASE)
 
 
 def is_string(var: xr.Variable) -> bool:
@@ -220,13 +228,7 @@ def _cf_attrs(name: str, var: xr.Variable, length: str) -> dict[str, Any]:
         units = re.sub(rf"(?<![A-Za-z_]){L}(?![A-Za-z_])", length, table_units)
     if not units or "since" in units:  # nothing to state, or already a CF time unit
         return attrs
-    if attrs.get("standard_name") == "time" and units in _SECONDS:
-        cf_units: str | None = TIME_UNITS
-        attrs.setdefault("calendar", "standard")
-        if name == "time" and name in var.dims:
-            attrs.setdefault("axis", "T")
-    else:
-        cf_units = udunits(units)
+    cf_units = udunits(units)
     if cf_units is None:  # prose no table knows: kept apart, not passed off as units
         attrs.pop("units", None)
     else:
@@ -289,13 +291,34 @@ def _unmarked(attrs: Mapping[Hashable, Any]) -> dict[Hashable, Any]:
     return out
 
 
+#: Encoding key recording the units a variable had in the file, before restore (diffs
+#: report a change of encoding, such as the time units, without counting it as data).
+STORED_UNITS = "creatio_stored_units"
+
+
+def decode_time(attrs: dict[Hashable, Any]) -> dict[Hashable, Any]:
+    """Attributes of a time read back from a file written with the placeholder reference
+    date (``seconds since 1970-01-01``, creatio before 0.2): its values are the seconds of
+    the run, so its units are ``s`` and its calendar goes. Other attributes are unchanged."""
+    units = str(attrs.get("units", ""))
+    if not _SINCE.match(units) or "1970-01-01" not in units:
+        return attrs
+    out = {k: v for k, v in attrs.items() if k != "calendar"}
+    out["units"] = "s"
+    return out
+
+
 def restore(ds: xr.Dataset) -> xr.Dataset:
     """The dataset as its computing code made it, from one just read back (times undecoded)
     from a file conform wrote: the attributes it stated (restored in place), text labels as
-    numpy strings. Files written before conform existed come back unchanged."""
+    numpy strings, time in seconds. Files written before conform existed come back
+    unchanged. Each variable's units as stored are kept in its encoding (STORED_UNITS)."""
     ds.attrs = _unmarked(ds.attrs)
     for var in ds.variables.values():
+        var.encoding[STORED_UNITS] = var.attrs.get("units")
         var.attrs = _unmarked(var.attrs)
+        if "units" in var.attrs and "since" in str(var.attrs["units"]):
+            var.attrs = decode_time(var.attrs)
     text = {name: xr.Variable(var.dims, var.values.astype(str), var.attrs)
             for name, var in ds.variables.items() if var.dtype.kind == "O" and is_string(var)}
     coords: Mapping[Hashable, Any] = {n: v for n, v in text.items() if n in ds.coords}

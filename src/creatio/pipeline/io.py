@@ -15,6 +15,7 @@ import json
 import os
 import platform
 import re
+import shlex
 import shutil
 import subprocess
 import sys
@@ -35,6 +36,7 @@ __all__ = [
     "atomic_save",
     "atomic_write",
     "clean_stale",
+    "command_line",
     "git_state",
     "provenance",
     "read_dataset",
@@ -77,6 +79,37 @@ def library_versions() -> dict[str, str]:
     return out
 
 
+#: Entry points that are the `creatio` command (the console script, `python -m creatio.cli`
+#: as the Snakefile calls it, the Hydra apps that set argv[0] to "creatio run").
+_CREATIO_ENTRIES = ("creatio", "cli.py", "__main__.py")
+#: Arguments longer than this (a config passed as YAML text) are shortened in `history`.
+_ARG_WIDTH = 80
+
+
+def command_line(argv: list[str] | None = None) -> str:
+    """The command that is running, as a person would type it: ``creatio task dataset en02
+    data/studies/en02/en02_dt0.002.nc ...``, not the absolute path of cli.py; paths inside
+    the working directory relative to it, long arguments shortened."""
+    argv = list(sys.argv if argv is None else argv)
+    if not argv:
+        return "python"
+    head = argv[0]
+    if Path(head).name in _CREATIO_ENTRIES or head.startswith("creatio "):
+        head = head if head.startswith("creatio ") else "creatio"
+    else:
+        head = Path(head).name
+    cwd = Path.cwd()
+    args = []
+    for arg in argv[1:]:
+        if arg.startswith("/"):
+            with contextlib.suppress(ValueError):
+                arg = str(Path(arg).relative_to(cwd))
+        if len(arg) > _ARG_WIDTH:
+            arg = arg[: _ARG_WIDTH - 3].replace("\n", " ") + "..."
+        args.append(shlex.quote(arg))
+    return " ".join([head, *args])
+
+
 def provenance(study: str, config_yaml: str, config_sha256: str, title: str) -> dict[str, Any]:
     """CF-style global attributes plus provenance for one study dataset."""
     commit, dirty = git_state()
@@ -86,7 +119,7 @@ def provenance(study: str, config_yaml: str, config_sha256: str, title: str) -> 
         "title": title or study,
         "institution": "creatio",
         "source": f"creatio {creatio.__version__}",
-        "history": f"{now} created by creatio {creatio.__version__}: {' '.join(sys.argv[:3])}",
+        "history": f"{now} created by creatio {creatio.__version__}: {command_line()}",
         "references": f"CREATIO technical notebook, study {study.upper()}",
         "study": study,
         "creatio_version": creatio.__version__,

@@ -130,6 +130,12 @@ class StudyPlan:
         return self.entry.reports(self.root)
 
 
+def published_groups(study: str) -> str:
+    """What the notebook publishes of a study (``fd_error pattern regularity``; empty for
+    none): the report rules' parameter, so that captions promise only what a study has."""
+    return " ".join(sorted(registry.get(study).published))
+
+
 def default_studies() -> list[str]:
     """The studies `snakemake all` builds (the registry's, analyses aside)."""
     return [s.id for s in registry.select(in_all=True)]
@@ -226,13 +232,16 @@ class JobConfigs:
     def __init__(self, data_dir: str = "data") -> None:
         self.data_dir = data_dir
         self._by_root: dict[tuple[str, str], Resolved] = {}
+        self._overrides: dict[tuple[str, str], tuple[str, ...]] = {}
         # Planners to run on a miss: a job re-invoked in its own Snakemake process (run:
         # directives, cluster executors) parses the Snakefile anew without the targets.
         self.fallbacks: list[Callable[[], Any]] = []
 
-    def add(self, root: str, resolved: Resolved) -> None:
-        """Register the config that produces datasets under root (first one wins)."""
+    def add(self, root: str, resolved: Resolved, overrides: Sequence[str] = ()) -> None:
+        """Register the config that produces datasets under root (first one wins), with
+        the overrides that made it (recorded beside a run folder's files)."""
         self._by_root.setdefault((str(root), resolved.study), resolved)
+        self._overrides.setdefault((str(root), resolved.study), tuple(overrides))
 
     @one_line_errors
     def get(self, root: str, study: str) -> Resolved:
@@ -260,9 +269,16 @@ class JobConfigs:
     @one_line_errors
     def write(self, root: str, study: str, path: str | Path, log: str | Path) -> None:
         """Write (root, study)'s canonical resolved YAML to path (temporary, then renamed)
-        and its hash to the log."""
+        and its hash to the log; a run folder (data/runs/<hash>) also gets its
+        overrides.json (creatio.pipeline.index.record_run)."""
+        from creatio.pipeline.index import record_run
+
         resolved = self.get(root, study)
         write_config_file(path, log, study, resolved.yaml, resolved.sha256)
+        if str(root) != self.data_dir:
+            record_run(root, "study", study, resolved.data, resolve(study).data,
+                       self._overrides.get((str(root), study)), resolved.sha256,
+                       self.data_dir)
 
     @one_line_errors
     def yaml(self, root: str, study: str) -> str:
@@ -297,7 +313,7 @@ class StudyRuns:
         """Resolve every selected study and register its jobs."""
         plans = plan(self.overrides, self.studies, self.jobs.data_dir)
         for p in plans.values():
-            self.jobs.add(p.root, p.resolved)
+            self.jobs.add(p.root, p.resolved, p.overrides)
             if p.overrides:
                 print(f"creatio: {p.study} {list(p.overrides)} -> {p.root}", file=sys.stderr)
         return plans

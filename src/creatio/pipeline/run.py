@@ -65,10 +65,16 @@ def write_report(study: str, outdir: Path, datasets: Sequence[Path]) -> dict[str
 
 
 def run_resolved(resolved: Resolved, data_dir: Path = Path("data")) -> Path:
-    """Everything `snakemake all` does for one study, in this process."""
+    """Everything `snakemake all` does for one study, in this process; a run folder gets its
+    overrides.json (the keys its config changes) and the index lists it."""
+    from creatio.pipeline.config import resolve
+    from creatio.pipeline.index import record_run, refresh_index
+
     root = output_root(resolved, data_dir)
     if root != data_dir:
         log.info("%s: overridden config %s -> %s", resolved.study, resolved.key, root)
+        record_run(root, "study", resolved.study, resolved.data, resolve(resolved.study).data,
+                   None, resolved.sha256, data_dir)
     entry = resolved.entry
     outs = [compute_dataset(resolved, Path(entry.dataset_dir(str(root))) / f"{p.name}.nc", p.name)
             for p in entry.parts(resolved.obj)]
@@ -76,4 +82,7 @@ def run_resolved(resolved: Resolved, data_dir: Path = Path("data")) -> Path:
     if extra is not None:  # datasets the workflow makes in batch jobs, here in this process
         outs += extra(resolved, root)
     write_report(resolved.study, root / entry.kind.report_dir, outs)
+    page = refresh_index(data_dir)
+    if page is not None:
+        log.info("results: %s (creatio ls lists them)", page)
     return root

@@ -461,6 +461,7 @@ def write_sweep(plan: SweepPlan, compute_missing: bool = False) -> dict[str, Pat
     ``compute_missing`` runs the batches whose files are absent first, in this process
     (`creatio run -m`, outside Snakemake).
     """
+    from creatio.pipeline.index import record_sweep, refresh_index
     from creatio.pipeline.io import provenance, write_dataset
     from creatio.reports.sweep import write_sweep_report
 
@@ -476,4 +477,8 @@ def write_sweep(plan: SweepPlan, compute_missing: bool = False) -> dict[str, Pat
     outdir = Path(plan.outdir)
     paths = {"nc": write_dataset(ds, outdir / "sweep.nc")}
     paths.update(write_sweep_report(ds, outdir))
+    paths["record"] = record_sweep(outdir, plan.study, plan.axes, plan.base,
+                                   int(ds.attrs["points"]), int(ds.attrs["points_run"]))
+    if compute_missing:  # outside Snakemake (creatio run -m): no workflow hook lists it
+        refresh_index(Path(plan.outdir).parents[1])
     return paths

@@ -22,7 +22,15 @@ import xarray as xr
 from matplotlib.ticker import ScalarFormatter
 
 from creatio.pipeline.io import atomic_write
-from creatio.reports.common import fmt, plt, save_figure, strict_json, table, write_text
+from creatio.reports.common import (
+    fmt,
+    plt,
+    save_figure,
+    strict_json,
+    table,
+    write_markdown,
+    write_text,
+)
 from creatio.reports.sphere import history_csv
 
 __all__ = ["en02g_summary", "en03_summary", "en03m_summary", "run_difference",
@@ -105,7 +113,8 @@ def _write_csv(path: Path, header: Sequence[str], rows: Sequence[Sequence[Any]])
 
 def _paths(outdir: Path, study: str) -> dict[str, Path]:
     return {"json": outdir / f"{study}.json", "md": outdir / f"{study}.md",
-            "png": outdir / f"{study}.png", "csv": outdir / f"{study}_history.csv",
+            "html": outdir / f"{study}.html", "png": outdir / f"{study}.png",
+            "csv": outdir / f"{study}_history.csv",
             "trajectory": outdir / f"{study}_trajectory.png",
             "convergence": outdir / f"{study}_convergence.png"}
 
@@ -360,7 +369,7 @@ def write_en02g(datasets: Sequence[Path], outdir: str | Path) -> dict[str, Path]
               f"![per inclination]({paths['png'].name})", "",
               f"![paths and lag]({paths['trajectory'].name})", "",
               f"![convergence]({paths['convergence'].name})", ""]
-    write_text(paths["md"], "\n".join(lines))
+    write_markdown(paths["md"], "\n".join(lines))
     return paths
 
 
@@ -599,7 +608,7 @@ def write_en03(datasets: Sequence[Path], outdir: str | Path) -> dict[str, Path]:
               f"![histories]({paths['png'].name})", "",
               f"![paths]({paths['trajectory'].name})", "",
               f"![convergence]({paths['convergence'].name})", ""]
-    write_text(paths["md"], "\n".join(lines))
+    write_markdown(paths["md"], "\n".join(lines))
     return paths
 
 
@@ -835,5 +844,5 @@ def write_en03m(datasets: Sequence[Path], outdir: str | Path) -> dict[str, Path]
               f"![search and figure runs]({paths['png'].name})", "",
               f"![paths]({paths['trajectory'].name})", "",
               f"![convergence]({paths['convergence'].name})", ""]
-    write_text(paths["md"], "\n".join(lines))
+    write_markdown(paths["md"], "\n".join(lines))
     return paths

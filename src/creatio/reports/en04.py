@@ -21,7 +21,7 @@ import numpy as np
 import xarray as xr
 
 from creatio.reports.beyond import _finish, _start
-from creatio.reports.common import plt, table, write_text
+from creatio.reports.common import plt, table, write_markdown, write_text
 from creatio.studies.en04 import oscillation_tolerance
 
 __all__ = ["ACTUATION_KEYS", "en04_summary", "write_report"]
@@ -58,7 +58,7 @@ _CHECK_KEYS = (
     ("max_W_t_angular_law_m_s", "max_W_t_angular_law"),
     ("max_W_tt_closed_form_m_s2", "max_W_tt_closed_form"),
     ("max_W_tt_angular_law_m_s2", "max_W_tt_angular_law"),
-    ("worst_alpha_rad", "worst_alpha"),
+    ("worst_alpha_deg", "worst_alpha"),
     ("worst_R_m", "worst_R"),
     ("quadrature_n_alpha", "quadrature_n_alpha"),
     ("quadrature_n_R", "quadrature_n_R"),
@@ -372,5 +372,5 @@ def write_report(datasets: Sequence[Path], outdir: str | Path) -> dict[str, Path
     lines += ["## Control", "", "Not computed yet: the closed loop of docs/model.md s.12.2 is "
               "a later part of this study (`control` is null in en04.json).", "",
               f"![convergence]({paths['convergence'].name})", ""]
-    write_text(paths["md"], "\n".join(lines))
+    write_markdown(paths["md"], "\n".join(lines))
     return paths

@@ -21,7 +21,7 @@ import numpy as np
 import xarray as xr
 
 from creatio.reports.beyond import FAILURES, _start, run_difference
-from creatio.reports.common import fmt, plt, save_figure, table, write_text
+from creatio.reports.common import fmt, plt, save_figure, table, write_markdown, write_text
 
 __all__ = ["en02f_summary", "write_en02f"]
 
@@ -247,5 +247,5 @@ def write_en02f(datasets: Sequence[Path], outdir: str | Path) -> dict[str, Path]
     lines += [f"![events]({paths['png'].name})", "",
               f"![paths]({paths['trajectory'].name})", "",
               f"![verification]({paths['convergence'].name})", ""]
-    write_text(paths["md"], "\n".join(lines))
+    write_markdown(paths["md"], "\n".join(lines))
     return paths

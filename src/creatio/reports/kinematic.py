@@ -18,7 +18,18 @@ import xarray as xr
 
 from creatio.model.numerics import observed_order
 from creatio.pipeline.io import atomic_write
-from creatio.reports.common import h_key, nested, plt, save_figure, strict_json, table, write_text
+from creatio.reports.common import (
+    PUBLISHED_HEADER,
+    h_key,
+    nested,
+    plt,
+    published_row,
+    save_figure,
+    strict_json,
+    table,
+    write_markdown,
+    write_text,
+)
 from creatio.studies import registry
 
 __all__ = ["PATTERN_LABELS", "kinematic_summary", "write_report"]
@@ -72,8 +83,8 @@ def kinematic_summary(ds: xr.Dataset) -> dict[str, Any]:
         i = int(np.argmax(rate))
         out["pattern_max_rate_rad_s"] = float(rate[i])
         out["pattern_max_rate_time_s"] = float(ds.time.values[i])
-        out["pattern_travel_deg"] = float(
-            np.rad2deg(ds.pattern_angle.values[-1] - ds.pattern_angle.values[0]))
+        out["pattern_travel_deg"] = float(ds.pattern_angle.values[-1]
+                                          - ds.pattern_angle.values[0])
         out["pattern_fd_error"] = float(np.abs(ds.pattern_rate - ds.pattern_rate_fd).max())
     out["config_sha256"] = ds.attrs.get("config_sha256", "")
     return out
@@ -125,7 +136,8 @@ def _convergence_figure(summary: dict, study: str, path: Path) -> None:
 
 
 def write_report(datasets: Sequence[Path], outdir: str | Path) -> dict[str, Path]:
-    """Write <study>.json, .md, _fd_error.csv and .png for a CT-02/EN-01 dataset."""
+    """Write <study>.json, .md (and its .html), _fd_error.csv and .png for a CT-02/EN-01
+    dataset."""
     from creatio.pipeline.io import read_dataset
 
     ds, _ = read_dataset(datasets[0])
@@ -133,7 +145,7 @@ def write_report(datasets: Sequence[Path], outdir: str | Path) -> dict[str, Path
     outdir = Path(outdir)
     outdir.mkdir(parents=True, exist_ok=True)
     summary = kinematic_summary(ds)
-    paths = {ext: outdir / f"{study}.{ext}" for ext in ("json", "md", "png")}
+    paths = {ext: outdir / f"{study}.{ext}" for ext in ("json", "md", "html", "png")}
     paths["csv"] = outdir / f"{study}_fd_error.csv"
     write_text(paths["json"], strict_json(summary))
     header, rows = _fd_rows(summary, study)
@@ -142,7 +154,7 @@ def write_report(datasets: Sequence[Path], outdir: str | Path) -> dict[str, Path
         w.writerow(header)
         w.writerows(rows)
     _convergence_figure(summary, study, paths["png"])
-    write_text(paths["md"], _kinematic_markdown(ds, summary, header, rows, paths))
+    write_markdown(paths["md"], _kinematic_markdown(ds, summary, header, rows, paths))
     return paths
 
 
@@ -163,19 +175,22 @@ def _kinematic_markdown(ds: xr.Dataset, s: dict, header, rows, paths) -> str:
     lines += ["", f"![convergence]({paths['png'].name})", "", "## Regularity", ""]
     reg_pub = registry.get(study).published.get("regularity", {})
     reg = [
-        ("max | J identity - |c_R x c_alpha| |", s["j_identity_error"],
-         reg_pub.get("j_identity_error", "")),
-        ("max normalised normal-tangent dot", s["normal_tangent_dot"],
-         reg_pub.get("normal_tangent_dot", "")),
-        ("max | |n| - 1 |", s["normal_length_error"],
-         reg_pub.get("normal_length_error", "")),
-        ("analytic lower bound of J (R0 - A)", s["j_min"],
-         reg_pub.get("j_min", "")),
-        ("smallest sampled J", s["j_min_sampled"], ""),
+        ("max | J identity - |c_R x c_alpha| |", "j_identity_error"),
+        ("max normalised normal-tangent dot", "normal_tangent_dot"),
+        ("max | |n| - 1 |", "normal_length_error"),
+        ("analytic lower bound of J (R0 - A)", "j_min"),
+        ("smallest sampled J", "j_min_sampled"),
     ]
     if study == "ct02":
-        reg += [("angular seam closure", s["seam_closure"], "")]
-    lines += table(["figure", "computed", "published"], reg)
+        reg += [("angular seam closure", "seam_closure")]
+    compared = [published_row(label, s[key], reg_pub[key]) for label, key in reg
+                if key in reg_pub]
+    if compared:
+        lines += ["Beside the notebook's figures: the rounding-noise ones compare by their "
+                  "order of magnitude.", ""]
+        lines += table(PUBLISHED_HEADER, compared) + ["", "Not in the notebook:", ""]
+    lines += table(["figure", "computed"],
+                   [(label, s[key]) for label, key in reg if key not in reg_pub])
     if study == "ct02":
         lines += ["", "## Cavity trajectories and pitch", ""]
         lines += table(["figure", "computed"], [
@@ -187,7 +202,7 @@ def _kinematic_markdown(ds: xr.Dataset, s: dict, header, rows, paths) -> str:
             f"{k} deg {v}" for k, v in s["surface_class"].items()) + "."]
     else:
         lines += ["", "## Pattern velocity over the EN-02 cycle", ""]
-        lines += table(["figure", "computed", "published"], [
-            (PATTERN_LABELS.get(k, k), s[k], v)
+        lines += table(PUBLISHED_HEADER, [
+            published_row(PATTERN_LABELS.get(k, k), s[k], v)
             for k, v in registry.get(study).published.get("pattern", {}).items()])
     return "\n".join(lines) + "\n"

@@ -15,7 +15,18 @@ import numpy as np
 import xarray as xr
 
 from creatio.pipeline.io import atomic_write
-from creatio.reports.common import fmt, plt, readable_y, save_figure, strict_json, table, write_text
+from creatio.reports.common import (
+    PUBLISHED_HEADER,
+    fmt,
+    plt,
+    published_row,
+    readable_y,
+    save_figure,
+    strict_json,
+    table,
+    write_markdown,
+    write_text,
+)
 from creatio.studies import registry
 
 __all__ = ["dynamic_summary", "history_csv", "timestep_difference", "write_comparison",
@@ -127,28 +138,121 @@ def _history_figure(ds: xr.Dataset, path: Path) -> None:
     plt.close(fig)
 
 
-def _trajectory_figure(runs: Sequence[tuple[str, xr.Dataset]], config: dict, path: Path) -> None:
-    fig, ax = plt.subplots(figsize=(8.4, 6.4))
-    height = _surface_top_view(ax, config)
-    tmax = max(float(ds.time.values[-1]) for _, ds in runs)
-    norm = plt.Normalize(0.0, tmax)
+#: A path whose extent is below this fraction of the annulus's outer diameter is hidden
+#: under its markers at full scale: it gets a magnified inset (EN-02V moves about 4 cm).
+ZOOM_BELOW = 0.15
+#: Per run of a comparison: colour and line style (the time is marked along each path).
+RUN_STYLES = (("tab:blue", "-"), ("tab:orange", "--"), ("tab:green", ":"), ("tab:red", "-."))
+
+
+def zoom_box(runs: Sequence[tuple[str, xr.Dataset]], outer: float
+             ) -> tuple[float, float, float, float] | None:
+    """(x0, x1, y0, y1) of a square around every path when it is too small to read at the
+    scale of the annulus (outer radius ``outer``), else None."""
+    xy = np.concatenate([ds.centre.values[:, :2] for _, ds in runs])
+    xy = xy[np.all(np.isfinite(xy), axis=1)]
+    if xy.size == 0:
+        return None
+    lo, hi = xy.min(axis=0), xy.max(axis=0)
+    side = float(max(hi - lo))
+    if side >= ZOOM_BELOW * 2 * outer:
+        return None
+    side = max(side * 1.3, 1e-3)  # a margin around the path; a still sphere gets 1 mm
+    cx, cy = (lo + hi) / 2
+    return cx - side / 2, cx + side / 2, cy - side / 2, cy + side / 2
+
+
+#: Where each run's time labels sit beside their marks (points): runs that cross at the
+#: same time mark keep their labels apart.
+LABEL_OFFSETS = ((4, 4), (4, -12), (-26, 4), (-26, -12))
+
+
+def _time_ticks(ax, x: np.ndarray, y: np.ndarray, t: np.ndarray, color: str, marker: str,
+                every: float, offset: tuple[int, int] = LABEL_OFFSETS[0]) -> None:
+    """Markers every ``every`` seconds along a path, each labelled with its time."""
+    for tk in np.arange(0.0, t[-1] + 1e-9, every)[1:]:
+        k = int(np.argmin(np.abs(t - tk)))
+        ax.plot(x[k], y[k], marker, ms=5, color=color, zorder=4)
+        ax.annotate(f"{tk:g} s", (x[k], y[k]), textcoords="offset points", xytext=offset,
+                    fontsize=7, color=color, zorder=4,
+                    bbox={"boxstyle": "round,pad=0.15", "fc": "white", "ec": "none",
+                          "alpha": 0.8})
+
+
+def _draw_paths(ax, runs: Sequence[tuple[str, xr.Dataset]], norm: Any, legend: bool) -> Any:
+    """The centre paths on ax: one run coloured by time (returns the mappable); several
+    runs each in its own colour and line style, time marked along them (returns None)."""
+    mappable = None
     markers = ["o", "s", "^", "D"]
-    for (label, ds), mk in zip(runs, markers, strict=False):
-        x, y = ds.centre.values[:, 0], ds.centre.values[:, 1]
-        ax.plot(x, y, lw=0.8, color="k", alpha=0.4)
-        sc = ax.scatter(x[::10], y[::10], c=ds.time.values[::10], cmap="viridis", norm=norm,
-                        s=10, marker=mk, label=label)
+    for k, (label, ds) in enumerate(runs):
+        x, y, t = ds.centre.values[:, 0], ds.centre.values[:, 1], ds.time.values
+        if len(runs) == 1:
+            ax.plot(x, y, lw=0.8, color="k", alpha=0.4, zorder=2)
+            mappable = ax.scatter(x[::10], y[::10], c=t[::10], cmap="viridis", norm=norm,
+                                  s=10, marker="o", label=label if legend else None, zorder=3)
+        else:
+            color, style = RUN_STYLES[k % len(RUN_STYLES)]
+            ax.plot(x, y, lw=2.0, color=color, ls=style, label=label if legend else None,
+                    zorder=3)
+            _time_ticks(ax, x, y, t, color, markers[k % len(markers)],
+                        every=_tick_interval(float(t[-1])),
+                        offset=LABEL_OFFSETS[k % len(LABEL_OFFSETS)])
         # A start and an end that coincide (a whole cycle) must both stay visible: an open
         # circle around the start, a cross inside it for the end.
         ax.plot(x[0], y[0], "o", ms=13, mfc="none", mec="green", mew=2.2, zorder=5)
         ax.plot(x[-1], y[-1], "x", ms=9, color="red", mew=2.2, zorder=6)
+    return mappable
+
+
+def _tick_interval(duration: float) -> float:
+    """A round time step giving at most four labelled marks over a run."""
+    for step in (1.0, 2.0, 5.0, 10.0, 15.0, 20.0, 30.0, 60.0, 120.0, 300.0):
+        if duration / step <= 4:
+            return step
+    return duration / 4
+
+
+def trajectory_figure(runs: Sequence[tuple[str, xr.Dataset]], config: dict) -> Any:
+    """The centre paths in top view over the surface height at t = 0 (a matplotlib figure).
+
+    One run is coloured by time (colour bar). Several runs (the comparison) are told apart by
+    colour, line style and legend, with their times marked along each path. A path too small
+    to read at the annulus's scale (EN-02V) gets a magnified inset, its region outlined."""
+    fig, ax = plt.subplots(figsize=(8.4, 6.4))
+    height = _surface_top_view(ax, config)
+    tmax = max(float(ds.time.values[-1]) for _, ds in runs)
+    norm = plt.Normalize(0.0, tmax)
+    mappable = _draw_paths(ax, runs, norm, legend=True)
+    g = config["geometry"]
+    box = zoom_box(runs, float(g["R0"]) + float(g["dR"]))
+    if box is not None:  # the inset goes to the right, in the half the path is not in
+        bottom = 0.03 if box[2] + box[3] > 0 else 0.6
+        inset = ax.inset_axes((0.6, bottom, 0.37, 0.37))
+        _surface_top_view(inset, config)
+        _draw_paths(inset, runs, norm, legend=False)
+        inset.set_xlim(box[0], box[1])
+        inset.set_ylim(box[2], box[3])
+        inset.set_xlabel("")
+        inset.set_ylabel("")
+        inset.tick_params(labelsize=6)
+        side_mm = 1000.0 * (box[1] - box[0])
+        inset.set_title(f"magnified: {side_mm:.3g} mm across", fontsize=7)
+        ax.indicate_inset_zoom(inset, edgecolor="0.2")
     ax.plot([], [], "o", ms=9, mfc="none", mec="green", mew=2, label="start")
     ax.plot([], [], "x", ms=8, color="red", mew=2, label="end")
-    fig.colorbar(sc, ax=ax, label="time (s) (shared)", pad=0.02)
+    if mappable is not None:
+        fig.colorbar(mappable, ax=ax, label="time (s)", pad=0.02)
     fig.colorbar(height, ax=ax, label="surface height c_z at t = 0 (m)", pad=0.02)
-    ax.legend(loc="upper right", fontsize=8)
-    ax.set_title("centre path in top view over the surface height at t = 0", fontsize=9)
+    ax.legend(loc="upper left", fontsize=8)
+    what = ("centre path in top view" if len(runs) == 1 else
+            "centre paths in top view, time marked along each")
+    ax.set_title(f"{what}, over the surface height at t = 0", fontsize=9)
     fig.tight_layout()
+    return fig
+
+
+def _trajectory_figure(runs: Sequence[tuple[str, xr.Dataset]], config: dict, path: Path) -> None:
+    fig = trajectory_figure(runs, config)
     save_figure(fig, path, dpi=100)
     plt.close(fig)
 
@@ -210,7 +314,7 @@ SUMMARY_ROWS = [
 
 
 def write_report(datasets: Sequence[Path], outdir: str | Path) -> dict[str, Path]:
-    """Write <study>.json/.md/.png, _history.csv, _trajectory.png, _convergence.png."""
+    """Write <study>.json/.md/.html/.png, _history.csv, _trajectory.png, _convergence.png."""
     from creatio.pipeline.io import read_dataset
 
     loaded = [read_dataset(p) for p in datasets]
@@ -224,6 +328,7 @@ def write_report(datasets: Sequence[Path], outdir: str | Path) -> dict[str, Path
     paths = {
         "json": outdir / f"{study}.json",
         "md": outdir / f"{study}.md",
+        "html": outdir / f"{study}.html",
         "png": outdir / f"{study}.png",
         "csv": outdir / f"{study}_history.csv",
         "trajectory": outdir / f"{study}_trajectory.png",
@@ -235,10 +340,9 @@ def write_report(datasets: Sequence[Path], outdir: str | Path) -> dict[str, Path
     _convergence_figure_dynamic(runs, paths["convergence"])
     history_csv(ds, paths["csv"])
     pub = dict(registry.get(study).published)
-    if pub:
-        rows = [(label, s[key], pub.get(key, "")) for label, key in SUMMARY_ROWS]
-    else:
-        rows = [(label, s[key]) for label, key in SUMMARY_ROWS]
+    compared = [published_row(label, s[key], pub[key]) for label, key in SUMMARY_ROWS
+                if key in pub]
+    rows = [(label, s[key]) for label, key in SUMMARY_ROWS if key not in pub]
     method = str(ds.attrs.get("method", "rk4"))
     if "rtol" in ds.attrs:
         pair = (f"{method} (adaptive) at rtol = {ds.attrs['rtol']:g} compared with rtol = "
@@ -252,11 +356,15 @@ def write_report(datasets: Sequence[Path], outdir: str | Path) -> dict[str, Path
              f"config sha256 `{s['config_sha256'][:12]}`, creatio "
              f"{ds.attrs.get('creatio_version')}, commit {ds.attrs.get('git_commit', '')[:10]}.",
              "", "## Summary figures", ""]
-    lines += table(["figure", "computed", "published"] if pub else ["figure", "computed"], rows)
-    if pub:
-        lines += ["", "Published timestep difference and energy residual are upper bounds "
-                  "(the notebook's code used approximate derivatives); these runs use exact "
-                  "derivatives."]
+    if compared:
+        lines += ["Computed beside the figures the notebook publishes, with the digits it "
+                  "prints; a value agrees when it is within half a unit of the last printed "
+                  "digit. The published timestep difference and energy residual are upper "
+                  "bounds (the notebook's code used approximate derivatives; these runs use "
+                  "exact derivatives).", ""]
+        lines += table(PUBLISHED_HEADER, compared)
+        lines += ["", "The notebook publishes no other figure of this study:", ""]
+    lines += table(["figure", "computed"], rows)
     lines += ["", "Extrema are taken over every integration step. Energy residual per dt: "
               + ", ".join(f"{k} s: {fmt(v)} J" for k, v in s["energy_residual_by_dt_J"].items())
               + f". {method.upper()} stability limit of the friction: "
@@ -267,7 +375,7 @@ def write_report(datasets: Sequence[Path], outdir: str | Path) -> dict[str, Path
     lines += [f"![time histories]({paths['png'].name})", "",
               f"![trajectory]({paths['trajectory'].name})", "",
               f"![convergence]({paths['convergence'].name})", ""]
-    write_text(paths["md"], "\n".join(lines))
+    write_markdown(paths["md"], "\n".join(lines))
     return paths
 
 

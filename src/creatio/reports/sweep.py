@@ -10,7 +10,13 @@ import xarray as xr
 
 from creatio.reports.common import plt, readable_y, save_figure, table, write_text
 
-__all__ = ["axis_label", "figure_label", "write_sweep_report"]
+__all__ = ["axis_label", "figure_label", "log_scale", "status_cells", "write_sweep_report"]
+
+#: A positive figure spanning more than this ratio is drawn on a log axis (the slip speed
+#: falls from 0.1 m/s at mu = 0 to 1e-5 m/s: on a linear axis all but one point sit at 0).
+LOG_SPAN = 100.0
+#: What a table shows where a point has no value (refused, or the figure not computed).
+NO_VALUE = "—"
 
 
 def figure_label(name: str) -> str:
@@ -81,6 +87,37 @@ def _stability_edge(ds: xr.Dataset, dim: str) -> float | None:
     return float(x[j] + (1.0 - ratio[j]) * (x[i] - x[j]) / (ratio[i] - ratio[j]))
 
 
+def log_scale(values: np.ndarray) -> bool:
+    """Whether a figure reads better on a log axis: all finite values positive, spanning
+    more than LOG_SPAN."""
+    y = np.asarray(values, float)
+    y = y[np.isfinite(y)]
+    return bool(y.size > 1 and (y > 0).all() and y.max() / y.min() > LOG_SPAN)
+
+
+def status_cells(statuses: list[str], messages: list[str]) -> tuple[list[str], list[str]]:
+    """The status column of a sweep table and its footnotes: a short status per point
+    (``invalid [1]``), each distinct reason once below the table (``[1] invalid config:
+    solver.dt=0.002: beyond ...``), instead of the whole message in every cell."""
+    notes: dict[str, int] = {}
+    cells = []
+    for status, message in zip(statuses, messages, strict=True):
+        if message:
+            k = notes.setdefault(message, len(notes) + 1)
+            cells.append(f"{status} [{k}]")
+        else:
+            cells.append(status)
+    return cells, [f"[{k}] {m}" for m, k in notes.items()]
+
+
+def _value(x: float) -> float | str:
+    """A table cell of a figure: the number, NO_VALUE where the point has none, "none"
+    for an infinite limit (no friction, no stability limit)."""
+    if np.isinf(x):
+        return "none"
+    return float(x) if np.isfinite(x) else NO_VALUE
+
+
 def write_sweep_report(ds: xr.Dataset, outdir: str | Path) -> dict[str, Path]:
     """sweep.md (one row per point) and sweep.png (a line or heat map per figure)."""
     outdir = Path(outdir)
@@ -90,21 +127,24 @@ def write_sweep_report(ds: xr.Dataset, outdir: str | Path) -> dict[str, Path]:
     header = [axis_label(ds, d) for d in dims] + ["status", *[figure_label(n) for n in names]]
     if "stability_limit_dt_s" in ds:
         header.append("RK4 limit dt (s)")
+    statuses = [str(s) for s in flat.status.values]
+    cells, notes = status_cells(statuses, [str(m) for m in flat.message.values])
     rows = []
     for i in range(flat.sizes["point"]):
         p = flat.isel(point=i)
         coords = [p[d].item() for d in dims] if len(dims) > 1 else [p["point"].item()]
-        row = [*coords, str(p.status.item()) + (f" ({p.message.item()})" if
-                                                 p.message.item() else ""),
-               *[float(p[n]) for n in names]]
+        row = [*coords, cells[i], *[_value(float(p[n])) for n in names]]
         if "stability_limit_dt_s" in ds:
-            row.append(float(p.stability_limit_dt_s))
+            row.append(_value(float(p.stability_limit_dt_s)))
         rows.append(row)
     lines = [f"# {ds.attrs.get('title', 'sweep')}", "",
              f"{ds.attrs.get('points_run')} of {ds.attrs.get('points')} points ran; base "
              f"overrides {ds.attrs.get('base_overrides')}. Refused points (invalid) were not "
-             "run; stopped runs keep their status.", "", "![sweep](sweep.png)", ""]
+             f"run and have no figures ({NO_VALUE}); stopped runs keep their status. The "
+             "reasons are numbered below the table.", "", "![sweep](sweep.png)", ""]
     lines += table(header, rows)
+    if notes:
+        lines += ["", *[f"{n}  " for n in notes]]
     md = outdir / "sweep.md"
     write_text(md, "\n".join(lines) + "\n")
     png = outdir / "sweep.png"
@@ -126,7 +166,11 @@ def write_sweep_report(ds: xr.Dataset, outdir: str | Path) -> dict[str, Path]:
                 ax.plot(x[refused], np.zeros(refused.sum()), "v", color="0.4", ms=8,
                         transform=ax.get_xaxis_transform(), clip_on=False,
                         label="refused (not run)")
-            readable_y(ax, y[ok | stopped])
+            if log_scale(y[ok | stopped]):
+                ax.set_yscale("log")
+                ax.set_title(f"{figure_label(name)} (log scale)", fontsize=9)
+            else:
+                readable_y(ax, y[ok | stopped])
             edge = _stability_edge(ds, dims[0]) if "stability_limit_dt_s" in ds else None
             if edge is not None:
                 ax.axvspan(edge, x.max(), color="red", alpha=0.08,
@@ -144,14 +188,18 @@ def write_sweep_report(ds: xr.Dataset, outdir: str | Path) -> dict[str, Path]:
             ax.set_ylabel(axis_label(ds, dims[0]))
             ax.set_xlabel(axis_label(ds, dims[1]))
             fig.colorbar(im, ax=ax, label=figure_label(name))
-        ax.set_title(figure_label(name), fontsize=9)
-        ax.grid(alpha=0.3)
+        if not ax.get_title():
+            ax.set_title(figure_label(name), fontsize=9)
+        ax.grid(alpha=0.3, which="both")
     for ax in list(axes.flat)[len(names):]:
         ax.axis("off")
-    if len(dims) == 1:
-        axes.flat[0].legend(fontsize=7)
     fig.suptitle(ds.attrs.get("title", ""))
     fig.tight_layout()
+    if len(dims) == 1:  # one legend for every panel, above them: it hides no point
+        handles, labels = axes.flat[0].get_legend_handles_labels()
+        fig.subplots_adjust(top=1 - 0.9 / fig.get_figheight())
+        fig.legend(handles, labels, loc="upper center", ncol=len(labels), fontsize=8,
+                   bbox_to_anchor=(0.5, 1 - 0.35 / fig.get_figheight()), frameon=False)
     save_figure(fig, png, dpi=100)
     plt.close(fig)
     return {"md": md, "png": png}

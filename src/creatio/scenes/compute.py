@@ -47,8 +47,8 @@ READOUTS: dict[Readout, tuple[str, str, Any]] = {
     Readout.speed: ("speed", "m/s", lambda ds: ds.speed.values),
     Readout.normal_reaction: ("normal reaction", "N", lambda ds: ds.normal_reaction.values),
     Readout.slip_speed: ("slip speed", "m/s", lambda ds: ds.slip_speed.values),
-    Readout.friction: ("friction force", "N",
-                       lambda ds: np.linalg.norm(ds.friction.values, axis=-1)),
+    Readout.friction_magnitude: ("friction force |f|", "N",
+                                 lambda ds: np.linalg.norm(ds.friction.values, axis=-1)),
     Readout.spin_rate: ("spin rate", "rad/s", lambda ds: ds.spin_rate.values),
     Readout.cumulative_spin: ("cumulative spin", "deg", lambda ds: ds.cumulative_spin.values),
     Readout.displacement: ("sphere displacement", "deg",
@@ -145,7 +145,7 @@ def sphere_scene(resolved: Any, reuse: Mapping[str, str | Path] | None = None) -
             per_run.setdefault("quaternion", []).append(_pad(f.quaternion.values, n))
         laws = base.obj.phases.laws()
         for name, law in zip(("phase_r", "phase_a", "inclination"), laws, strict=True):
-            per_run.setdefault(name, []).append(law(times).value)
+            per_run.setdefault(name, []).append(np.degrees(law(times).value))
         for r in s.readouts:
             if r is Readout.time:
                 continue
@@ -164,11 +164,11 @@ def sphere_scene(resolved: Any, reuse: Mapping[str, str | Path] | None = None) -
         "centre": (("run", "frame", "component"), np.stack(per_run["centre"]),
                    {"long_name": "sphere centre X = c + b n", "units": "m"}),
         "phase_r": (("run", "frame"), np.stack(per_run["phase_r"]),
-                    {"long_name": "radial phase phi_r", "units": "rad"}),
+                    {"long_name": "radial phase phi_r", "units": "degree"}),
         "phase_a": (("run", "frame"), np.stack(per_run["phase_a"]),
-                    {"long_name": "angular phase phi_a", "units": "rad"}),
+                    {"long_name": "angular phase phi_a", "units": "degree"}),
         "inclination": (("run", "frame"), np.stack(per_run["inclination"]),
-                        {"long_name": "inclination gamma", "units": "rad"}),
+                        {"long_name": "inclination gamma", "units": "degree"}),
         "status": ("run", per_run["status"]),
         "stop_time": ("run", per_run["stop_time"], {"units": "s"}),
         "frames_run": ("run", per_run["frames_run"],
@@ -190,7 +190,7 @@ def sphere_scene(resolved: Any, reuse: Mapping[str, str | Path] | None = None) -
                             {"long_name": label, "units": unit})
     coords = {
         "run": ("run", [n.study for n in runs]),
-        "time": ("frame", times, {"standard_name": "time", "units": "s"}),
+        "time": ("frame", times, {"units": "s"}),
         "component": ("component", COMPONENTS),
         "quaternion_component": ("quaternion_component", ["w", "x", "y", "z"]),
     }
@@ -248,12 +248,12 @@ def surface_family_scene(resolved: Any, reuse: Mapping[str, Any] | None = None) 
     s = cfg.scene
     incl = np.array(s.inclinations_deg())
     laws = cfg.phases.laws()
-    pr, pa = (float(law(s.time).value) for law in laws[:2])
+    pr, pa = (math.degrees(float(law(s.time).value)) for law in laws[:2])
     classes = [classify_inclination(math.radians(g)) for g in incl]
     ds = xr.Dataset(
         {"surface_class": (("inclination",), classes),
-         "phase_r": ((), pr, {"long_name": "radial phase phi_r", "units": "rad"}),
-         "phase_a": ((), pa, {"long_name": "angular phase phi_a", "units": "rad"})},
+         "phase_r": ((), pr, {"long_name": "radial phase phi_r", "units": "degree"}),
+         "phase_a": ((), pa, {"long_name": "angular phase phi_a", "units": "degree"})},
         coords={"inclination": ("inclination", incl,
                                 {"long_name": "inclination gamma", "units": "degree"})},
     )
@@ -282,7 +282,7 @@ def velocity_normal_scene(resolved: Any, reuse: Mapping[str, Any] | None = None)
         cols.setdefault("velocity", []).append(fr.c_t)
         cols.setdefault("speed", []).append(np.linalg.norm(fr.c_t, axis=-1))
         for name, law in zip(("phase_r", "phase_a", "inclination"), laws, strict=True):
-            cols.setdefault(name, []).append(law(times).value)
+            cols.setdefault(name, []).append(np.degrees(law(times).value))
     vec = ("mode", "frame", "component")
     ds = xr.Dataset(
         {"position": (vec, np.stack(cols["position"]), {"long_name": "surface point c",
@@ -292,10 +292,10 @@ def velocity_normal_scene(resolved: Any, reuse: Mapping[str, Any] | None = None)
          "velocity": (vec, np.stack(cols["velocity"]),
                       {"long_name": "fixed-coordinate velocity c_t", "units": "u s-1"}),
          "speed": (("mode", "frame"), np.stack(cols["speed"]), {"units": "u s-1"}),
-         **{name: (("mode", "frame"), np.stack(cols[name]), {"units": "rad"})
+         **{name: (("mode", "frame"), np.stack(cols[name]), {"units": "degree"})
             for name in ("phase_r", "phase_a", "inclination")}},
         coords={"mode": ("mode", names),
-                "time": ("frame", times, {"standard_name": "time", "units": "s"}),
+                "time": ("frame", times, {"units": "s"}),
                 "component": ("component", COMPONENTS)},
     )
     ds.attrs.update({"scene": resolved.scene, "kind": "velocity_normal",

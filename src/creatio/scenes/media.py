@@ -135,7 +135,7 @@ def sphere_media(ds: xr.Dataset, cfg: Any, animation: Path, poster: Path) -> Non
             ax = _frame_axes(fig, (r, len(runs)), surf.R1 * 0.92,
                              f"{name.upper()}\n{direction}")
             k = min(i, int(ds.frames_run.values[r]) - 1)
-            ph = [float(ds[n].values[r, i]) for n in ("phase_r", "phase_a", "inclination")]
+            ph = [math.radians(ds[n].values[r, i]) for n in ("phase_r", "phase_a", "inclination")]
             if "membrane" in draw_set:
                 pos, w = surface_mesh(surf, *ph, n_alpha, n_R)
                 _draw_surface(ax, pos, w, alpha=0.85)
@@ -171,7 +171,7 @@ def surface_family_media(ds: xr.Dataset, cfg: Any, animation: Path, poster: Path
     s = cfg.scene
     surf = _surface(ds)
     incl = ds.inclination.values
-    pr, pa = float(ds.phase_r), float(ds.phase_a)
+    pr, pa = math.radians(ds.phase_r), math.radians(ds.phase_a)  # stored in degree
     n_alpha, n_R = max(24, s.mesh.n_alpha // 2), max(6, s.mesh.n_R // 2)
 
     def draw(fig, k: int) -> None:
@@ -202,7 +202,7 @@ def velocity_normal_media(ds: xr.Dataset, cfg: Any, animation: Path, poster: Pat
         for m, mode in enumerate(modes):
             ax = _frame_axes(fig, (m, len(modes)), surf.R1 * 0.8,
                              f"{mode}: |c_t| = {float(ds.speed.values[m, i]):.3f} u/s")
-            ph = [float(ds[n].values[m, i]) for n in ("phase_r", "phase_a", "inclination")]
+            ph = [math.radians(ds[n].values[m, i]) for n in ("phase_r", "phase_a", "inclination")]
             pos, w = surface_mesh(surf, *ph, n_alpha, n_R)
             _draw_surface(ax, pos, w, alpha=0.6)
             p = ds.position.values[m, i]

@@ -27,6 +27,10 @@ __all__ = ["MAX_BYTES", "page_data", "write_page"]
 #: The largest page the project ships (the issue's limit).
 MAX_BYTES = 5 * 1024 * 1024
 
+#: The angles the page evaluates the surface with, c(alpha, R) in radians (viewer.js): the
+#: dataset states them in degree (docs/datasets.md), the page's JSON carries them in rad.
+PAGE_RADIANS = ("phase_r", "phase_a", "inclination")
+
 #: Dataset attributes the page needs (provenance is shown in the footer instead).
 PAGE_ATTRS = ("kind", "scene", "frame_interval", "playback_speed", "playback_fps", "draw",
               "readouts", "mesh", "time", "alpha_deg", "R", "normal_length", "velocity_scale",
@@ -50,8 +54,11 @@ def page_data(ds: xr.Dataset) -> dict[str, Any]:
     """The JSON the viewer reads: kind, attributes, coordinates, arrays, labels and units."""
     arrays, strings, labels, units = {}, {}, {}, {}
     for name, var in {**ds.coords, **ds.data_vars}.items():
+        radians = (name in PAGE_RADIANS and name in ds.data_vars
+                   and var.attrs.get("units") in ("degree", "deg"))
         if var.dtype.kind in "fiub":
-            values = np.ascontiguousarray(var.values, dtype="<f8")
+            values = np.ascontiguousarray(np.radians(var.values) if radians else var.values,
+                                          dtype="<f8")
             arrays[name] = {"shape": list(values.shape),
                             "b64": base64.b64encode(values.tobytes()).decode("ascii")}
         else:
@@ -59,7 +66,7 @@ def page_data(ds: xr.Dataset) -> dict[str, Any]:
         if "long_name" in var.attrs:
             labels[name] = str(var.attrs["long_name"])
         if "units" in var.attrs:
-            units[name] = str(var.attrs["units"]).replace("degree", "deg")
+            units[name] = "rad" if radians else str(var.attrs["units"]).replace("degree", "deg")
     attrs = {k: _attr(ds.attrs[k]) for k in PAGE_ATTRS if k in ds.attrs}
     coords = {name: strings[name] for name in ("run", "mode") if name in strings}
     return {"kind": attrs["kind"], "attrs": attrs, "coords": coords, "arrays": arrays,

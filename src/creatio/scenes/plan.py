@@ -185,11 +185,16 @@ class SceneRuns:
 
     def write(self, root: str, scene: str, path: str | Path, log: str | Path) -> None:
         """Write a scene's canonical resolved YAML to path (temporary, then renamed) and its
-        hash to the log."""
+        hash to the log; a run folder also gets its overrides.json."""
+        from creatio.pipeline.index import record_run
         from creatio.pipeline.planning import write_config_file
 
-        resolved = self.get(root, scene).resolved
+        plan = self.get(root, scene)
+        resolved = plan.resolved
         write_config_file(path, log, scene, resolved.yaml, resolved.sha256)
+        if str(root) != self.data_dir:
+            record_run(root, "scene", scene, resolved.data, resolve(scene).data,
+                       plan.overrides, resolved.sha256, self.data_dir)
 
     def yaml(self, root: str, scene: str) -> str:
         """The canonical resolved YAML of a scene job (its only config parameter)."""

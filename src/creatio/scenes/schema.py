@@ -56,7 +56,7 @@ class Readout(StrEnum):
     speed = "speed"
     normal_reaction = "normal_reaction"
     slip_speed = "slip_speed"
-    friction = "friction"
+    friction_magnitude = "friction_magnitude"  # |f|: the study datasets' friction is the vector
     spin_rate = "spin_rate"            # needs the rotation
     cumulative_spin = "cumulative_spin"  # needs the rotation
     displacement = "displacement"

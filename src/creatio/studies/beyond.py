@@ -41,7 +41,8 @@ SCALARS = (
     ("left_cavity_time", "left_cavity_time",
      {"units": "s", "long_name": "first step outside the starting cavity's cell (NaN: never)"}),
     ("start_R", "start_R", {"units": "m", "long_name": "contact R at the start"}),
-    ("start_alpha", "start_alpha", {"units": "rad", "long_name": "contact alpha at the start"}),
+    ("start_alpha", "start_alpha", {"units": "degree",
+                                    "long_name": "contact alpha at the start"}),
 )
 
 
@@ -84,14 +85,14 @@ def run_dataset(prob: SphereProblem, res: SimulationResult) -> xr.Dataset:
     """One run's EN-02 dataset with its start point, the equilibrium's verdict (empty when
     accepted or not asked for) and the cavity-cell offsets (docs/model.md s.8)."""
     ds = result_dataset(prob, res)
-    ds.attrs.update({"start_R": res.start_R, "start_alpha": res.start_alpha,
+    ds.attrs.update({"start_R": res.start_R, "start_alpha": math.degrees(res.start_alpha),
                      "equilibrium_message": res.equilibrium_message})
-    ds["cavity_cell_u"] = ("time", res.cell_u, {"long_name": "radial phase offset from the "
-                                                "cavity bottom (cell: |du| < pi/2)",
-                                                "units": "rad"})
-    ds["cavity_cell_v"] = ("time", res.cell_v, {"long_name": "angular phase offset from the "
-                                                "cavity bottom (cell: |dv| < pi/2)",
-                                                "units": "rad"})
+    ds["cavity_cell_u"] = ("time", np.degrees(res.cell_u),
+                           {"long_name": "radial phase offset from the cavity bottom "
+                            "(cell: |du| < 90 deg)", "units": "degree"})
+    ds["cavity_cell_v"] = ("time", np.degrees(res.cell_v),
+                           {"long_name": "angular phase offset from the cavity bottom "
+                            "(cell: |dv| < 90 deg)", "units": "degree"})
     return ds
 
 

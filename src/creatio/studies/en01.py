@@ -58,14 +58,14 @@ def run(cfg: En01Config) -> xr.Dataset:
         "law": ("law", names, {"long_name": "time-law case"}),
         "inclination": ("inclination", incl, {"long_name": "inclination gamma",
                                               "units": "degree"}),
-        "time": ("time", tp, {"standard_name": "time", "units": "s"}),
+        "time": ("time", tp, {"units": "s"}),
     }
     data = {
         "fd_error": (("derivative", "h", "law"), fd,
                      {"long_name": "max Euclidean error, analytic vs central difference",
                       "units": "m (c_R: dimensionless)"}),
-        "pattern_angle": (("time",), ap, {"long_name": "pattern angle alpha_p",
-                                          "units": "rad"}),
+        "pattern_angle": (("time",), np.degrees(ap), {"long_name": "pattern angle alpha_p",
+                                                      "units": "degree"}),
         "pattern_rate": (("time",), rate, {"long_name": "pattern rate alpha_p'",
                                            "units": "rad s-1"}),
         "pattern_rate_fd": (("time",), fd_rate,

@@ -373,12 +373,13 @@ def demand(cfg: En04Config, name: str) -> Demand:
         "K_m_closed_form_rel_error": K_rel, "P_inertia_closed_form_rel_error": P_rel,
         "W_surface": W_surf, "W_surface_run": W_run, "W_surface_fine": W_surf_fine,
         "W_surface_run_fine": W_run_fine, "dt": base.solver.dt, "fine_dt": fine_dt,
-        "stroke": ex.stroke, "stroke_alpha": ex.stroke_point[0], "stroke_R": ex.stroke_point[1],
+        "stroke": ex.stroke, "stroke_alpha": math.degrees(ex.stroke_point[0]),
+        "stroke_R": ex.stroke_point[1],
         "stroke_angular_law": ang["stroke"],
         "max_W_t": ex.max_W_t, "max_W_t_closed_form": wt_cf, "max_W_t_angular_law": ang["max_W_t"],
         "max_W_tt": ex.max_W_tt, "max_W_tt_closed_form": wtt_cf,
         "max_W_tt_angular_law": ang["max_W_tt"],
-        "worst_alpha": ex.worst[0], "worst_R": ex.worst[1],
+        "worst_alpha": math.degrees(ex.worst[0]), "worst_R": ex.worst[1],
         "bandwidth": bandwidth, "bandwidth99": bandwidth99,
         "quadrature_rel_change": conv.final_rel_change,
         "quadrature_converged": float(conv.converged),
@@ -394,7 +395,8 @@ def demand(cfg: En04Config, name: str) -> Demand:
         scalars[f"{key}_mean"] = energy / T
     histories = {**powers, "load_work": W_cum, "surface_work": res.surface_work,
                  "K_m": mi.kinetic, "K_m_closed_form": K_cf, "P_inertia_closed_form": P_in_cf,
-                 "contact_R": res.R, "contact_alpha": res.alpha, "normal_reaction": res.N}
+                 "contact_R": res.R, "contact_alpha": np.degrees(res.alpha),
+                 "normal_reaction": res.N}
     return Demand(t, histories, scalars, conv, res.status)
 
 
@@ -418,14 +420,14 @@ _HISTORY_ATTRS = {
     "K_m_closed_form": ("J", "membrane kinetic energy, flat-annulus closed form"),
     "P_inertia_closed_form": ("W", "membrane inertia power, flat-annulus closed form"),
     "contact_R": ("m", "contact radial coordinate R"),
-    "contact_alpha": ("rad", "contact angle alpha"),
+    "contact_alpha": ("degree", "contact angle alpha"),
     "normal_reaction": ("N", "normal reaction N"),
 }
 
 
 _UNITS = {"sigma": "kg m-2", "c_d": "N s m-3", "damped_c_d": "N s m-3", "duration": "s",
-          "dt": "s", "fine_dt": "s", "stroke_alpha": "rad", "worst_alpha": "rad", "stroke_R": "m",
-          "worst_R": "m", "bandwidth": "Hz", "bandwidth99": "Hz"}
+          "dt": "s", "fine_dt": "s", "stroke_alpha": "degree", "worst_alpha": "degree",
+          "stroke_R": "m", "worst_R": "m", "bandwidth": "Hz", "bandwidth99": "Hz"}
 
 
 def _scalar_unit(key: str) -> str:
@@ -486,7 +488,7 @@ def run_actuation(cfg: En04Config) -> xr.Dataset:
                      "integral's largest absolute-integrand scale", "units": "1"})
     coords = {
         "case": ("case", np.array(list(a.studies), dtype=str), {"long_name": "sphere study"}),
-        "time": ("time", grid, {"standard_name": "time", "units": "s"}),
+        "time": ("time", grid, {"units": "s"}),
         "level": ("level", np.arange(levels, dtype=np.int32),
                   {"long_name": "quadrature refinement level", "units": "1"}),
         "integral": ("integral", np.array(act.INTEGRALS, dtype=str)),
@@ -665,7 +667,7 @@ def run_oscillation(cfg: En04Config) -> xr.Dataset:
     data["mode_mu"] = ("mode", np.array([mu for _, mu in modes]), {"units": "1"})
     coords = {"run": ("run", np.arange(len(runs), dtype=np.int32), {"units": "1"}),
               "mode": ("mode", np.arange(len(modes), dtype=np.int32), {"units": "1"}),
-              "time": ("time", grid, {"standard_name": "time", "units": "s"})}
+              "time": ("time", grid, {"units": "s"})}
     ds = xr.Dataset(data, coords=coords)
     ds.attrs.update({
         "part": "oscillation", "base": o.base, "dt": base.solver.dt,

@@ -53,8 +53,9 @@ class Kind:
     reports: tuple[str, ...]
 
 
-KINEMATIC = Kind("kinematic", "studies", "reports", (".json", ".md", ".png", "_fd_error.csv"))
-SPHERE = Kind("sphere", "studies", "reports", (".json", ".md", ".png", "_history.csv",
+KINEMATIC = Kind("kinematic", "studies", "reports", (".json", ".md", ".html", ".png",
+                                                    "_fd_error.csv"))
+SPHERE = Kind("sphere", "studies", "reports", (".json", ".md", ".html", ".png", "_history.csv",
                                                 "_trajectory.png", "_convergence.png"))
 ANALYSIS = Kind("analysis", "benchmarks", "benchmarks", (".json", ".md", ".png"))
 UNCERTAINTY = Kind("uncertainty", "studies", "reports", (".json", ".md", ".png", "_sobol.csv",

@@ -47,7 +47,7 @@ def result_dataset(prob: SphereProblem, res: SimulationResult) -> xr.Dataset:
     rho = np.hypot(res.X[:, 0], res.X[:, 1])
     vec = ("time", "component")
     coords = {
-        "time": ("time", t, {"standard_name": "time", "units": "s"}),
+        "time": ("time", t, {"units": "s"}),
         "component": ("component", COMPONENTS),
         "quaternion_component": ("quaternion_component", ["w", "x", "y", "z"]),
     }
@@ -58,8 +58,8 @@ def result_dataset(prob: SphereProblem, res: SimulationResult) -> xr.Dataset:
         "centre_azimuth": ("time", np.degrees(res.azimuth),
                            {"long_name": "unwrapped azimuth of the centre", "units": "degree"}),
         "contact_R": ("time", res.R, {"long_name": "contact radial coordinate R", "units": "m"}),
-        "contact_alpha": ("time", res.alpha, {"long_name": "contact angle alpha",
-                                              "units": "rad"}),
+        "contact_alpha": ("time", np.degrees(res.alpha), {"long_name": "contact angle alpha",
+                                                          "units": "degree"}),
         "velocity": (vec, res.V, {"long_name": "centre velocity", "units": "m s-1"}),
         "speed": ("time", res.speed, {"long_name": "centre speed", "units": "m s-1"}),
         "normal_reaction": ("time", res.N, {"long_name": "normal reaction N", "units": "N"}),
