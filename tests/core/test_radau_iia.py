@@ -137,8 +137,9 @@ def _ulps(a: np.ndarray, b: np.ndarray) -> float:
 def test_three_stages_are_the_closed_forms_and_creatio_radau5_constants() -> None:
     """s = 3: every constant is the correctly rounded closed form (computed here in 50-digit
     decimal), and creatio's radau5 constants (scipy's, some computed by float formulas) lie
-    within 1 ulp of them, except E[1] and P[1, 0], 4 ulps off: (-13 + 7 sqrt 6) / 3 cancels
-    two bits in float64 (the computed values are the correct roundings)."""
+    within 1 ulp of them (C, T, T^-1, mu; bit-identical: mu_real, Re mu, 15 of 18 in T and
+    T^-1), except E[1] (4 ulps), P[1, 0] (4) and P[1, 1] (2): (-13 + 7 sqrt 6) / 3 and its
+    kin cancel two bits in float64, and the computed values are the correct roundings."""
     m = coefficients(3)
     with localcontext() as ctx:
         ctx.prec = 50
@@ -165,8 +166,8 @@ def test_three_stages_are_the_closed_forms_and_creatio_radau5_constants() -> Non
                                 tb.RADAU_MU_COMPLEX_IM])}
     for key, (computed, radau5) in ours.items():
         assert _ulps(radau5, computed) <= 1.0, key
-    assert _ulps(tb.RADAU_E, m.e) == 4.0
-    assert _ulps(tb.RADAU_P, m.p) == 4.0
+    assert _ulps(tb.RADAU_E, m.e) <= 4.0
+    assert _ulps(tb.RADAU_P, m.p) <= 4.0
     # and what the ulps are for: the same method (same A = T diag TI), to rounding
     ainv = np.linalg.inv(m.a)
     np.testing.assert_allclose(m.t @ _block(m) @ m.ti, ainv, rtol=0, atol=2e-14 * 8)

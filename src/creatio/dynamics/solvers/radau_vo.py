@@ -16,8 +16,9 @@ cacheable.
 
 Contract (the caller owns time and the step size, as the project's driver does):
 
-* ``ws = workspace(n, s_min, s_max, s_start)``: the carried state; s_min = s_max is a
-  fixed-order method (3: the same method as creatio's radau5, 5, 7).
+* ``ws = workspace(n, s_min, s_max, s_start, nit, thet)``: the carried state; s_min =
+  s_max is a fixed-order method (at 3 stages the method of creatio's radau5).
+  ``stages(ws)`` is the stage count the next step starts from.
 * ``step(rhs, jac, ctx, t, t_next, h, y, f, ynew, ws, tol, fixed, rejected)`` is one try
   at the step t -> t_next = t + h from y with f = f(t, y); returns (outcome, factor, rhs
   evaluations, jacobians, decompositions, False): ACCEPTED (ynew filled; the next step is
@@ -34,7 +35,7 @@ Contract (the caller owns time and the step size, as the project's driver does):
 
 Order selection (radau.f, restated). The stage count follows the contractivity of the
 simplified Newton iteration, theta = ||dW_k|| / ||dW_(k-1)|| (the geometric mean of the
-last two quotients from the third iteration on; THET = 1e-3 when one iteration sufficed).
+last two quotients from the third iteration on; thet when one iteration sufficed).
 Before each new LU decomposition (new step size or new Jacobian), with
 thetat = min(10, max(theta, thetat / 2)) (a slowly decaying memory of bad convergence) and
 hquot = h / h_last_accepted:
@@ -60,10 +61,15 @@ step's collocation polynomial (its own degree) instead of from zero: any degree 
 Step control (radau.f): err = RMS of (mu_real / h - J)^-1 (f(t, y) + sum e_i Z_i / h) over
 atol1 + rtol1 |y| (refined once through f(t, y + err) on a first or retried step); factor
 = 1 / max(1/8, min(5, err^(1/(s+1)) / fac)), fac = 0.9 (2 nit + 1) / (2 nit + newt),
-Gustafsson's predictive controller after two accepted steps; h is kept (factor 1, the LU
-factors reused) when theta <= THET and the new step would lie in [1, 1.2] h; the Jacobian
-is recomputed at the next step when theta > THET, and at the same point after any
-rejection when it was not fresh.
+Gustafsson's predictive controller from the second accepted step on; h is kept (factor 1,
+the LU factors reused) when theta <= thet and the new step would lie in [1, 1.2] h; the
+Jacobian is recomputed at the next step when theta > thet (thet: radau.f's THET, 1e-3 by
+default), and at the same point after any rejection when it was not fresh.
+
+Deviations from radau.f, each for a reason: the stage predictor after an order change
+(above); a fixed step iterates Newton up to nit instead of giving up on a predicted slow
+convergence (it has no smaller step to retry); rtol is taken as at least 10 UROUND (radau.f
+refuses smaller ones); no mass matrix, no second-order (M1, M2) or index-2/3 options.
 """
 
 from __future__ import annotations
@@ -126,10 +132,10 @@ def _tables() -> tuple[np.ndarray, ...]:
 _C, _E, _T, _TI, _TIC, _P, _MUR, _MUC = _tables()
 
 # Slots of the carried float state rs
-(RS_S, RS_SMIN, RS_SMAX, RS_NIT, RS_HAVE_JAC, RS_CURRENT_JAC, RS_NEED_JAC, RS_LU_H,
- RS_LU_S, RS_HAVE_OLD, RS_S_OLD, RS_T_OLD, RS_H_OLD, RS_THETA, RS_THETAT, RS_NEWT, RS_ICHAN,
- RS_UNEXP, RS_UNEXN, RS_CHANGE, RS_FACCON, RS_NACCPT, RS_HACC, RS_ERRACC) = range(24)
-_NRS = 24
+(RS_S, RS_SMIN, RS_SMAX, RS_NIT, RS_THET, RS_HAVE_JAC, RS_CURRENT_JAC, RS_NEED_JAC,
+ RS_LU_H, RS_LU_S, RS_HAVE_OLD, RS_S_OLD, RS_T_OLD, RS_H_OLD, RS_THETA, RS_THETAT, RS_NEWT,
+ RS_ICHAN, RS_UNEXP, RS_UNEXN, RS_CHANGE, RS_FACCON, RS_NACCPT, RS_HACC, RS_ERRACC) = range(25)
+_NRS = 25
 
 # Slots of the counts
 (CNT_RHS, CNT_JAC, CNT_LU_REAL, CNT_LU_COMPLEX, CNT_NEWTON, CNT_REJECTED_ERROR,
@@ -140,13 +146,16 @@ CNT_STEPS = {3: CNT_STEPS3, 5: CNT_STEPS5, 7: CNT_STEPS7}
 
 
 @njit(cache=True)
-def workspace(n, s_min, s_max, s_start, nit=NIT):
+def workspace(n, s_min, s_max, s_start, nit=NIT, thet=THET):
     """Carried state and work arrays for a state of size n, stages in [s_min, s_max] (odd,
-    3..7), starting at s_start, at most nit Newton iterations at 3 stages (radau.f's
-    IWORK(3); nit + 5 at 5 stages, nit + 10 at 7); nothing computed yet."""
+    3..7), starting at s_start; at most nit Newton iterations at 3 stages (radau.f's
+    IWORK(3); nit + 5 at 5 stages, nit + 10 at 7); the Jacobian kept while Newton contracts
+    by thet or better (radau.f's WORK(3): 1e-3; Hairer advises 0.1 when a Jacobian is
+    costly). Nothing computed yet."""
     rs = np.zeros(_NRS)
     rs[RS_S] = s_start
     rs[RS_NIT] = nit
+    rs[RS_THET] = thet
     rs[RS_SMIN] = s_min
     rs[RS_SMAX] = s_max
     rs[RS_LU_H] = -1.0
@@ -341,7 +350,8 @@ def step(rhs, jac, ctx, t, t_next, h, y, f, ynew, ws, tol, fixed, rejected):
     # simplified Newton iteration on W (radau.f)
     nit = int(rs[RS_NIT]) + 5 * k
     faccon = max(rs[RS_FACCON], UROUND) ** 0.8
-    theta = THET
+    thet = rs[RS_THET]
+    theta = thet
     newt = 0
     dynold = 0.0
     thqold = 0.0
@@ -491,11 +501,11 @@ def step(rhs, jac, ctx, t, t_next, h, y, f, ynew, ws, tol, fixed, rejected):
         factor = 1.0 / quot
         if rejected:
             factor = min(factor, 1.0)
-        if theta <= THET and QUOT1 <= factor <= QUOT2:
+        if theta <= thet and QUOT1 <= factor <= QUOT2:
             factor = 1.0  # keep h and the factors
     rs[RS_NACCPT] += 1.0
     rs[RS_CURRENT_JAC] = 0.0
-    if theta > THET:
+    if theta > thet:
         rs[RS_NEED_JAC] = 1.0
     cnt[CNT_STEPS3 + k] += 1
     # the step's collocation polynomial u(t + x h) = y + sum_q Q[q] x^(q+1), Q = P^T Z
@@ -532,7 +542,7 @@ def dense(ws, t, yout):
 
 @njit(cache=True, inline="always")
 def solve(rhs, jac, ctx, t0, y0, t_end, h0, rtol, atol, s_min, s_max, s_start, fixed,
-          max_steps, t_dense, nit=NIT):
+          max_steps, t_dense, nit=NIT, thet=THET):
     """A minimal driver for standalone use and tests: integrate from (t0, y0) to t_end.
 
     Steps run free (fixed: the constant h0, the last one shortened to land on t_end), and
@@ -542,7 +552,7 @@ def solve(rhs, jac, ctx, t0, y0, t_end, h0, rtol, atol, s_min, s_max, s_start, f
     end; the step times and states are the first `steps` rows.
     """
     n = y0.size
-    ws = workspace(n, s_min, s_max, s_start, nit)
+    ws = workspace(n, s_min, s_max, s_start, nit, thet)
     y = y0.copy()
     ynew = np.empty(n)
     f = np.empty(n)
