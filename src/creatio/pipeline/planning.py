@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import functools
 import os
+import re
 import shlex
 import sys
 from collections.abc import Callable, Mapping, Sequence
@@ -22,8 +23,10 @@ from creatio.pipeline.config import Resolved, applicable, output_root, resolve
 from creatio.studies import registry
 
 __all__ = [
+    "PASSED_CONFIG",
     "JobConfigs",
     "check_workflow_config",
+    "pass_config_safely",
     "code_version",
     "write_config_file",
     "one_line_errors",
@@ -89,6 +92,54 @@ def check_workflow_config(config: Mapping[str, Any], schema: str | Path) -> None
         if error.schema.get("description"):
             rule += f" ({error.schema['description']})"
         raise ConfigError(key, error.instance, rule) from None
+
+
+#: The only --config entry a re-invoked job gets (a `run:` job, a cluster job): the
+#: invocation's own --config entries, as JSON in URL-safe base64.
+PASSED_CONFIG = "creatio_config"
+_SAFE_TEXT = re.compile(r"[A-Za-z0-9_=-]*")
+
+
+@one_line_errors
+def pass_config_safely(settings: Any, config: dict[str, Any]) -> None:
+    """Keep the user's --config text out of every shell.
+
+    Snakemake re-invokes itself for a job that runs in its own process (a ``run:`` rule
+    locally, every job on a cluster) through ``/bin/sh``, and writes the invocation's
+    --config entries into that command with ``repr()``, which is no shell quoting: an
+    override holding ``$(...)`` ran it, one holding a quote broke the command. Here the
+    entries are handed on as one ``creatio_config=<base64 of their JSON>`` entry, whose
+    letters (``A-Za-z0-9_-=``) no shell interprets, however many shells it passes through
+    (SLURM: sbatch --wrap, then srun on the node); the re-invoked job decodes them and
+    parses them as Snakemake parses --config, so both processes see the same config.
+    ``settings`` is the workflow's ``config_settings``, ``config`` its config, updated in
+    place.
+    """
+    import base64
+    import json
+
+    from snakemake.utils import update_config
+
+    if PASSED_CONFIG in config:  # a re-invoked job (or a user who typed it): decode
+        from snakemake.cli import parse_config
+
+        encoded = str(config.pop(PASSED_CONFIG))
+        try:
+            if not _SAFE_TEXT.fullmatch(encoded):
+                raise ValueError("not URL-safe base64")
+            entries = json.loads(base64.urlsafe_b64decode(encoded.encode()))
+            if not (isinstance(entries, list) and all(isinstance(e, str) for e in entries)):
+                raise ValueError("not a list of KEY=VALUE entries")
+            update_config(config, parse_config(entries))
+        except ValueError as e:
+            raise ConfigError(PASSED_CONFIG, encoded[:40], "is creatio's own --config key "
+                              f"for re-invoked jobs and this one cannot be read ({e})") from None
+        return
+    entries = settings.config_args
+    if entries:
+        text = json.dumps([str(e) for e in entries])
+        settings.config_args = [
+            f"{PASSED_CONFIG}={base64.urlsafe_b64encode(text.encode()).decode()}"]
 
 
 def as_list(value: Any) -> list[str]:

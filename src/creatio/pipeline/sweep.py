@@ -402,11 +402,16 @@ def run_batch(plan: SweepPlan, k: int, out: str | Path | None = None,
 
 
 # ----------------------------------------------------------------------------- aggregate
-def _coordinate(values: Sequence[str]) -> list[Any]:
+def _coordinate(key: str, values: Sequence[str]) -> list[Any]:
+    """An axis's values as its coordinate: numbers, or the strings the points got (a quoted
+    Hydra string without its quotes)."""
     try:
         return [float(v) for v in values]
     except ValueError:
-        return list(values)
+        from hydra.core.override_parser.overrides_parser import OverridesParser
+
+        parser = OverridesParser.create()
+        return [str(parser.parse_override(f"{key}={v}").value()) for v in values]
 
 
 def aggregate(plan: SweepPlan):
@@ -440,7 +445,7 @@ def aggregate(plan: SweepPlan):
     data["status"] = (dims, status.astype(str))
     data["message"] = (dims, message.astype(str),
                        {"long_name": "why a point was refused (empty when it ran)"})
-    coords = {d: (d, _coordinate(v), {"long_name": k})
+    coords = {d: (d, _coordinate(k, v), {"long_name": k})
               for d, (k, v) in zip(dims, plan.axes, strict=True)}
     ds = xr.Dataset(data, coords=coords)
     ds.attrs.update({
