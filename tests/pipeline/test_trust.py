@@ -124,3 +124,45 @@ def test_sweep_values_with_shell_text_stay_text(tmp_path):
     with xr.open_dataset(path) as ds:
         assert list(ds.study__title.values) == ["$(touch a)", "b;`touch c`"]
         assert list(ds.status.values) == ["ok", "ok"]
+
+
+# ------------------------------------------------------------------ class 3: stale results
+def _counts(path: Path) -> dict[str, int]:
+    import xarray as xr
+
+    with xr.open_dataset(path) as ds:
+        return {k: int(ds.attrs[k]) for k in ("computed", "reused", "refused")}
+
+
+def test_sweep_points_are_reused_only_by_the_same_code(tmp_path, monkeypatch):
+    """The issue's case: after a code change a wider sweep mixed old rows with new ones. A
+    point is reused only from a batch that recorded the current datasets code version."""
+    from creatio.pipeline import sweep
+
+    data = str(tmp_path / "data")
+    base = ["phases.T=2.0"]
+    narrow = sweep.plan_sweep("en02", ["sphere.mu=0.1,0.2"], base, data, batch_size=2)
+    assert _counts(sweep.run_batch(narrow, 0)) == {"computed": 2, "reused": 0, "refused": 0}
+    wide = sweep.plan_sweep("en02", ["sphere.mu=0.1,0.2,0.3"], base, data, batch_size=3)
+    assert _counts(sweep.run_batch(wide, 0)) == {"computed": 1, "reused": 2, "refused": 0}
+    monkeypatch.setattr(sweep, "_code", lambda: "0123456789ab")  # new code
+    wider = sweep.plan_sweep("en02", ["sphere.mu=0.05,0.1,0.2,0.3"], base, data, batch_size=4)
+    assert _counts(sweep.run_batch(wider, 0)) == {"computed": 4, "reused": 0, "refused": 0}
+
+
+def test_multirun_recomputes_batches_of_other_code(tmp_path, monkeypatch):
+    """`creatio run -m` (write_sweep with compute_missing) reused any batch file present;
+    one of other code is computed again, a current one kept."""
+    from creatio.pipeline import sweep
+
+    monkeypatch.chdir(tmp_path)
+    plan = sweep.plan_sweep("en02", ["sphere.mu=0.1,0.2"], ["phases.T=2.0"], batch_size=2)
+    sweep.write_sweep(plan, compute_missing=True)
+    batch = Path(plan.batch_file(0))
+    first = batch.stat().st_mtime_ns
+    sweep.write_sweep(plan, compute_missing=True)
+    assert batch.stat().st_mtime_ns == first  # same code: kept
+    monkeypatch.setattr(sweep, "_code", lambda: "0123456789ab")
+    sweep.write_sweep(plan, compute_missing=True)
+    assert batch.stat().st_mtime_ns != first
+    assert _counts(batch) == {"computed": 2, "reused": 0, "refused": 0}

@@ -8,12 +8,14 @@ each). A batch job composes the base config once and varies it per point
 (creatio.studies.schema.vary: a validated copy, no Hydra), runs the study's first dataset
 part in the same process and keeps each point's summary figures as a row of its batch file.
 
-Points are identified by their resolved config: a point that any earlier sweep of the study
-computed is taken from that sweep's batch files instead of being run again, so rerunning a
-sweep with more points computes only the new ones. A point refused by validation (an
-unstable dt, an amplitude too large) is recorded with its reason, as a run that stopped early
-keeps its status; neither aborts the rest. The aggregate fills one array per summary figure
-from the batch files, never holding the points' datasets.
+Points are identified by their resolved config and the code that computes them: a point
+that any earlier sweep of the study computed with the same code (the ``datasets`` code
+version of creatio.pipeline.planning, which the dataset rules carry too) is taken from that
+sweep's batch files instead of being run again, so rerunning a sweep with more points
+computes only the new ones, and a code change computes every point anew. A point refused by
+validation (an unstable dt, an amplitude too large) is recorded with its reason, as a run that
+stopped early keeps its status; neither aborts the rest. The aggregate fills one array per
+summary figure from the batch files, never holding the points' datasets.
 """
 
 from __future__ import annotations
@@ -286,15 +288,34 @@ def _point_key(obj: Any) -> str:
     return hashlib.sha256(text.encode()).hexdigest()
 
 
-def _known_points(plan: SweepPlan) -> dict[str, dict[str, Any]]:
-    """Rows of this study's points already computed by any sweep (point key -> row)."""
+def _code() -> str:
+    """The version of the code that computes a point (the dataset rules' ``code``)."""
+    from creatio.pipeline.planning import code_version
+
+    return code_version("datasets")
+
+
+def _batch_code(path: str | Path) -> str | None:
+    """The code version a batch file was computed with (None: unreadable or unrecorded)."""
+    import xarray as xr
+
+    try:
+        with xr.open_dataset(path, engine="netcdf4") as ds:
+            return ds.attrs.get("code_version")
+    except Exception:  # noqa: BLE001 - a batch being written or damaged: not current
+        return None
+
+
+def _known_points(plan: SweepPlan, code: str) -> dict[str, dict[str, Any]]:
+    """Rows of this study's points already computed by any sweep with the same code
+    (point key -> row); a batch of other code, or of none recorded, is never a source."""
     import xarray as xr
 
     rows: dict[str, dict[str, Any]] = {}
     for path in Path(plan.outdir).parent.glob("*/batches/*.nc"):
         try:
             with xr.open_dataset(path, engine="netcdf4") as ds:
-                if ds.attrs.get("study") != plan.study:
+                if ds.attrs.get("study") != plan.study or ds.attrs.get("code_version") != code:
                     continue
                 table = {name: ds[name].values for name in ds.data_vars}
         except Exception:  # noqa: BLE001 - a batch being written or damaged: not a source
@@ -333,7 +354,8 @@ def _sphere_extras(obj: Any, changes: dict[str, Any], base: Any) -> dict[str, fl
 
 def run_batch(plan: SweepPlan, k: int, out: str | Path | None = None,
               progress: Callable[[str], None] | None = None) -> Path:
-    """Compute batch k: each point's summary row (reused when known), written atomically."""
+    """Compute batch k: each point's summary row (reused when known to the same code),
+    written atomically."""
     import numpy as np
     import xarray as xr
 
@@ -344,7 +366,8 @@ def run_batch(plan: SweepPlan, k: int, out: str | Path | None = None,
     entry = registry.get(plan.study)
     sphere = entry.kind is registry.SPHERE
     base = _base(plan)
-    known = _known_points(plan)
+    code = _code()
+    known = _known_points(plan, code)
     indices = list(plan.batch_range(k))
     rows: list[dict[str, Any]] = []
     counts = {"computed": 0, "reused": 0, "refused": 0}
@@ -395,7 +418,7 @@ def run_batch(plan: SweepPlan, k: int, out: str | Path | None = None,
     spec = json.dumps(plan.spec(), sort_keys=True)
     ds.attrs = {**provenance(plan.study, spec, hashlib.sha256(spec.encode()).hexdigest(),
                              f"sweep {plan.name} batch {k}"),
-                "batch": k, "batch_size": plan.batch_size, **counts,
+                "batch": k, "batch_size": plan.batch_size, "code_version": code, **counts,
                 "compute_s": compute_s, "wall_s": time.perf_counter() - t0}
     target = Path(out) if out is not None else Path(plan.batch_file(k))
     return write_dataset(ds, target)
@@ -463,8 +486,8 @@ def aggregate(plan: SweepPlan):
 def write_sweep(plan: SweepPlan, compute_missing: bool = False) -> dict[str, Path]:
     """Aggregate, then write sweep.nc, a markdown table and one figure per summary figure.
 
-    ``compute_missing`` runs the batches whose files are absent first, in this process
-    (`creatio run -m`, outside Snakemake).
+    ``compute_missing`` runs the batches whose files are absent, or were computed by other
+    code, first, in this process (`creatio run -m`, outside Snakemake).
     """
     from creatio.pipeline.index import record_sweep, refresh_index
     from creatio.pipeline.io import provenance, write_dataset
@@ -472,7 +495,7 @@ def write_sweep(plan: SweepPlan, compute_missing: bool = False) -> dict[str, Pat
 
     if compute_missing:
         for k in range(plan.n_batches):
-            if not Path(plan.batch_file(k)).is_file():
+            if _batch_code(plan.batch_file(k)) != _code():
                 run_batch(plan, k)
     ds = aggregate(plan)
     spec = json.dumps(plan.spec(), sort_keys=True)
