@@ -131,7 +131,8 @@ def _counts(path: Path) -> dict[str, int]:
     import xarray as xr
 
     with xr.open_dataset(path) as ds:
-        return {k: int(ds.attrs[k]) for k in ("computed", "reused", "refused")}
+        return {k: int(ds.attrs[k]) for k in ("computed", "reused", "refused", "failed")
+                if k in ds.attrs}
 
 
 def test_sweep_points_are_reused_only_by_the_same_code(tmp_path, monkeypatch):
@@ -142,12 +143,15 @@ def test_sweep_points_are_reused_only_by_the_same_code(tmp_path, monkeypatch):
     data = str(tmp_path / "data")
     base = ["phases.T=2.0"]
     narrow = sweep.plan_sweep("en02", ["sphere.mu=0.1,0.2"], base, data, batch_size=2)
-    assert _counts(sweep.run_batch(narrow, 0)) == {"computed": 2, "reused": 0, "refused": 0}
+    assert _counts(sweep.run_batch(narrow, 0)) == {"computed": 2, "reused": 0, "refused": 0,
+                                                 "failed": 0}
     wide = sweep.plan_sweep("en02", ["sphere.mu=0.1,0.2,0.3"], base, data, batch_size=3)
-    assert _counts(sweep.run_batch(wide, 0)) == {"computed": 1, "reused": 2, "refused": 0}
+    assert _counts(sweep.run_batch(wide, 0)) == {"computed": 1, "reused": 2, "refused": 0,
+                                                 "failed": 0}
     monkeypatch.setattr(sweep, "_code", lambda: "0123456789ab")  # new code
     wider = sweep.plan_sweep("en02", ["sphere.mu=0.05,0.1,0.2,0.3"], base, data, batch_size=4)
-    assert _counts(sweep.run_batch(wider, 0)) == {"computed": 4, "reused": 0, "refused": 0}
+    assert _counts(sweep.run_batch(wider, 0)) == {"computed": 4, "reused": 0, "refused": 0,
+                                                 "failed": 0}
 
 
 def test_multirun_recomputes_batches_of_other_code(tmp_path, monkeypatch):
@@ -165,4 +169,89 @@ def test_multirun_recomputes_batches_of_other_code(tmp_path, monkeypatch):
     monkeypatch.setattr(sweep, "_code", lambda: "0123456789ab")
     sweep.write_sweep(plan, compute_missing=True)
     assert batch.stat().st_mtime_ns != first
-    assert _counts(batch) == {"computed": 2, "reused": 0, "refused": 0}
+    assert _counts(batch) == {"computed": 2, "reused": 0, "refused": 0,
+                                                 "failed": 0}
+
+
+# ------------------------------------------------------- class 2: sweeps bypass validation
+def _rows(path: Path) -> list[tuple[str, str]]:
+    import xarray as xr
+
+    with xr.open_dataset(path) as ds:
+        return [(str(s), str(m)) for s, m in zip(ds.status.values, ds.message.values,
+                                                 strict=True)]
+
+
+def test_a_non_finite_sweep_point_is_invalid_with_its_reason(tmp_path):
+    """The issue's example: `geometry.R0=0.68,inf` on CT-02 ended "ok" full of NaN. The
+    point meets the single run's validation and is recorded invalid, the other one runs."""
+    from creatio.pipeline import sweep
+
+    plan = sweep.plan_sweep("ct02", ["geometry.R0=0.68,inf"], [], str(tmp_path / "data"),
+                            batch_size=2)
+    (ok, refused) = _rows(sweep.run_batch(plan, 0))
+    assert ok == ("ok", "")
+    assert refused == ("invalid", "invalid config: geometry.R0=inf: must be a finite number")
+
+
+@pytest.mark.parametrize("key", ["sphere.mu", "sphere.g", "phases.T", "sphere.b",
+                                 "sphere.eps"])
+def test_inf_and_tiny_sweep_points_never_crash_a_batch(tmp_path, key):
+    """An inf or 1e-300 point of mu, g, T, b or eps crashed its batch and so the sweep; each
+    is refused as a single run refuses it, in one line naming the key, and the rest run."""
+    from creatio.pipeline import sweep
+    from creatio.pipeline.config import resolve
+
+    default = resolve("en02").data
+    for part in key.split("."):
+        default = default[part]
+    plan = sweep.plan_sweep("en02", [f"{key}={default},inf,1e-300"], ["phases.T=2.0"]
+                            if key != "phases.T" else [], str(tmp_path / "data"), batch_size=3)
+    rows = _rows(sweep.run_batch(plan, 0))
+    assert rows[0][0] in ("ok", "contact_lost"), rows
+    for (status, message), value in zip(rows[1:], ("inf", "1e-300"), strict=True):
+        # phases.T is checked through the key that follows it (study.duration: ${phases.T})
+        named = "study.duration" if key == "phases.T" else key
+        assert status == "invalid" and message.startswith(f"invalid config: {named}="), message
+        with pytest.raises(Exception) as single:  # the single run's refusal, word for word
+            resolve("en02", [f"{key}={value}"])
+        assert message == str(single.value)
+
+
+def test_a_point_failing_inside_its_run_is_recorded_and_the_rest_run(tmp_path, monkeypatch):
+    """A run that raises (past validation) is one `failed` row with a one-line message; the
+    batch goes on and the point is never reused."""
+    from creatio.pipeline import sweep
+
+    real = sweep._run_point
+
+    def flaky(entry, obj):
+        if obj.sphere.mu == 0.2:
+            raise FloatingPointError("overflow in the right-hand side\nsecond line")
+        return real(entry, obj)
+
+    monkeypatch.setattr(sweep, "_run_point", flaky)
+    plan = sweep.plan_sweep("en02", ["sphere.mu=0.1,0.2,0.3"], ["phases.T=2.0"],
+                            str(tmp_path / "data"), batch_size=3)
+    path = sweep.run_batch(plan, 0)
+    rows = _rows(path)
+    assert [s for s, _ in rows][1] == "failed" and "failed" not in (rows[0][0], rows[2][0])
+    assert rows[1][1].startswith("FloatingPointError: overflow in the right-hand side at ")
+    assert "\n" not in rows[1][1]
+    assert _counts(path)["failed"] == 1
+    monkeypatch.setattr(sweep, "_run_point", real)
+    assert _counts(sweep.run_batch(plan, 0)) == {"computed": 1, "reused": 2, "refused": 0,
+                                                 "failed": 0}
+
+
+def test_a_multirun_point_is_validated_like_a_single_run(tmp_path):
+    """`creatio run -m` (Hydra's multirun syntax) goes through the same batches: the inf
+    point is invalid with the single run's message, exit 0, the aggregate written."""
+    import xarray as xr
+
+    proc = creatio("run", "-m", "study=ct02", "geometry.R0=0.68,inf", cwd=tmp_path)
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    (path,) = tmp_path.glob("data/sweeps/*/sweep.nc")
+    with xr.open_dataset(path) as ds:
+        assert list(ds.status.values) == ["ok", "invalid"]
+        assert "geometry.R0=inf: must be a finite number" in str(ds.message.values[1])

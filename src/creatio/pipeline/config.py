@@ -12,7 +12,6 @@ from __future__ import annotations
 
 import functools
 import hashlib
-import math
 import os
 import pickle
 from collections.abc import Sequence
@@ -26,11 +25,14 @@ from omegaconf.errors import OmegaConfBaseException
 
 from creatio.errors import ConfigError
 from creatio.studies import registry
-from creatio.studies.schema import ProbeConfig
+from creatio.studies.schema import HUGE, TINY, ProbeConfig, check_finite
 
 __all__ = [
     "CONF_DIR",
+    "HUGE",
+    "TINY",
     "ConfigError",
+    "check_finite",
     "Resolved",
     "applicable",
     "compose",
@@ -177,49 +179,6 @@ def _nearest(schema: type, key: str) -> str:
         return f" (did you mean {siblings[match[0]]}?)"
     match = difflib.get_close_matches(key, keys, n=1, cutoff=0.85)
     return f" (did you mean {match[0]}?)" if match else " (not in this study's config)"
-
-
-#: Magnitudes a config number may take (besides 0): squares and products of a few of them stay
-#: finite in double precision, so a validated value never overflows inside the model.
-TINY, HUGE = 1e-30, 1e15
-
-
-def check_finite(obj: Any, prefix: str = "") -> None:
-    """Refuse NaN and infinities in every number of a config tree (lists included), and
-    magnitudes outside [TINY, HUGE]: a number that cannot be finite is never meaningful here.
-    A field may accept infinity where it means something (a fixed structure's inertia): it
-    says so with the metadata ``{"infinite": True}``, or by being infinite by default."""
-    for f in fields(obj):
-        value = getattr(obj, f.name)
-        key = f"{prefix}{f.name}"
-        if is_dataclass(value):
-            check_finite(value, f"{key}.")
-            continue
-        if isinstance(value, dict):
-            for name, item in value.items():
-                if is_dataclass(item):
-                    check_finite(item, f"{key}.{name}.")
-            continue
-        default = f.default if f.default is not MISSING else (
-            f.default_factory() if f.default_factory is not MISSING else None)
-        infinite_ok = f.metadata.get("infinite", False) or _has_inf(default)
-        items = value if isinstance(value, list) else [value]
-        for i, item in enumerate(items):
-            where = f"{key}[{i}]" if isinstance(value, list) else key
-            if isinstance(item, float) and not math.isfinite(item):
-                if math.isinf(item) and infinite_ok:
-                    continue
-                raise ConfigError(where, item, "must be a finite number")
-            if isinstance(item, int | float) and not isinstance(item, bool) and item != 0 and (
-                    not TINY <= abs(item) <= HUGE):
-                raise ConfigError(where, item, f"must be 0 or between {TINY:g} and {HUGE:g} "
-                                  "in magnitude (beyond, the model's squares and products "
-                                  "overflow or divide by zero)")
-
-
-def _has_inf(default: Any) -> bool:
-    items = default if isinstance(default, list) else [default]
-    return any(isinstance(x, float) and math.isinf(x) for x in items)
 
 
 def applicable(study: str, overrides: Sequence[str]) -> list[str]:

@@ -321,7 +321,7 @@ def _known_points(plan: SweepPlan, code: str) -> dict[str, dict[str, Any]]:
         except Exception:  # noqa: BLE001 - a batch being written or damaged: not a source
             continue
         for i, key in enumerate(table.get("point_key", [])):
-            if str(table["status"][i]) != "invalid":
+            if str(table["status"][i]) not in ("invalid", "failed") and str(key):
                 rows[str(key)] = {name: col[i].item() if hasattr(col[i], "item") else col[i]
                                   for name, col in table.items()}
     return rows
@@ -344,12 +344,22 @@ def _sphere_extras(obj: Any, changes: dict[str, Any], base: Any) -> dict[str, fl
     from creatio.studies.schema import vary
 
     cfg = obj
-    if cfg is None:
-        try:
+    try:
+        if cfg is None:
             cfg = vary(base, {**changes, "solver.allow_unstable": True})
-        except ConfigError:
-            return {"stability_limit_dt_s": math.nan, "dt_s": math.nan}
-    return {"stability_limit_dt_s": float(cfg.step_limit()), "dt_s": float(cfg.solver.dt)}
+        return {"stability_limit_dt_s": float(cfg.step_limit()), "dt_s": float(cfg.solver.dt)}
+    except Exception:  # noqa: BLE001 - no limit for a config that cannot be built
+        return {"stability_limit_dt_s": math.nan, "dt_s": math.nan}
+
+
+def _failure(e: Exception) -> str:
+    """A point's failure as one line (what and where), as the command line words it."""
+    import traceback
+
+    first = str(e).splitlines()[0] if str(e) else ""
+    frame = traceback.extract_tb(e.__traceback__)[-1] if e.__traceback__ else None
+    where = f" at {Path(frame.filename).name}:{frame.lineno}" if frame else ""
+    return f"{type(e).__name__}: {first}{where}"
 
 
 def run_batch(plan: SweepPlan, k: int, out: str | Path | None = None,
@@ -370,7 +380,7 @@ def run_batch(plan: SweepPlan, k: int, out: str | Path | None = None,
     known = _known_points(plan, code)
     indices = list(plan.batch_range(k))
     rows: list[dict[str, Any]] = []
-    counts = {"computed": 0, "reused": 0, "refused": 0}
+    counts = {"computed": 0, "reused": 0, "refused": 0, "failed": 0}
     compute_s = 0.0
     t0 = last = time.perf_counter()
     for done, index in enumerate(indices, start=1):
@@ -391,10 +401,17 @@ def run_batch(plan: SweepPlan, k: int, out: str | Path | None = None,
                 counts["reused"] += 1
             else:
                 tc = time.perf_counter()
-                row = {"status": "ok", **plan.row(entry, obj), "message": "",
-                       "point_key": key}
+                try:
+                    row = {"status": "ok", **plan.row(entry, obj), "message": "",
+                           "point_key": key}
+                except Exception as e:  # noqa: BLE001 - one point's failure is its row
+                    row = {"status": "failed", "message": _failure(e), "point_key": ""}
+                    say(f"sweep {plan.name}: point {index} {list(plan.overrides(index))} "
+                        f"failed: {row['message']}")
+                    counts["failed"] += 1
+                else:
+                    counts["computed"] += 1
                 compute_s += time.perf_counter() - tc
-                counts["computed"] += 1
         if sphere and "dt_s" not in row:
             row.update(_sphere_extras(obj, changes, base.obj))
         row["point"] = index
@@ -405,7 +422,7 @@ def run_batch(plan: SweepPlan, k: int, out: str | Path | None = None,
             say(f"sweep {plan.name} batch {k + 1}/{plan.n_batches}: {done}/{len(indices)} "
                 f"points, {rate:.1f}/s, ETA {(len(indices) - done) / rate:.0f} s "
                 f"({counts['computed']} computed, {counts['reused']} reused, "
-                f"{counts['refused']} refused)")
+                f"{counts['refused']} refused, {counts['failed']} failed)")
             last = now
     names = sorted({n for r in rows for n, v in r.items()
                     if n != "point" and isinstance(v, int | float) and not isinstance(v, bool)})

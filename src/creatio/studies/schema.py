@@ -47,6 +47,7 @@ __all__ = [
     "SolverConfig",
     "SphereConfig",
     "StructureConfig",
+    "check_finite",
     "require",
     "vary",
 ]
@@ -55,12 +56,58 @@ __all__ = [
 MISSING: Any = "???"
 
 
+#: Magnitudes a config number may take (besides 0): squares and products of a few of them stay
+#: finite in double precision, so a validated value never overflows inside the model.
+TINY, HUGE = 1e-30, 1e15
+
+
+def check_finite(obj: Any, prefix: str = "") -> None:
+    """Refuse NaN and infinities in every number of a config tree (lists included), and
+    magnitudes outside [TINY, HUGE]: a number that cannot be finite is never meaningful here.
+    A field may accept infinity where it means something (a fixed structure's inertia): it
+    says so with the metadata ``{"infinite": True}``, or by being infinite by default."""
+    for f in fields(obj):
+        value = getattr(obj, f.name)
+        key = f"{prefix}{f.name}"
+        if is_dataclass(value):
+            check_finite(value, f"{key}.")
+            continue
+        if isinstance(value, dict):
+            for name, item in value.items():
+                if is_dataclass(item):
+                    check_finite(item, f"{key}.{name}.")
+            continue
+        default = f.default if f.default is not dataclasses.MISSING else (
+            f.default_factory() if f.default_factory is not dataclasses.MISSING else None)
+        infinite_ok = f.metadata.get("infinite", False) or _has_inf(default)
+        items = value if isinstance(value, list) else [value]
+        for i, item in enumerate(items):
+            where = f"{key}[{i}]" if isinstance(value, list) else key
+            if isinstance(item, float) and not math.isfinite(item):
+                if math.isinf(item) and infinite_ok:
+                    continue
+                raise ConfigError(where, item, "must be a finite number")
+            if isinstance(item, int | float) and not isinstance(item, bool) and item != 0 and (
+                    not TINY <= abs(item) <= HUGE):
+                raise ConfigError(where, item, f"must be 0 or between {TINY:g} and {HUGE:g} "
+                                  "in magnitude (beyond, the model's squares and products "
+                                  "overflow or divide by zero)")
+
+
+def _has_inf(default: Any) -> bool:
+    items = default if isinstance(default, list) else [default]
+    return any(isinstance(x, float) and math.isinf(x) for x in items)
+
+
 def vary(cfg: Any, changes: Mapping[str, Any]) -> Any:
     """A copy of a validated config tree with dotted keys set (``{"sphere.mu": 0.3}``),
     checked again: how an analysis or a sweep varies a base config without composing it.
 
-    Values are converted to the field's type (int, float, bool, str or an Enum); a key the
-    schema does not have, or a value its type refuses, raises ConfigError like validation.
+    Values are converted to the field's type (int, float, bool, str or an Enum; a list of
+    numbers item by item); a key the schema does not have, or a value its type refuses,
+    raises ConfigError like validation, and so do a non-finite number and a magnitude
+    outside [TINY, HUGE] (check_finite), then the rules (``check``): every point of a
+    sweep meets the checks of a single run.
     Interpolations were resolved at validation, so a key that others follow must be varied
     with them (``phases.T`` with ``study.duration``).
     """
@@ -76,6 +123,7 @@ def vary(cfg: Any, changes: Mapping[str, Any]) -> Any:
         if name not in types:
             raise ConfigError(key, value, "unknown key (not in this study's config)")
         setattr(node, name, _coerce(key, value, getattr(node, name)))
+    check_finite(out)
     out.check()
     return out
 
@@ -98,6 +146,11 @@ def _coerce(key: str, value: Any, current: Any) -> Any:
                 raise TypeError("not a number")
             return float(value)
         if isinstance(current, list):
+            if isinstance(value, str | bytes) or not isinstance(value, Sequence):
+                raise TypeError("not a list")
+            kinds = {type(x) for x in current}
+            if len(kinds) == 1 and kinds <= {int, float}:  # numbers: each meets the type
+                return [_coerce(f"{key}[{i}]", x, current[0]) for i, x in enumerate(value)]
             return list(value)
         return value
     except (TypeError, ValueError) as e:
