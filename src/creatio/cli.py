@@ -178,7 +178,13 @@ def _selected(overrides: Sequence[str]) -> tuple[str, list[str]]:
 
 def _prevalidate(args: Sequence[str], config_name: str) -> None:
     """Refuse bad overrides with creatio's own message before Hydra starts."""
-    from creatio.pipeline.config import compose, override_error, resolve, validate
+    from creatio.pipeline.config import (
+        compose,
+        override_error,
+        refuse_interpolations,
+        resolve,
+        validate,
+    )
     from creatio.studies.schema import ProbeConfig
 
     if any(a.startswith("-") for a in args):  # --help, --cfg, -m: Hydra's business
@@ -194,6 +200,7 @@ def _prevalidate(args: Sequence[str], config_name: str) -> None:
                     else "an override is KEY=VALUE, e.g. sphere.mu=0.3")
             raise ConfigError(bare[0], "", hint)
         if config_name == "probe":
+            refuse_interpolations(overrides)
             try:
                 cfg = compose("", overrides, config_name="probe")
             except Exception as e:  # noqa: BLE001 - Hydra override refusal: name the key

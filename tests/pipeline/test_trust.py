@@ -255,3 +255,65 @@ def test_a_multirun_point_is_validated_like_a_single_run(tmp_path):
     with xr.open_dataset(path) as ds:
         assert list(ds.status.values) == ["ok", "invalid"]
         assert "geometry.R0=inf: must be a finite number" in str(ds.message.values[1])
+
+
+# ------------------------------------------- class 4: interpolations from the environment
+def test_an_env_interpolation_in_an_override_is_refused_in_one_line(tmp_path):
+    """The issue's example: `${oc.env:FOO}` copied FOO into the datasets, and the config
+    cache keyed the unresolved text (FOO=first, then second: same run, title "first").
+    Refused, exit 2, one line naming the key; nothing written, whatever FOO holds."""
+    for foo in ("first", "second"):
+        proc = snakemake(tmp_path, "all", "--config", 'overrides=["study.title=${oc.env:FOO}"]',
+                         'studies=["ct02"]')
+        one_line(proc, 2, "invalid config: study.title='${oc.env:FOO}': interpolations")
+        assert foo not in proc.stderr
+        assert not (tmp_path / "data").exists()
+    proc = creatio("run", "study=ct02", "study.title=${oc.env:FOO}", cwd=tmp_path,
+                   env={"FOO": "first"})
+    one_line(proc, 2, "study.title='${oc.env:FOO}': interpolations")
+    assert not (tmp_path / "data").exists()
+
+
+@pytest.mark.parametrize("call", ["quoted", "escaped", "reference", "sweep", "probe", "scene"])
+def test_every_way_in_refuses_interpolations(call, monkeypatch):
+    """Quoted (`'${oc.env:X}'`), escaped (a literal `${` that a later pass would resolve) and
+    plain references are refused alike, in a sweep axis, a probe and a scene override too."""
+    from creatio.errors import ConfigError
+    from creatio.pipeline.config import resolve
+    from creatio.pipeline.sweep import parse_axes
+    from creatio.scenes.config import resolve as resolve_scene
+
+    monkeypatch.setenv("CREATIO_SECRET", "leaked")
+    attempts = {
+        "quoted": lambda: resolve("en02", ["study.title='${oc.env:CREATIO_SECRET}'"]),
+        "escaped": lambda: resolve("en02", ["study.title='\\${oc.env:CREATIO_SECRET}'"]),
+        "reference": lambda: resolve("en02", ["sphere.mu=${sphere.eps}"]),
+        "sweep": lambda: parse_axes(["sphere.mu=0.1,${oc.env:CREATIO_SECRET}"]),
+        "scene": lambda: resolve_scene("en02", ["scene.title=${oc.env:CREATIO_SECRET}"]),
+        "probe": None,
+    }
+    if call == "probe":
+        proc = creatio("probe", "alpha=${oc.env:CREATIO_SECRET}")
+        one_line(proc, 2, "alpha='${oc.env:CREATIO_SECRET}': interpolations")
+        return
+    with pytest.raises(ConfigError, match=r"interpolations \(\$\{\.\.\.\}\) are not accepted") \
+            as err:
+        attempts[call]()
+    assert "leaked" not in str(err.value) and "\n" not in str(err.value)
+
+
+def test_a_config_file_holding_a_resolver_is_refused(tmp_path):
+    """A task's config file is resolved by OmegaConf too: a resolver in it (a file edited
+    by hand, or planted) is refused by key; the environment is not read, no dataset made."""
+    from creatio.pipeline.config import resolve
+
+    data = yaml.safe_load(resolve("ct02").yaml)
+    data["study"]["title"] = "${oc.env:CREATIO_SECRET}"
+    config = tmp_path / "ct02.yaml"
+    config.write_text(yaml.safe_dump(data))
+    out = tmp_path / "ct02.nc"
+    proc = creatio("task", "dataset", "ct02", str(out), "--config-file", str(config),
+                   env={"CREATIO_SECRET": "leaked"})
+    one_line(proc, 2, "study.title='${oc.env:CREATIO_SECRET}': resolvers")
+    assert "leaked" not in proc.stderr and not out.exists()
+    assert list(tmp_path.iterdir()) == [config]

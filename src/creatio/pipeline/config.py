@@ -39,6 +39,8 @@ __all__ = [
     "dataset_path",
     "output_root",
     "plain",
+    "refuse_interpolations",
+    "refuse_resolvers",
     "resolve",
     "validate",
 ]
@@ -127,7 +129,9 @@ def validate(cfg: DictConfig | dict, schema: type | None = None, check: bool = T
     """
     if not isinstance(cfg, dict):  # drop the composed types: every key meets the schema anew,
         cfg = OmegaConf.to_container(cfg, resolve=False)  # a `+key=` addition included
-    cfg = OmegaConf.create({k: v for k, v in cfg.items() if k != "hydra"})
+    cfg = {k: v for k, v in cfg.items() if k != "hydra"}
+    refuse_resolvers(cfg)
+    cfg = OmegaConf.create(cfg)
     study = str(OmegaConf.select(cfg, "study.id", default="probe"))
     if schema is None:
         if study not in registry.STUDIES:
@@ -151,6 +155,37 @@ def validate(cfg: DictConfig | dict, schema: type | None = None, check: bool = T
         obj.check()
     text = OmegaConf.to_yaml(OmegaConf.create(data), sort_keys=True)
     return Resolved(study, obj, data, text, hashlib.sha256(text.encode()).hexdigest())
+
+
+#: Why no user text may hold an interpolation: OmegaConf resolves it where the config is
+#: resolved, from outside the value (a resolver such as oc.env reads the environment).
+NO_INTERPOLATION = ("interpolations (${...}) are not accepted in overrides: they are resolved "
+                    "from outside the value (${oc.env:...} reads the environment); write the "
+                    "value itself")
+
+
+def refuse_interpolations(overrides: Sequence[str]) -> None:
+    """Refuse any override whose text holds ``${`` (an interpolation, escaped or not, which a
+    later OmegaConf pass would resolve), naming its key: user overrides carry values only."""
+    for ov in overrides:
+        if "${" in str(ov):
+            key, _, value = str(ov).partition("=")
+            raise ConfigError(key.lstrip("+~"), value, NO_INTERPOLATION)
+
+
+def refuse_resolvers(tree: Any, prefix: str = "") -> None:
+    """Refuse a resolver call (``${name:...}``) anywhere in a config tree before it is
+    resolved: conf/ uses plain references only (``${..phases.T}``), so a resolver came from
+    outside (a config file a task reads, a value smuggled past the override check)."""
+    items = tree.items() if isinstance(tree, dict) else enumerate(tree)
+    for name, value in items:
+        key = f"{prefix}[{name}]" if isinstance(tree, list) else f"{prefix}{name}"
+        if isinstance(value, dict | list):
+            refuse_resolvers(value, f"{key}." if isinstance(value, dict) else key)
+        elif isinstance(value, str) and "${" in value and ":" in value:
+            raise ConfigError(key, value, "resolvers (${name:...}) are not evaluated in "
+                              "configs (${oc.env:...} would read the environment); write "
+                              "the value itself")
 
 
 def _keys(schema: Any, prefix: str = "") -> list[str]:
@@ -209,6 +244,7 @@ def resolve(study: str, overrides: Sequence[str] = (), only_applicable: bool = F
 def _resolve(study: str, overrides: tuple[str, ...], only_applicable: bool) -> Resolved:
     if study not in registry.STUDIES:
         raise ConfigError("study", study, f"must be one of {', '.join(registry.STUDIES)}")
+    refuse_interpolations(overrides)
     ovs = tuple(applicable(study, overrides) if only_applicable else overrides)
     path = _cache_path(study, ovs)
     if path is not None:

@@ -139,6 +139,9 @@ def parse_axes(sweep: Sequence[str]) -> list[tuple[str, list[str]]]:
     """Split sweep overrides into (key, values) with Hydra's override grammar."""
     from hydra.core.override_parser.overrides_parser import OverridesParser
 
+    from creatio.pipeline.config import refuse_interpolations
+
+    refuse_interpolations([str(t) for t in sweep])
     parser = OverridesParser.create()
     axes = []
     for text in sweep:
