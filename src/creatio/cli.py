@@ -259,6 +259,8 @@ def _task(argv: Sequence[str]) -> int:
         parser.add_argument("--override", action="append", default=[], metavar="KEY=VALUE")
         parser.add_argument("--batch-size", type=int, default=None,
                             help="points per batch (default: about 8 batches, at most 250)")
+        parser.add_argument("--max-points", type=int, default=None,
+                            help="the sweep's size limit (default 200000)")
     b.add_argument("--batch", type=int, required=True, help="the batch's number (from 0)")
     b.add_argument("--out", type=Path, default=None, help="the batch file (default: its path)")
     c = sub.add_parser("compare", help="EN-02 vs EN-02R comparison from both datasets")
@@ -277,10 +279,11 @@ def _task(argv: Sequence[str]) -> int:
                     raise ConfigError("--part", args.part, str(e.args[0])) from None
             compute_dataset(resolved, args.out, args.part)
         elif args.step in ("sweep", "sweep-batch"):
-            from creatio.pipeline.sweep import plan_sweep, run_batch, write_sweep
+            from creatio.pipeline.sweep import MAX_POINTS, plan_sweep, run_batch, write_sweep
 
             plan = plan_sweep(args.study, args.sweep, args.override,
-                              batch_size=args.batch_size)
+                              batch_size=args.batch_size,
+                              max_points=args.max_points or MAX_POINTS)
             if args.step == "sweep":
                 paths = write_sweep(plan)
                 log.info("sweep: %s", ", ".join(str(p) for p in paths.values()))

@@ -317,3 +317,128 @@ def test_a_config_file_holding_a_resolver_is_refused(tmp_path):
     one_line(proc, 2, "study.title='${oc.env:CREATIO_SECRET}': resolvers")
     assert "leaked" not in proc.stderr and not out.exists()
     assert list(tmp_path.iterdir()) == [config]
+
+
+# -------------------------------------------- class 5: sizes checked before expansion
+@pytest.mark.parametrize(("sweep", "limit", "size"), [
+    (["sphere.mu=range(0,100000000,1)"], 10_000_000, "100,000,000"),
+    (["sphere.mu=range(0,1e8,1)"], 10_000_000, "100,000,000"),  # a float range
+    (["sphere.mu=range(0,3000,1)", "phases.T=range(1,3001,1)"], 1_000_000, "9,000,000"),
+])
+def test_a_huge_sweep_is_refused_before_it_is_expanded(sweep, limit, size):
+    """The issue's example: a range was expanded before the size check (1e8 points took
+    7 GB before the refusal). The size is computed from the override: refused in one line
+    with the count, having allocated almost nothing."""
+    import tracemalloc
+
+    from creatio.errors import ConfigError
+    from creatio.pipeline.sweep import plan_sweep
+
+    tracemalloc.start()
+    try:
+        with pytest.raises(ConfigError, match=f"'{size} points': exceeds {limit:,}"):
+            plan_sweep("en02", sweep, [], max_points=limit)
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    assert peak < 20e6, f"{peak / 1e6:.0f} MB allocated before the refusal"
+
+
+def test_a_large_allowed_sweep_gives_its_jobs_the_range_not_its_values():
+    """With a raised limit, 1e6 points planned: each batch job's command carries the range
+    as typed (it held every value: 4000 jobs x 7 MB took 24 GB) and the raised limit, and a
+    job re-plans the very same sweep from it."""
+    import shlex
+
+    from creatio.pipeline.sweep import plan_sweep
+
+    plan = plan_sweep("en02", ["sphere.mu=range(0,1000000,1)"], [], max_points=1_000_000)
+    assert plan.n_points == 1_000_000 and plan.n_batches == 4000
+    args = plan.cli_args()
+    assert args == ("--study en02 --sweep 'sphere.mu=range(0,1000000,1)' --batch-size 250 "
+                    "--max-points 1000000")
+    words = shlex.split(args)
+    again = plan_sweep(words[1], [words[3]], [], batch_size=int(words[5]),
+                       max_points=int(words[7]))
+    assert again.name == plan.name and again.overrides(999_999) == ("sphere.mu=999999",)
+
+
+@pytest.mark.parametrize(("target", "overrides", "key"), [
+    ("scene:surface_family", ["scene.gamma_step_deg=1e-6"], "scene.gamma_step_deg"),  # issue's
+    ("scene:en02", ["scene.playback.fps=4000"], "scene.playback.fps"),
+    ("ct02", ["study.n_radii=100000"], "study.n_radii"),
+    ("en01", ["study.regularity.n_angles=100000"], "study.regularity.n_radii"),
+    ("en01", ["study.pattern.sample_interval=1e-5"], "study.pattern.sample_interval"),
+    ("en02", ["solver.dt=1e-5", "solver.output_interval=1e-5"], "solver.output_interval"),
+    ("en02f", ["study.cycles_s=[200000]"], "solver.output_interval"),
+    ("en02f", ["study.drop.duration=1e5"], "study.drop.duration"),
+])
+def test_every_computable_size_is_checked_at_validation(target, overrides, key):
+    """A grid, a history, a slider or a scene's frames is sized from the config: beyond its
+    bound it is refused by key, in one line, before anything is allocated (gamma_step_deg
+    = 1e-6 passed validation and died in a MemoryError)."""
+    from creatio.errors import ConfigError
+    from creatio.pipeline.config import resolve
+    from creatio.scenes.config import resolve as resolve_scene
+
+    kind, _, name = target.rpartition(":")
+    with pytest.raises(ConfigError) as err:
+        (resolve_scene if kind == "scene" else resolve)(name, overrides)
+    assert str(err.value).startswith(f"invalid config: {key}=") and "more than" in str(err.value)
+    assert "\n" not in str(err.value)
+
+
+def test_the_sweep_limit_has_a_ceiling(tmp_path):
+    """--config sweep_max_points beyond 10 million is refused by the workflow's schema in one
+    line (the aggregate holds every point in memory), before any planning."""
+    proc = snakemake(tmp_path, "sweep", "-n", "--config", "study=en02",
+                     'sweep=["sphere.mu=range(0,100000000,1)"]', "sweep_max_points=100000000")
+    one_line(proc, 2, "sweep_max_points=100000000")
+    assert "10000000" in proc.stderr
+
+
+# ------------------------------------------------------ class 6: refusals in one line
+@pytest.mark.parametrize(("entry", "words"), [
+    ('scenes=["xx"]', "scenes=['xx']: must be among"),  # the issue's example
+    ('overrides=["scene.playback.fps=0"]', "scene.playback.fps=0.0: must be finite and > 0"),
+    ('overrides=["sphere.muu=0.3"]', "no selected scene has these keys"),
+])
+def test_a_refused_scene_config_is_one_line(tmp_path, entry, words):
+    """Scene planning raised InputFunctionException with a traceback; now creatio's line,
+    exit 2, nothing planned or written."""
+    proc = snakemake(tmp_path, "scenes", "--config", entry)
+    one_line(proc, 2, words)
+    assert "InputFunctionException" not in proc.stderr
+    assert not (tmp_path / "data").exists()
+
+
+@pytest.mark.parametrize(("args", "words"), [
+    (["study=en02f", "study.cycles_s=[0.0015]"],  # the issue's example
+     "study.cycles_s[0]=0.0015: must be an integer multiple of solver.dt = 0.001"),
+    (["study=en02g", "sphere.g=0"], "sphere.g=0.0: must be > 0: every EN-02G run starts"),
+])
+def test_checks_that_built_problems_are_validation_now(tmp_path, args, words):
+    """EN-02F's cycles and EN-02G's gravity reached the numeric core's ValueError, keyless;
+    they are refused at validation naming the key, exit 2, nothing written."""
+    proc = creatio("run", *args, cwd=tmp_path)
+    one_line(proc, 2, words)
+    assert "ValueError" not in proc.stderr and not (tmp_path / "data").exists()
+
+
+def test_a_problem_refusal_past_the_rules_is_named_by_its_key(monkeypatch):
+    """The safety net behind the rules: a value only a run's problem refuses becomes a
+    ConfigError naming the config key of the problem's field."""
+    from creatio.errors import ConfigError
+    from creatio.pipeline.config import resolve
+    from creatio.studies import schema
+
+    cfg = resolve("en02").obj
+
+    def refuse(self):
+        raise ValueError("eps must be finite and > 0, got 1e-31")
+
+    monkeypatch.setattr(schema.DynamicConfig, "step_limit", refuse)
+    with pytest.raises(ConfigError) as err:
+        cfg.check()
+    assert str(err.value) == ("invalid config: sphere.eps=0.01: the run refuses it: eps must "
+                              "be finite and > 0, got 1e-31")

@@ -35,6 +35,7 @@ from creatio.errors import ConfigError
 from creatio.studies import registry
 
 __all__ = [
+    "HARD_MAX_POINTS",
     "MAX_POINTS",
     "SweepPlan",
     "aggregate",
@@ -48,6 +49,9 @@ log = logging.getLogger("creatio")
 
 #: Largest sweep planned without asking (its aggregate holds one float per point and figure).
 MAX_POINTS = 200_000
+#: Largest sweep planned at all (sweep_max_points cannot go beyond): its aggregate holds
+#: ~20 float64 figures, a status and a message per point, ~2 GB at 10 million points.
+HARD_MAX_POINTS = 10_000_000
 #: Default batching: about this many batches, each at most MAX_BATCH points.
 TARGET_BATCHES = 8
 MAX_BATCH = 250
@@ -63,6 +67,10 @@ class SweepPlan:
     name: str
     outdir: str
     batch_size: int
+    #: the sweep overrides as given (``sphere.mu=range(0,1,0.001)``), what a job re-parses
+    texts: tuple[str, ...] = ()
+    #: the size limit the plan was made under (a job re-plans under the same one)
+    max_points: int = MAX_POINTS
 
     @property
     def shape(self) -> tuple[int, ...]:
@@ -121,9 +129,14 @@ class SweepPlan:
         import shlex
 
         args = [f"--study {self.study}"]
-        args += [f"--sweep {shlex.quote(f'{k}=' + ','.join(v))}" for k, v in self.axes]
+        # the overrides as typed, not their expansion: a job's command line stays short (a
+        # million values written into each of 4000 jobs' parameters took 24 GB)
+        texts = self.texts or tuple(f"{k}=" + ",".join(v) for k, v in self.axes)
+        args += [f"--sweep {shlex.quote(t)}" for t in texts]
         args += [f"--override {shlex.quote(o)}" for o in self.base]
         args.append(f"--batch-size {self.batch_size}")
+        if self.max_points != MAX_POINTS:
+            args.append(f"--max-points {self.max_points}")
         return " ".join(args)
 
 
@@ -135,34 +148,90 @@ def _unravel(index: int, shape: Sequence[int]) -> tuple[int, ...]:
     return tuple(reversed(out))
 
 
-def parse_axes(sweep: Sequence[str]) -> list[tuple[str, list[str]]]:
-    """Split sweep overrides into (key, values) with Hydra's override grammar."""
+def _axis_size(ov: Any) -> int | None:
+    """How many values a parsed sweep override expands to, computed without expanding it
+    (None: Hydra must expand it to tell, a glob over a config group's few options)."""
+    import decimal
+
+    from hydra.core.override_parser.types import ChoiceSweep, RangeSweep
+
+    if not ov.is_sweep_override():
+        return 1
+    sweep = ov.value()
+    if isinstance(sweep, ChoiceSweep):
+        return len(sweep.list)
+    if isinstance(sweep, RangeSweep):
+        if sweep.start is None or sweep.stop is None:
+            return None
+        try:  # as Hydra counts: a Python range for ints, exact decimals for floats
+            if all(isinstance(x, int) for x in (sweep.start, sweep.stop, sweep.step)):
+                return len(range(sweep.start, sweep.stop, sweep.step))
+            start, stop, step = (decimal.Decimal(x) for x in (sweep.start, sweep.stop,
+                                                              sweep.step))
+        except (ValueError, decimal.InvalidOperation) as e:  # step 0, nan
+            raise ValueError(str(e) or "a range needs a finite, non-zero step") from None
+        if not (start.is_finite() and stop.is_finite() and step.is_finite()) or step == 0:
+            raise ValueError("a range needs finite bounds and a non-zero step")
+        span = (stop - start) / step
+        return max(0, int(span.to_integral_value(rounding=decimal.ROUND_CEILING)))
+    return None
+
+
+def parse_axes(sweep: Sequence[str], max_points: int = MAX_POINTS
+               ) -> list[tuple[str, list[str]]]:
+    """Split sweep overrides into (key, values) with Hydra's override grammar.
+
+    The size of every axis, and of their product, is computed from the override before any
+    axis is expanded, and a product beyond max_points is refused with its size: a
+    ``range(0, 1e8, 1)`` used to be expanded (7 GB) before the size was checked."""
+    import itertools
+
     from hydra.core.override_parser.overrides_parser import OverridesParser
 
     from creatio.pipeline.config import refuse_interpolations
 
     refuse_interpolations([str(t) for t in sweep])
     parser = OverridesParser.create()
-    axes = []
+    parsed = []
     for text in sweep:
         try:
             (ov,) = parser.parse_overrides([str(text)])
         except Exception as e:  # noqa: BLE001 - Hydra's grammar errors, re-worded
             raise ConfigError("sweep", text, str(e).splitlines()[0]) from None
-        key = ov.get_key_element()
         try:
-            values = list(ov.sweep_string_iterator()) if ov.is_sweep_override() else [
-                ov.get_value_element_as_str()]
-        except Exception as e:  # noqa: BLE001 - a range Hydra cannot expand (step 0, ...)
+            size = _axis_size(ov)
+        except ValueError as e:
+            raise ConfigError("sweep", text, f"cannot be expanded: {e}") from None
+        if ov.get_key_element() in [o.get_key_element() for _, o, _ in parsed]:
+            raise ConfigError("sweep", text, f"key {ov.get_key_element()} is swept twice")
+        parsed.append((text, ov, size))
+    if not parsed:
+        raise ConfigError("sweep", list(sweep), "needs at least one KEY=V1,V2,... entry")
+    known = math.prod(size for _, _, size in parsed if size is not None)
+    if known > max_points:
+        _too_many(known, max_points)
+    axes = []
+    for text, ov, _ in parsed:
+        try:  # never more values than the limit allows, whatever the count said
+            values = list(itertools.islice(ov.sweep_string_iterator(), max_points + 1)) \
+                if ov.is_sweep_override() else [ov.get_value_element_as_str()]
+        except Exception as e:  # noqa: BLE001 - a sweep Hydra cannot expand (interval, ...)
             raise ConfigError("sweep", text, f"cannot be expanded: {e}") from None
         if not values:
             raise ConfigError("sweep", text, "sweeps over no value")
-        if key in [k for k, _ in axes]:
-            raise ConfigError("sweep", text, f"key {key} is swept twice")
-        axes.append((key, values))
-    if not axes:
-        raise ConfigError("sweep", list(sweep), "needs at least one KEY=V1,V2,... entry")
+        axes.append((ov.get_key_element(), values))
+    n = math.prod(len(v) for _, v in axes)
+    if n > max_points:
+        _too_many(n, max_points)
     return axes
+
+
+def _too_many(n: int, max_points: int) -> None:
+    hint = (f"raise the limit with --config sweep_max_points={n}" if n <= HARD_MAX_POINTS
+            else f"the limit cannot exceed {HARD_MAX_POINTS:,}")
+    raise ConfigError("sweep", f"{n:,} points", f"exceeds {max_points:,} points (the "
+                      f"aggregate keeps a float per point and figure): split it into several "
+                      f"sweeps, or {hint}")
 
 
 def plan_sweep(
@@ -181,17 +250,16 @@ def plan_sweep(
         raise ConfigError("study", study, "a sweep needs the study to sweep (study=en02)")
     if study not in registry.STUDIES:
         raise ConfigError("study", study, f"must be one of {', '.join(registry.STUDIES)}")
-    axes = parse_axes(sweep)
+    if not (isinstance(max_points, int) and 1 <= max_points <= HARD_MAX_POINTS):
+        raise ConfigError("sweep_max_points", max_points,
+                          f"must be an integer in [1, {HARD_MAX_POINTS:,}] (the aggregate "
+                          "holds every point's figures in memory)")
+    axes = parse_axes(sweep, max_points)
     base = tuple(str(o) for o in base)
     for key, values in axes:
         if not applicable(study, [f"{key}={values[0]}"]):
             raise ConfigError(key, values[0], f"unknown key (not in {study}'s config)")
     n = math.prod(len(v) for _, v in axes)
-    if n > max_points:
-        raise ConfigError("sweep", f"{n:,} points", f"exceeds {max_points:,} points (the "
-                          "aggregate keeps a float per point and figure): split it into "
-                          "several sweeps, or raise the limit with --config "
-                          f"sweep_max_points={n}")
     if batch_size is None:
         batch_size = min(MAX_BATCH, max(1, math.ceil(n / TARGET_BATCHES)))
     if not (isinstance(batch_size, int) and batch_size >= 1):
@@ -199,7 +267,8 @@ def plan_sweep(
     spec = json.dumps({"study": study, "axes": axes, "base": base}, sort_keys=True)
     name = f"{study}-{hashlib.sha256(spec.encode()).hexdigest()[:12]}"
     plan = SweepPlan(study, tuple((k, tuple(v)) for k, v in axes), base, name,
-                     f"{data_dir}/sweeps/{name}", batch_size)
+                     f"{data_dir}/sweeps/{name}", batch_size, tuple(str(t) for t in sweep),
+                     max_points)
     first = plan.overrides(0)
     try:
         resolve(study, [*base, *first])
