@@ -36,7 +36,6 @@ __all__ = [
     "Resolved",
     "applicable",
     "compose",
-    "dataset_path",
     "output_root",
     "plain",
     "refuse_interpolations",
@@ -364,10 +363,3 @@ def plain(obj: Any) -> Any:
     if isinstance(obj, list | tuple):
         return [plain(v) for v in obj]
     return obj
-
-
-def dataset_path(root: str | Path, study: str, dt: float | None = None) -> Path:
-    """Where a study's dataset lives under an output root (sphere studies keyed by dt)."""
-    entry = registry.get(study)
-    name = study if dt is None else f"{study}_dt{float(dt)!r}"
-    return Path(root) / entry.kind.dataset_dir / study / f"{name}.nc"

@@ -25,10 +25,12 @@ import os
 import re
 import shutil
 import sys
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
+
+from creatio.errors import ReleaseError, one_line_errors
 
 __all__ = [
     "released_studies",
@@ -43,6 +45,10 @@ __all__ = [
     "make_release",
     "parse_version",
     "verify_release",
+    "workflow_against",
+    "workflow_diff_options",
+    "workflow_outputs",
+    "workflow_version",
 ]
 
 MANIFEST = "MANIFEST.json"
@@ -52,10 +58,6 @@ VERSION_HELP = "MAJOR.MINOR.PATCH, optionally with a pre-release suffix a1, b2 o
 RELEASED_REPORTS = (".json", ".md")
 PRE_ORDER = {"a": 0, "b": 1, "rc": 2}
 READ_ONLY = 0o444
-
-
-class ReleaseError(Exception):
-    """A release cannot be made, found or read; the message says why and what to do."""
 
 
 # ------------------------------------------------------------------------------ versions
@@ -388,6 +390,62 @@ def verify_release(release: str | Path) -> list[str]:
         if path.is_file() and rel != MANIFEST and rel not in listed:
             problems.append(f"{rel}: not in the manifest")
     return problems
+
+
+# -------------------------------------------------------------- the workflow's release rules
+@one_line_errors
+def workflow_outputs(plans: Mapping[str, Any], whole: bool = False) -> list[str]:
+    """Every file `snakemake all` makes with the default configs; refuses overrides, and
+    with whole (a release holds every study) a subset of the studies."""
+    from creatio.pipeline.planning import compare_targets, default_studies
+
+    overridden = [p.study for p in plans.values() if p.root != "data"]
+    if overridden:
+        raise ReleaseError(f"releases and diffs use the default configs, and {overridden} "
+                           "have overrides: run without --config overrides=...")
+    absent = [s for s in default_studies() if s not in plans]
+    if whole and absent:
+        raise ReleaseError(f"a release holds every study and {absent} are not selected: run "
+                           "without --config studies=...")
+    return [f for p in plans.values() for f in (*p.datasets, *p.reports)] + \
+        compare_targets(plans)
+
+
+@one_line_errors
+def workflow_version(config: Mapping[str, Any], data_dir: str | Path = "data") -> str:
+    """The version `snakemake release` makes: given, valid and not released yet."""
+    version = str(config.get("version", ""))
+    if not version:
+        raise ReleaseError("snakemake release needs --config version=MAJOR.MINOR.PATCH")
+    parse_version(version)
+    if (releases_dir(data_dir) / version).exists():
+        raise ReleaseError(f"release {version} already exists in {releases_dir(data_dir)}: "
+                           "releases are never overwritten; choose a new version")
+    return version
+
+
+@one_line_errors
+def workflow_against(config: Mapping[str, Any], data_dir: str | Path = "data") -> str:
+    """The release `snakemake diff` compares data/ with: a version or latest, which exists."""
+    against = str(config.get("against", ""))
+    if not against:
+        raise ReleaseError("snakemake diff needs --config against=VERSION (or against=latest)")
+    return find_release(against, data_dir).name
+
+
+@one_line_errors
+def workflow_diff_options(config: Mapping[str, Any], plans: Mapping[str, Any]) -> str:
+    """`creatio diff` options from --config atol=, rtol=, tol=[...] and the selected studies."""
+    import shlex
+
+    from creatio.pipeline.planning import default_studies
+
+    opts = [f"--{k} {shlex.quote(str(config[k]))}" for k in ("atol", "rtol") if k in config]
+    tols = config.get("tol", [])
+    opts += [f"--tol {shlex.quote(str(t))}" for t in ([tols] if isinstance(tols, str) else tols)]
+    if set(plans) != set(default_studies()):
+        opts.append(f"--studies {','.join(plans)}")
+    return " ".join(opts)
 
 
 # ------------------------------------------------------------------------------ CLI

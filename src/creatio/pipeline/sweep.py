@@ -362,7 +362,7 @@ def _point_key(obj: Any) -> str:
 
 def _code() -> str:
     """The version of the code that computes a point (the dataset rules' ``code``)."""
-    from creatio.pipeline.planning import code_version
+    from creatio.pipeline.code import code_version
 
     return code_version("datasets")
 

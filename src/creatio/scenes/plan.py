@@ -23,11 +23,10 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from creatio.errors import ConfigError
+from creatio.errors import ConfigError, one_line_errors
 from creatio.model.numerics import steps_in
 from creatio.pipeline.config import Resolved
 from creatio.pipeline.config import output_root as study_root
-from creatio.pipeline.planning import one_line_errors
 from creatio.scenes import registry
 from creatio.scenes.config import SceneResolved, output_root, resolve, route
 from creatio.studies import registry as studies
