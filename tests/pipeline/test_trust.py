@@ -489,3 +489,133 @@ def test_no_stale_module_names_in_the_workflow():
                 importlib.import_module(name)
             except ImportError:
                 assert hasattr(importlib.import_module(module), attr), f"{path.name}: {name}"
+
+
+# ------------------------------------------------ class 7: releases and diffs trust less
+def _copy_release(tmp_path: Path) -> tuple[Path, Path]:
+    """(data dir, release dir): the committed release 0.1.0 copied under tmp_path/data, and
+    its files copied into data/ as the current outputs (a diff of them finds nothing)."""
+    import shutil
+
+    data = tmp_path / "data"
+    release = data / "releases" / "0.1.0"
+    shutil.copytree(REPO / "data" / "releases" / "0.1.0", release)
+    for path in release.rglob("*"):
+        path.chmod(0o644 if path.is_file() else 0o755)
+        if path.is_file() and path.name != "MANIFEST.json":
+            target = data / path.relative_to(release)
+            target.parent.mkdir(parents=True, exist_ok=True)
+            shutil.copyfile(path, target)
+    return data, release
+
+
+def test_a_deleted_or_changed_release_file_fails_the_diff_in_one_line(tmp_path):
+    """The issue's example: with a release file deleted, `creatio diff 0.1.0 data` exited 0
+    with a warning, and a sha256 mismatch was a warning. Both exit 1 in one line naming the
+    file, with nothing compared; the intact release compares clean (exit 0)."""
+    data, release = _copy_release(tmp_path)
+    assert creatio("diff", "0.1.0", "data", "--studies", "ct02", cwd=tmp_path).returncode == 0
+    (release / "studies" / "ct02" / "ct02.nc").unlink()
+    proc = creatio("diff", "0.1.0", "data", cwd=tmp_path)
+    one_line(proc, 1, "studies/ct02/ct02.nc: missing")
+    assert proc.stdout == ""
+    report = release / "reports" / "en01.json"
+    report.write_bytes(report.read_bytes() + b" ")
+    proc = creatio("diff", "data", "0.1.0", cwd=tmp_path)
+    one_line(proc, 1, "reports/en01.json: sha256")
+    proc = creatio("release", "verify", "0.1.0", cwd=tmp_path)
+    one_line(proc, 1, "2 problem(s): studies/ct02/ct02.nc: missing; reports/en01.json: sha256")
+
+
+@pytest.mark.parametrize("bad", ["../../../../etc/hostname", "/etc/hostname",
+                                 "studies/../../../x.nc", ".hidden/x.nc"])
+def test_manifest_paths_outside_the_release_are_refused(tmp_path, bad):
+    """MANIFEST paths like ../../../../etc/hostname were followed by verify and diff; a
+    manifest naming any file outside its release is damaged: one line, exit 2."""
+    data, release = _copy_release(tmp_path)
+    manifest = json.loads((release / "MANIFEST.json").read_text())
+    manifest["files"][0]["path"] = bad
+    (release / "MANIFEST.json").write_text(json.dumps(manifest))
+    for args in (["release", "verify", "0.1.0"], ["diff", "0.1.0", "data"]):
+        proc = creatio(*args, cwd=tmp_path)
+        one_line(proc, 2, f"path {bad!r} lies outside the release")
+
+
+def test_release_list_survives_null_fields_and_names_a_damaged_manifest(tmp_path):
+    """`creatio release list` crashed on null fields; it lists such a release, and a
+    damaged one as damaged, and goes on to the next."""
+    import shutil
+
+    data, release = _copy_release(tmp_path)
+    manifest = json.loads((release / "MANIFEST.json").read_text())
+    for key in ("created", "total_size"):
+        manifest[key] = None
+    manifest["studies"]["ct02"] = None
+    (release / "MANIFEST.json").write_text(json.dumps(manifest))
+    broken = data / "releases" / "0.2.0"
+    shutil.copytree(release, broken)
+    (broken / "MANIFEST.json").write_text(json.dumps({**manifest, "files": None}))
+    proc = creatio("release", "list", cwd=tmp_path)
+    assert proc.returncode == 0 and proc.stderr == "", proc.stderr
+    lines = proc.stdout.splitlines()
+    assert lines[0].startswith("0.1.0 ") and "13 files" in lines[0] and "? kB" in lines[0]
+    assert lines[1].startswith("0.2.0") and "damaged: " in lines[1]
+
+
+def test_an_empty_output_is_refused_even_when_only_fingerprinted(tmp_path):
+    """A 0-byte figure or table (a killed writer's) was recorded in the manifest without a
+    word; released or only fingerprinted, an empty file is refused by name."""
+    from creatio.errors import ReleaseError
+    from creatio.pipeline.release import Layout, StudyFiles, make_release
+
+    data, _ = _copy_release(tmp_path)
+    (data / "reports" / "ct02.png").write_bytes(b"")
+    layout = Layout((StudyFiles("ct02", "0" * 64, ("studies/ct02/ct02.nc",),
+                                ("reports/ct02.json", "reports/ct02.png")),), ())
+    with pytest.raises(ReleaseError, match=r"empty files .*reports/ct02\.png"):
+        make_release("0.2.0", data, layout=layout)
+    assert not (data / "releases" / "0.2.0").exists()
+
+
+def test_a_killed_release_leaves_no_temporary_directory_for_good(tmp_path):
+    """SIGKILL of `creatio release` left `.X.tmp-PID/` for good; the next release removes
+    every one whose process is gone (read-only files included) and keeps a live one's."""
+    import signal
+
+    data, _ = _copy_release(tmp_path)
+    releases = data / "releases"
+    proc = subprocess.Popen(["sleep", "60"])
+    try:
+        proc.send_signal(signal.SIGKILL)
+        proc.wait()
+        dead = releases / f".0.2.0.tmp-{proc.pid}"
+        (dead / "studies").mkdir(parents=True)
+        (dead / "studies" / "x.nc").write_bytes(b"partial")
+        (dead / "studies" / "x.nc").chmod(0o444)
+        live = releases / f".0.3.0.tmp-{os.getppid()}"
+        live.mkdir()
+        proc = creatio("release", "0.2.0", cwd=tmp_path)
+        assert not dead.exists() and live.exists()
+        assert "Traceback" not in proc.stderr  # refused or not, the leftover went first
+    finally:
+        live.rmdir()
+
+
+def test_the_diff_rule_reruns_when_a_release_file_changes(tmp_path):
+    """`snakemake diff` ignored edited release files: its rule carries a digest of the
+    release's files, which an edit, a deletion or a restore changes."""
+    from creatio.pipeline.release import workflow_release_digest
+
+    data, release = _copy_release(tmp_path)
+    before = workflow_release_digest("0.1.0", data)
+    report = release / "reports" / "ct02.md"
+    text = report.read_bytes()
+    report.write_bytes(text + b"\n")
+    edited = workflow_release_digest("0.1.0", data)
+    report.unlink()
+    deleted = workflow_release_digest("0.1.0", data)
+    report.write_bytes(text)
+    assert len({before, edited, deleted}) == 3
+    assert workflow_release_digest("0.1.0", data) == before
+    rule = (REPO / "workflow" / "rules" / "release.smk").read_text()
+    assert "release=lambda wc: _release.workflow_release_digest(wc.version)" in rule

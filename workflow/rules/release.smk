@@ -5,6 +5,8 @@
 #   snakemake diff -c 2 --config against=0.1.0      data/reports/diff/0.1.0_vs_data.{txt,json}
 #   snakemake diff -c 2 --config against=latest atol=1e-12 rtol=1e-9 'tol=["fd_error*=1e-8"]'
 #
+# The diff carries a digest of the release's files: an edited or deleted release file reruns
+# it, and `creatio diff` refuses a release that no longer matches its manifest (exit 1).
 # `release` has no output file on purpose: Snakemake must never delete or redo a release,
 # and `creatio release` refuses an existing version. The diff report is written even when
 # there are differences (read it, or gate on `creatio diff` itself, which exits 1).
@@ -46,6 +48,7 @@ rule diff_report:
     params:
         creatio=CREATIO,
         options=lambda wc: _release.workflow_diff_options(config, RUNS.plans),
+        release=lambda wc: _release.workflow_release_digest(wc.version),
     conda:
         "../envs/creatio.yaml"
     log:
