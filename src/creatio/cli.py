@@ -445,6 +445,10 @@ def describe(e: Exception) -> tuple[str, int]:
     for anything else; the traceback is for CREATIO_DEBUG=1."""
     if isinstance(e, ConfigError):
         return str(e), 2
+    from creatio.pipeline.checks import ChecksFailed
+
+    if isinstance(e, ChecksFailed):
+        return str(e), 1
     if isinstance(e, OSError):
         return _os_error(e), 1
     if isinstance(e, ArithmeticError):  # a value the validation let through still overflowed

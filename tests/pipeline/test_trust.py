@@ -619,3 +619,74 @@ def test_the_diff_rule_reruns_when_a_release_file_changes(tmp_path):
     assert workflow_release_digest("0.1.0", data) == before
     rule = (REPO / "workflow" / "rules" / "release.smk").read_text()
     assert "release=lambda wc: _release.workflow_release_digest(wc.version)" in rule
+
+
+# --------------------------------------------------------------- class 8: absurd "ok"
+@pytest.mark.parametrize(("args", "words"), [
+    (["study=en02f", "study.cycles_s=[0.001]", "study.restitutions=[0.0]"],  # the issue's
+     "energy residual 1.79e+26 J exceeds 1000 m g (R0 + dR) = 2.35e+04 J"),
+    (["study=en02", "sphere.eps=1e-30", "solver=radau5"],  # duplicate t = 0 rows
+     "output time(s) repeat or go back (first at t = 0 s)"),
+])
+def test_a_run_whose_own_checks_are_absurd_never_ends_ok(tmp_path, args, words):
+    """EN-02F over a 1 ms cycle ended ok with a residual of 1.8e26 J and 487 m between its
+    timesteps; eps = 1e-30 under radau5 wrote two rows at t = 0 and its report failed half
+    way. Both end with exit 1 in one line naming the check, their datasets say
+    checks_failed (the run's own status beside it), and no report is written."""
+    import xarray as xr
+
+    proc = creatio("run", *args, cwd=tmp_path)
+    one_line(proc, 1, words)
+    assert "no report written" in proc.stderr
+    assert not list(tmp_path.glob("data/runs/*/reports"))
+    datasets = sorted(tmp_path.glob("data/runs/*/studies/*/*_dt*.nc"))
+    assert len(datasets) == 2
+    for path in datasets:
+        with xr.open_dataset(path) as ds:
+            assert ds.attrs["status"] == "checks_failed" and ds.attrs["checks"]
+            assert "run_status" in ds.attrs
+
+
+def test_the_bounds_pass_every_published_run_and_catch_just_beyond():
+    """The released EN-02 and EN-02R datasets (residuals ~1e-14 J) pass; a residual just
+    beyond 1000 m g (R0 + dR), a NaN residual of an energy-integrating run, repeated times
+    and a partner further than R0 + dR are each named."""
+    import numpy as np
+    import xarray as xr
+
+    from creatio.pipeline.checks import dataset_problems, run_problems
+
+    release = REPO / "data" / "releases" / "0.1.0" / "studies"
+    for name in ("en02/en02_dt0.002.nc", "en02r/en02r_dt0.002.nc"):
+        with xr.open_dataset(release / name) as ds:
+            ds.load()
+        assert run_problems([ds]) == []
+        bound = 1e3 * 1.0 * 9.81 * (0.68 + 1.72)  # m = 1 kg, R0 + dR = 2.4 m
+        ds.attrs["max_energy_residual"] = 0.999 * bound
+        assert dataset_problems(ds) == []
+        ds.attrs["max_energy_residual"] = 1.001 * bound
+        assert dataset_problems(ds) == [f"energy residual {1.001 * bound:.3g} J exceeds 1000 m "
+                                        f"g (R0 + dR) = {bound:.3g} J"]
+        ds.attrs["max_energy_residual"] = float("nan")
+        assert "not finite" in dataset_problems(ds)[0]
+        ds.attrs["max_energy_residual"] = 1e-14
+        twice = xr.concat([ds.isel(time=[0]), ds], dim="time")
+        assert "1 output time(s) repeat" in dataset_problems(twice)[0]
+        far = ds.copy(deep=True)
+        far["centre"] = far.centre + np.array([2.5, 0.0, 0.0])
+        far.attrs["dt"] = 0.001
+        (problem,) = run_problems([ds, far])
+        assert "end up 2.5 m apart, more than the membrane's size R0 + dR = 2.4 m" in problem
+
+
+def test_a_sweep_point_with_absurd_checks_is_recorded_checks_failed(tmp_path):
+    """In a sweep the same point is a row with status checks_failed and the reason; the
+    others run as usual."""
+    from creatio.pipeline import sweep
+
+    plan = sweep.plan_sweep("en02", ["sphere.eps=0.01,1e-30"],
+                            ["solver=radau5", "phases.T=2.0"], str(tmp_path / "data"),
+                            batch_size=2)
+    (good, bad) = _rows(sweep.run_batch(plan, 0))
+    assert good[0] != "checks_failed"
+    assert bad[0] == "checks_failed" and "repeat" in bad[1] and "step_failed" in bad[1]

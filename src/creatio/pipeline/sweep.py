@@ -406,8 +406,17 @@ def _run_point(entry: registry.Study, obj: Any) -> dict[str, Any]:
     part = entry.parts(obj)[0]
     ds = entry.run_function()(obj, **part.args)
     ds.attrs["study"] = entry.id
-    return {k: v for k, v in summary(ds).items()
-            if isinstance(v, int | float | str) and not isinstance(v, bool)}
+    checks = ""
+    if entry.kind is registry.SPHERE:  # absurd own checks: status checks_failed, with why
+        from creatio.pipeline.checks import dataset_problems
+
+        checks = "; ".join(dataset_problems(ds))
+    row = {k: v for k, v in summary(ds).items()
+           if isinstance(v, int | float | str) and not isinstance(v, bool)}
+    if checks:
+        row.update(status="checks_failed",
+                   message=f"{checks} (the run's own status: {row.get('status', '?')})")
+    return row
 
 
 def _sphere_extras(obj: Any, changes: dict[str, Any], base: Any) -> dict[str, float]:
@@ -474,7 +483,7 @@ def run_batch(plan: SweepPlan, k: int, out: str | Path | None = None,
             else:
                 tc = time.perf_counter()
                 try:
-                    row = {"status": "ok", **plan.row(entry, obj), "message": "",
+                    row = {"status": "ok", "message": "", **plan.row(entry, obj),
                            "point_key": key}
                 except Exception as e:  # noqa: BLE001 - one point's failure is its row
                     row = {"status": "failed", "message": _failure(e), "point_key": ""}
