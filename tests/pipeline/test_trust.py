@@ -690,3 +690,163 @@ def test_a_sweep_point_with_absurd_checks_is_recorded_checks_failed(tmp_path):
     (good, bad) = _rows(sweep.run_batch(plan, 0))
     assert good[0] != "checks_failed"
     assert bad[0] == "checks_failed" and "repeat" in bad[1] and "step_failed" in bad[1]
+
+
+# ------------------------------------------------------------------ class 9: the caches
+CACHED = '''
+from creatio.dynamics.jit import njit
+
+@njit(cache=True)
+def triple(x):
+    return 3.0 * x
+
+print(triple(2.0),
+      sum(triple.stats.cache_hits.values()))
+'''
+
+
+def _cached(tmp_path: Path) -> subprocess.CompletedProcess:
+    """Compile (or load) a small cached function with the project's numba cache under
+    tmp_path/numba; prints its result and how many entries it loaded from the cache."""
+    (tmp_path / "cachedmod.py").write_text(CACHED)
+    return subprocess.run([sys.executable, "cachedmod.py"], capture_output=True, text=True,
+                          cwd=tmp_path, env={**os.environ, "CREATIO_NUMBA_CACHE":
+                                             str(tmp_path / "numba")})
+
+
+def test_a_truncated_numba_cache_is_rebuilt_with_one_warning(tmp_path):
+    """The issue's example: truncated cache files failed every run (UnpicklingError, no file
+    named) and were never repaired. The damaged entry is named once, removed and compiled
+    anew; the next process loads the rebuilt entry."""
+    first = _cached(tmp_path)
+    assert first.returncode == 0 and first.stdout.split() == ["6.0", "0"], first.stderr
+    files = [p for p in (tmp_path / "numba").rglob("*") if p.suffix in (".nbi", ".nbc")]
+    assert files
+    for path in files:
+        path.write_bytes(path.read_bytes()[: path.stat().st_size // 2])
+    damaged = _cached(tmp_path)
+    assert damaged.returncode == 0 and damaged.stdout.split() == ["6.0", "0"]
+    warnings = damaged.stderr.strip().splitlines()
+    assert len(warnings) == 1 and "could not be loaded (UnpicklingError" in warnings[0]
+    assert ".nbi" in warnings[0] and "rebuilds it" in warnings[0]
+    again = _cached(tmp_path)
+    assert again.returncode == 0 and again.stdout.split() == ["6.0", "1"] and again.stderr == ""
+
+
+def test_garbage_in_a_numba_cache_entry_is_rebuilt(tmp_path):
+    """Another damage: a data file replaced by bytes that are no pickle at all."""
+    assert _cached(tmp_path).returncode == 0
+    for path in (tmp_path / "numba").rglob("*.nbc"):
+        path.write_bytes(b"not a pickle, not numba's")
+    damaged = _cached(tmp_path)
+    assert damaged.returncode == 0 and damaged.stdout.split() == ["6.0", "0"]
+    assert damaged.stderr.count("\n") == 1 and "could not be loaded" in damaged.stderr
+    assert _cached(tmp_path).stdout.split() == ["6.0", "1"]
+
+
+def test_an_unwritable_numba_cache_runs_uncached_with_one_warning(monkeypatch, capsys):
+    """A full cache filesystem failed runs instead of running uncached: a save that fails
+    with ENOSPC (every save, here) gives one warning and the compiled function runs."""
+    import errno
+
+    from numba.core import caching
+
+    from creatio.dynamics import jit
+
+    def full(self, name, data):
+        raise OSError(errno.ENOSPC, "No space left on device", self._data_path(name))
+
+    monkeypatch.setattr(caching.IndexDataCacheFile, "_save_data", full)
+    monkeypatch.setattr(jit, "_WARNED", set())
+
+    @jit.njit(cache=True)
+    def square_plus_one(x):
+        return x * x + 1.0
+
+    @jit.njit(cache=True)
+    def cube(x):
+        return x * x * x
+
+    assert square_plus_one(3.0) == 10.0 and cube(2.0) == 8.0
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "No space left on device): running uncached" in err
+
+
+@pytest.fixture
+def config_cache(tmp_path, monkeypatch):
+    """The config cache in tmp_path/configs, the in-process memo cleared around the test."""
+    from creatio.pipeline import config
+
+    monkeypatch.setenv("CREATIO_CONFIG_CACHE", str(tmp_path / "configs"))
+    config._resolve.cache_clear()
+    yield tmp_path / "configs"
+    config._resolve.cache_clear()
+
+
+def _entry(cache: Path, overrides: tuple[str, ...] = ()) -> Path:
+    from creatio.pipeline import config
+
+    path = config._cache_path(config._cache_spec("en02", overrides))
+    assert path is not None and path.parent == cache
+    return path
+
+
+def test_a_planted_pickle_in_the_config_cache_runs_nothing(config_cache, tmp_path):
+    """The issue's example: the config cache loaded any pickle it found, so a planted file
+    ran code. Entries are JSON checked by an HMAC: a pickle planted under the entry's name
+    (old or new) is never unpickled, it is removed and the config composed anew."""
+    import pickle
+
+    from creatio.pipeline import config
+
+    marker = tmp_path / "ran"
+
+    class Payload:
+        def __reduce__(self):
+            return (Path.touch, (marker,))
+
+    path = _entry(config_cache)
+    path.parent.mkdir(parents=True)
+    for planted in (path, path.with_suffix(".pkl")):
+        planted.write_bytes(pickle.dumps(Payload()))
+    resolved = config.resolve("en02")
+    assert not marker.exists() and resolved.obj.sphere.mu == 0.15
+    assert json.loads(path.read_text())["sha256"] == resolved.sha256  # rebuilt, ours
+
+
+def test_a_swapped_or_forged_config_cache_entry_is_not_used(config_cache):
+    """A swapped entry changed mu; now an entry is used only when its own key, HMAC, YAML
+    and data agree: swapped (another resolution's entry), forged (data edited, HMAC kept)
+    and a key file others may read are each refused, and the true config comes back."""
+    from creatio.pipeline import config
+
+    other = config.resolve("en02", ["sphere.mu=0.3"])
+    config.resolve("en02")
+    default, swapped = _entry(config_cache), _entry(config_cache, ("sphere.mu=0.3",))
+    text = default.read_text()
+    default.write_text(swapped.read_text())  # swapped
+    config._resolve.cache_clear()
+    assert config.resolve("en02").obj.sphere.mu == 0.15 and other.obj.sphere.mu == 0.3
+    entry = json.loads(default.read_text())
+    entry["data"]["sphere"]["mu"] = 0.3  # forged: data edited, HMAC left as it was
+    default.write_text(json.dumps(entry))
+    config._resolve.cache_clear()
+    assert config.resolve("en02").obj.sphere.mu == 0.15
+    assert default.read_text() == text  # the forged entry was replaced by a true one
+    (config_cache / ".key").chmod(0o644)  # a key others can read protects nothing
+    config._resolve.cache_clear()
+    assert config._cache_key(create=False) is None
+    assert config.resolve("en02").obj.sphere.mu == 0.15
+
+
+def test_a_cached_config_is_the_validated_one_for_every_study(config_cache):
+    """What a verified entry is rebuilt into (without OmegaConf) equals what validation
+    made, for every study and analysis, and loads in milliseconds."""
+    from creatio.pipeline import config
+    from creatio.studies import registry
+
+    for study in registry.STUDIES:
+        fresh = config.resolve(study)
+        config._resolve.cache_clear()
+        cached = config.resolve(study)
+        assert cached is not fresh and cached.obj == fresh.obj and cached.yaml == fresh.yaml

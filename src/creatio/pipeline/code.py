@@ -18,8 +18,9 @@ __all__ = ["CODE", "code_version"]
 # carries their hash as a parameter, so new code reruns what it would compute differently.
 CODE = {
     "datasets": ("model", "dynamics", "studies", "pipeline/run.py", "pipeline/io.py",
-                 "pipeline/cf.py", "pipeline/sweep.py", "pipeline/points.py"),
-    "reports": ("reports", "pipeline/run.py", "pipeline/io.py"),
+                 "pipeline/cf.py", "pipeline/sweep.py", "pipeline/points.py",
+                 "pipeline/checks.py"),
+    "reports": ("reports", "pipeline/run.py", "pipeline/io.py", "pipeline/checks.py"),
     "scenes": ("scenes", "pipeline/io.py"),
 }
 
