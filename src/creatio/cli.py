@@ -14,6 +14,7 @@
 from __future__ import annotations
 
 import argparse
+import contextlib
 import logging
 import os
 import sys
@@ -110,7 +111,7 @@ def _run_task(cfg) -> None:
         if os.environ.get("CREATIO_DEBUG"):
             raise
         message, code = describe(e)
-        if HydraConfig.get().mode == RunMode.MULTIRUN:  # one failed point: record, go on
+        if HydraConfig.get().mode == RunMode.MULTIRUN and code != 130:  # record, go on
             log.warning("creatio run: point failed: %s", message)
             return
         print(f"creatio run: {message}", file=sys.stderr)
@@ -417,12 +418,49 @@ def _dispatch(argv: list[str]) -> int:
     return 2
 
 
+class _StderrOrStdout:
+    """stderr that falls back to stdout when it cannot be written: a Snakemake job's stderr
+    is its log file, and on a full disk the log stayed empty and the failure unsaid (stdout
+    goes to Snakemake's own output)."""
+
+    def __init__(self, primary, fallback) -> None:  # type: ignore[no-untyped-def]
+        self.primary, self.fallback, self.failed = primary, fallback, False
+
+    def write(self, text: str) -> int:
+        if not self.failed:
+            try:
+                n = self.primary.write(text)
+                self.primary.flush()
+                return n
+            except OSError:
+                self.failed = True
+        n = self.fallback.write(text)
+        self.fallback.flush()
+        return n
+
+    def flush(self) -> None:
+        with contextlib.suppress(OSError):
+            (self.fallback if self.failed else self.primary).flush()
+
+    def __getattr__(self, name: str):  # type: ignore[no-untyped-def]
+        return getattr(self.primary, name)
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the `creatio` console script: every failure is one line naming what
     and why, with a non-zero status; CREATIO_DEBUG=1 shows the traceback instead."""
+    saved = sys.stderr
+    if saved is not None and sys.stdout is not None and not isinstance(saved, _StderrOrStdout):
+        sys.stderr = _StderrOrStdout(saved, sys.stdout)
+    try:
+        return _main(list(sys.argv[1:] if argv is None else argv))
+    finally:
+        sys.stderr = saved
+
+
+def _main(argv: list[str]) -> int:
     import os
 
-    argv = list(sys.argv[1:] if argv is None else argv)
     if os.environ.get("CREATIO_DEBUG"):
         return _dispatch(argv)
     try:
@@ -431,8 +469,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return 141
     except KeyboardInterrupt:
-        print("creatio: interrupted (nothing half-written is kept; rerun to finish)",
-              file=sys.stderr)
+        print(f"creatio: {INTERRUPTED}", file=sys.stderr)
         return 130
     except Exception as e:  # noqa: BLE001 - one line, and how to see more
         message, code = describe(e)
@@ -440,11 +477,18 @@ def main(argv: Sequence[str] | None = None) -> int:
         return code
 
 
+INTERRUPTED = "interrupted (nothing half-written is kept; rerun to finish)"
+
+
 def describe(e: Exception) -> tuple[str, int]:
     """A failure as (one line naming what and why, exit status): 2 for a refused config, 1
     for anything else; the traceback is for CREATIO_DEBUG=1."""
     if isinstance(e, ConfigError):
         return str(e), 2
+    from creatio.errors import interrupted
+
+    if interrupted(e):  # Ctrl-C inside compiled code arrives as a SystemError
+        return INTERRUPTED, 130
     from creatio.pipeline.checks import ChecksFailed
 
     if isinstance(e, ChecksFailed):

@@ -9,7 +9,7 @@ import sys
 from collections.abc import Callable
 from typing import Any
 
-__all__ = ["ConfigError", "ReleaseError", "one_line_errors"]
+__all__ = ["ConfigError", "ReleaseError", "interrupted", "one_line_errors"]
 
 
 class ConfigError(ValueError):
@@ -39,3 +39,18 @@ def one_line_errors(fn: Callable[..., Any]) -> Callable[..., Any]:
             os._exit(2)
 
     return wrapper
+
+
+def interrupted(error: BaseException) -> bool:
+    """Whether an error is a Ctrl-C in disguise: a KeyboardInterrupt, or what a compiled
+    (numba) call raises when the interrupt arrives inside it, a SystemError "returned a
+    result with an exception set" chained to the KeyboardInterrupt."""
+    seen: set[int] = set()
+    e: BaseException | None = error
+    while e is not None and id(e) not in seen:
+        seen.add(id(e))
+        if isinstance(e, KeyboardInterrupt) or (
+                isinstance(e, SystemError) and "with an exception set" in str(e)):
+            return True
+        e = e.__cause__ or e.__context__
+    return False

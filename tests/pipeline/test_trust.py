@@ -6,6 +6,7 @@ from __future__ import annotations
 import base64
 import json
 import os
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -850,3 +851,90 @@ def test_a_cached_config_is_the_validated_one_for_every_study(config_cache):
         config._resolve.cache_clear()
         cached = config.resolve(study)
         assert cached is not fresh and cached.obj == fresh.obj and cached.yaml == fresh.yaml
+
+
+# ------------------------------------------------------------------ class 11: small ones
+def test_ctrl_c_inside_the_compiled_loop_exits_130_in_one_line(tmp_path):
+    """The issue's example: Ctrl-C during a run printed "SystemError: CPUDispatcher(...)
+    returned a result with an exception set", exit 1. It is an interrupt: one line, 130,
+    and no dataset (none half-written)."""
+    import signal
+    import time
+
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "creatio.cli", "run", "study=en02", "solver.dt=0.0001"],
+        cwd=tmp_path, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+        env={**os.environ, "CREATIO_DEBUG": ""})
+    lines = []
+    for line in proc.stdout:  # (Hydra logs to stdout) the first run written: the second,
+        lines.append(line)  # at dt / 2, is in its compiled loop for about 4 s
+        if "wrote" in line:
+            break
+    time.sleep(1.0)
+    proc.send_signal(signal.SIGINT)
+    out, err = proc.communicate(timeout=120)
+    assert proc.returncode == 130, "".join(lines) + out + err
+    assert err == "creatio run: interrupted (nothing half-written is kept; rerun to finish)\n"
+    assert len(list(tmp_path.glob("data/runs/*/studies/en02/*.nc"))) == 1
+    assert not [p for p in tmp_path.rglob("*") if ".tmp" in p.name]
+
+
+def test_an_interrupt_in_disguise_is_an_interrupt(tmp_path, monkeypatch):
+    """What numba raises for Ctrl-C inside a compiled call (a SystemError chained to the
+    KeyboardInterrupt) is described as an interrupt (130), and stops a sweep batch instead
+    of becoming a failed point."""
+    from creatio import cli
+    from creatio.pipeline import sweep
+
+    def disguised(*args):
+        try:
+            raise KeyboardInterrupt
+        except KeyboardInterrupt as e:
+            raise SystemError("CPUDispatcher(<function run>) returned a result with an "
+                              "exception set") from e
+
+    try:
+        disguised()
+    except SystemError as e:
+        assert cli.describe(e) == (cli.INTERRUPTED, 130)
+    assert cli.describe(SystemError("something else"))[1] == 1
+    monkeypatch.setattr(sweep, "_run_point", disguised)
+    plan = sweep.plan_sweep("en02", ["sphere.mu=0.1,0.2"], [], str(tmp_path / "data"))
+    with pytest.raises(KeyboardInterrupt):
+        sweep.run_batch(plan, 0)
+    assert not (tmp_path / "data").exists()
+
+
+def test_a_failure_whose_log_cannot_be_written_is_said_on_stdout(tmp_path):
+    """A job's stderr is its log; on a full disk the log stayed empty and the failure was
+    said nowhere. The one line goes to stdout instead (Snakemake's own output)."""
+    with open("/dev/full", "w") as full:
+        proc = subprocess.run([sys.executable, "-m", "creatio.cli", "run", "study=en02",
+                               "sphere.mu=nan"], stdout=subprocess.PIPE, stderr=full,
+                              text=True, cwd=tmp_path)
+    assert proc.returncode == 2
+    assert proc.stdout == "creatio run: invalid config: sphere.mu=nan: must be a finite number\n"
+
+
+def test_beyond_builds_only_the_selected_studies(tmp_path):
+    """`snakemake beyond --config 'studies=["en02f"]'` built all four; it plans en02f
+    alone, and a selection naming none of them is refused in one line."""
+    proc = snakemake(tmp_path, "beyond", "-n", "--config", 'studies=["en02f"]')
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    planned = set(re.findall(r"data/studies/(\w+)/", proc.stdout + proc.stderr))
+    assert planned == {"en02f"}
+    proc = snakemake(tmp_path, "beyond", "-n", "--config", 'studies=["ct02"]')
+    one_line(proc, 2, "studies=['ct02']: names no study of `snakemake beyond`")
+
+
+@pytest.mark.parametrize(("args", "words"), [
+    (["run", "study=en02", "study.id=en02r"], "study.id='en02r': names the config"),  # issue's
+    (["run", "study=en02", "+study.id=en02r"], "study.id='en02r': names the config"),
+    (["run", "-m", "study=en02", "study.id=en02,en02r"], "study.id='en02,en02r': names"),
+])
+def test_a_study_cannot_be_relabelled(tmp_path, args, words):
+    """`creatio run study=en02 study.id=en02r` labelled EN-02's outputs as EN-02R: the id
+    names the config and is refused as an override (and as a sweep axis), exit 2."""
+    proc = creatio(*args, cwd=tmp_path)
+    one_line(proc, 2, words)
+    assert not (tmp_path / "data").exists()

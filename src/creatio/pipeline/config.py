@@ -39,6 +39,7 @@ __all__ = [
     "compose",
     "output_root",
     "plain",
+    "refuse_identity",
     "refuse_interpolations",
     "refuse_resolvers",
     "resolve",
@@ -173,6 +174,17 @@ def refuse_interpolations(overrides: Sequence[str]) -> None:
             raise ConfigError(key.lstrip("+~"), value, NO_INTERPOLATION)
 
 
+def refuse_identity(overrides: Sequence[str], key: str = "study.id",
+                    pick: str = "study=ID") -> None:
+    """Refuse an override of a config's own id (``study.id=en02r`` labelled an EN-02 run as
+    EN-02R: its outputs, provenance and report): the id is chosen with the group."""
+    for ov in overrides:
+        name, _, value = str(ov).partition("=")
+        if name.lstrip("+~").split("@", 1)[0] == key:
+            raise ConfigError(key, value, f"names the config and cannot be overridden: pick "
+                              f"another with {pick}")
+
+
 def refuse_resolvers(tree: Any, prefix: str = "") -> None:
     """Refuse a resolver call (``${name:...}``) anywhere in a config tree before it is
     resolved: conf/ uses plain references only (``${..phases.T}``), so a resolver came from
@@ -245,6 +257,7 @@ def _resolve(study: str, overrides: tuple[str, ...], only_applicable: bool) -> R
     if study not in registry.STUDIES:
         raise ConfigError("study", study, f"must be one of {', '.join(registry.STUDIES)}")
     refuse_interpolations(overrides)
+    refuse_identity(overrides, "study.id", f"{registry.get(study).group}=ID")
     ovs = tuple(applicable(study, overrides) if only_applicable else overrides)
     spec = _cache_spec(study, ovs)
     path = _cache_path(spec)
@@ -257,6 +270,8 @@ def _resolve(study: str, overrides: tuple[str, ...], only_applicable: bool) -> R
     except Exception as e:  # Hydra refused an override: unknown key, bad type, bad syntax
         raise override_error(study, list(ovs), e) from None
     resolved = validate(cfg)
+    if resolved.study != study:  # conf/<group>/<study>.yaml names another study
+        raise ConfigError("study.id", resolved.study, f"must be {study} (the config chosen)")
     if path is not None:
         _store(path, spec, resolved)
     return resolved

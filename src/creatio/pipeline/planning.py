@@ -32,6 +32,8 @@ __all__ = [
     "write_config_file",
     "one_line_errors",
     "analysis_ids",
+    "beyond_studies",
+    "beyond_targets",
     "StudyPlan",
     "StudyRuns",
     "SweepRegistry",
@@ -168,6 +170,24 @@ def published_groups(study: str) -> str:
 def default_studies() -> list[str]:
     """The studies `snakemake all` builds (the registry's, analyses aside)."""
     return [s.id for s in registry.select(in_all=True)]
+
+
+def beyond_studies(selected: Any = None) -> list[str]:
+    """The studies `snakemake beyond` builds (the sphere studies outside `all`), or those of
+    them --config studies=[...] selects (the others it names are `all`'s business); an
+    empty selection builds none."""
+    ids = [s.id for s in registry.select(kind="sphere", in_all=False)]
+    return ids if selected is None else [s for s in ids if s in as_list(selected)]
+
+
+@one_line_errors
+def beyond_targets(runs: StudyRuns, selected: Any = None) -> list[str]:
+    """The files of `snakemake beyond`: its studies' targets; a --config studies=[...] that
+    names none of them is refused (it would build nothing, silently)."""
+    if not runs.studies:
+        raise ConfigError("studies", as_list(selected), "names no study of `snakemake beyond` "
+                          f"({', '.join(beyond_studies())})")
+    return runs.targets()
 
 
 def analysis_ids() -> list[str]:

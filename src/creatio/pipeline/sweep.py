@@ -188,9 +188,10 @@ def parse_axes(sweep: Sequence[str], max_points: int = MAX_POINTS
 
     from hydra.core.override_parser.overrides_parser import OverridesParser
 
-    from creatio.pipeline.config import refuse_interpolations
+    from creatio.pipeline.config import refuse_identity, refuse_interpolations
 
     refuse_interpolations([str(t) for t in sweep])
+    refuse_identity([str(t) for t in sweep], "study.id", "--config study=ID")
     parser = OverridesParser.create()
     parsed = []
     for text in sweep:
@@ -486,6 +487,10 @@ def run_batch(plan: SweepPlan, k: int, out: str | Path | None = None,
                     row = {"status": "ok", "message": "", **plan.row(entry, obj),
                            "point_key": key}
                 except Exception as e:  # noqa: BLE001 - one point's failure is its row
+                    from creatio.errors import interrupted
+
+                    if interrupted(e):  # Ctrl-C inside the compiled loop: stop the batch
+                        raise KeyboardInterrupt from e
                     row = {"status": "failed", "message": _failure(e), "point_key": ""}
                     say(f"sweep {plan.name}: point {index} {list(plan.overrides(index))} "
                         f"failed: {row['message']}")

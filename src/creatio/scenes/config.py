@@ -27,7 +27,13 @@ from omegaconf import DictConfig, OmegaConf
 from omegaconf.errors import OmegaConfBaseException
 
 from creatio.errors import ConfigError
-from creatio.pipeline.config import CONF_DIR, Resolved, refuse_interpolations, refuse_resolvers
+from creatio.pipeline.config import (
+    CONF_DIR,
+    Resolved,
+    refuse_identity,
+    refuse_interpolations,
+    refuse_resolvers,
+)
 from creatio.pipeline.config import validate as validate_study
 from creatio.scenes import registry
 
@@ -173,6 +179,7 @@ def resolve(scene: str, overrides: Sequence[str] = ()) -> SceneResolved:
 @functools.lru_cache(maxsize=256)
 def _resolve(scene: str, overrides: tuple[str, ...]) -> SceneResolved:
     refuse_interpolations(overrides)
+    refuse_identity(overrides, "scene.id", "--config 'scenes=[ID]'")
     try:
         cfg = compose(scene, overrides)
     except KeyError:
