@@ -153,7 +153,7 @@ def _coerce(key: str, value: Any, current: Any) -> Any:
                 return [_coerce(f"{key}[{i}]", x, current[0]) for i, x in enumerate(value)]
             return list(value)
         return value
-    except (TypeError, ValueError) as e:
+    except (TypeError, ValueError, OverflowError) as e:  # int(inf): OverflowError
         raise ConfigError(key, value, f"has the wrong type ({e})") from None
 
 
