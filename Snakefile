@@ -29,11 +29,14 @@ from creatio.pipeline.planning import (
     analysis_ids,
     check_workflow_config,
     code_version,
+    pass_config_safely,
     wildcard_pattern,
 )
 from creatio.studies.registry import KINDS
 
 min_version("9.0")
+# No --config text reaches a shell: re-invoked jobs get it base64-encoded (and decode it here).
+pass_config_safely(workflow.config_settings, config)
 check_workflow_config(config, workflow.source_path("workflow/schemas/config.schema.yaml"))
 
 # The interpreter relative to the working directory when it lives there (.venv/bin/python):

@@ -14,6 +14,7 @@
 from __future__ import annotations
 
 import argparse
+import contextlib
 import logging
 import os
 import sys
@@ -110,7 +111,7 @@ def _run_task(cfg) -> None:
         if os.environ.get("CREATIO_DEBUG"):
             raise
         message, code = describe(e)
-        if HydraConfig.get().mode == RunMode.MULTIRUN:  # one failed point: record, go on
+        if HydraConfig.get().mode == RunMode.MULTIRUN and code != 130:  # record, go on
             log.warning("creatio run: point failed: %s", message)
             return
         print(f"creatio run: {message}", file=sys.stderr)
@@ -178,7 +179,13 @@ def _selected(overrides: Sequence[str]) -> tuple[str, list[str]]:
 
 def _prevalidate(args: Sequence[str], config_name: str) -> None:
     """Refuse bad overrides with creatio's own message before Hydra starts."""
-    from creatio.pipeline.config import compose, override_error, resolve, validate
+    from creatio.pipeline.config import (
+        compose,
+        override_error,
+        refuse_interpolations,
+        resolve,
+        validate,
+    )
     from creatio.studies.schema import ProbeConfig
 
     if any(a.startswith("-") for a in args):  # --help, --cfg, -m: Hydra's business
@@ -194,6 +201,7 @@ def _prevalidate(args: Sequence[str], config_name: str) -> None:
                     else "an override is KEY=VALUE, e.g. sphere.mu=0.3")
             raise ConfigError(bare[0], "", hint)
         if config_name == "probe":
+            refuse_interpolations(overrides)
             try:
                 cfg = compose("", overrides, config_name="probe")
             except Exception as e:  # noqa: BLE001 - Hydra override refusal: name the key
@@ -252,6 +260,8 @@ def _task(argv: Sequence[str]) -> int:
         parser.add_argument("--override", action="append", default=[], metavar="KEY=VALUE")
         parser.add_argument("--batch-size", type=int, default=None,
                             help="points per batch (default: about 8 batches, at most 250)")
+        parser.add_argument("--max-points", type=int, default=None,
+                            help="the sweep's size limit (default 200000)")
     b.add_argument("--batch", type=int, required=True, help="the batch's number (from 0)")
     b.add_argument("--out", type=Path, default=None, help="the batch file (default: its path)")
     c = sub.add_parser("compare", help="EN-02 vs EN-02R comparison from both datasets")
@@ -270,10 +280,11 @@ def _task(argv: Sequence[str]) -> int:
                     raise ConfigError("--part", args.part, str(e.args[0])) from None
             compute_dataset(resolved, args.out, args.part)
         elif args.step in ("sweep", "sweep-batch"):
-            from creatio.pipeline.sweep import plan_sweep, run_batch, write_sweep
+            from creatio.pipeline.sweep import MAX_POINTS, plan_sweep, run_batch, write_sweep
 
             plan = plan_sweep(args.study, args.sweep, args.override,
-                              batch_size=args.batch_size)
+                              batch_size=args.batch_size,
+                              max_points=args.max_points or MAX_POINTS)
             if args.step == "sweep":
                 paths = write_sweep(plan)
                 log.info("sweep: %s", ", ".join(str(p) for p in paths.values()))
@@ -407,12 +418,49 @@ def _dispatch(argv: list[str]) -> int:
     return 2
 
 
+class _StderrOrStdout:
+    """stderr that falls back to stdout when it cannot be written: a Snakemake job's stderr
+    is its log file, and on a full disk the log stayed empty and the failure unsaid (stdout
+    goes to Snakemake's own output)."""
+
+    def __init__(self, primary, fallback) -> None:  # type: ignore[no-untyped-def]
+        self.primary, self.fallback, self.failed = primary, fallback, False
+
+    def write(self, text: str) -> int:
+        if not self.failed:
+            try:
+                n = self.primary.write(text)
+                self.primary.flush()
+                return n
+            except OSError:
+                self.failed = True
+        n = self.fallback.write(text)
+        self.fallback.flush()
+        return n
+
+    def flush(self) -> None:
+        with contextlib.suppress(OSError):
+            (self.fallback if self.failed else self.primary).flush()
+
+    def __getattr__(self, name: str):  # type: ignore[no-untyped-def]
+        return getattr(self.primary, name)
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the `creatio` console script: every failure is one line naming what
     and why, with a non-zero status; CREATIO_DEBUG=1 shows the traceback instead."""
+    saved = sys.stderr
+    if saved is not None and sys.stdout is not None and not isinstance(saved, _StderrOrStdout):
+        sys.stderr = _StderrOrStdout(saved, sys.stdout)
+    try:
+        return _main(list(sys.argv[1:] if argv is None else argv))
+    finally:
+        sys.stderr = saved
+
+
+def _main(argv: list[str]) -> int:
     import os
 
-    argv = list(sys.argv[1:] if argv is None else argv)
     if os.environ.get("CREATIO_DEBUG"):
         return _dispatch(argv)
     try:
@@ -421,8 +469,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return 141
     except KeyboardInterrupt:
-        print("creatio: interrupted (nothing half-written is kept; rerun to finish)",
-              file=sys.stderr)
+        print(f"creatio: {INTERRUPTED}", file=sys.stderr)
         return 130
     except Exception as e:  # noqa: BLE001 - one line, and how to see more
         message, code = describe(e)
@@ -430,11 +477,22 @@ def main(argv: Sequence[str] | None = None) -> int:
         return code
 
 
+INTERRUPTED = "interrupted (nothing half-written is kept; rerun to finish)"
+
+
 def describe(e: Exception) -> tuple[str, int]:
     """A failure as (one line naming what and why, exit status): 2 for a refused config, 1
     for anything else; the traceback is for CREATIO_DEBUG=1."""
     if isinstance(e, ConfigError):
         return str(e), 2
+    from creatio.errors import interrupted
+
+    if interrupted(e):  # Ctrl-C inside compiled code arrives as a SystemError
+        return INTERRUPTED, 130
+    from creatio.pipeline.checks import ChecksFailed
+
+    if isinstance(e, ChecksFailed):
+        return str(e), 1
     if isinstance(e, OSError):
         return _os_error(e), 1
     if isinstance(e, ArithmeticError):  # a value the validation let through still overflowed

@@ -223,11 +223,14 @@ def test_diff_release_against_data_leaves_out_the_omitted_partner(data_dir, layo
     assert diff_main(["0.1.0", "0.1.0"]) == 0
 
 
-def test_diff_warns_when_a_release_file_no_longer_matches(data_dir, layout):
-    """A release file edited after the fact is flagged in the diff's warnings."""
+def test_diff_refuses_a_release_file_that_no_longer_matches(data_dir, layout):
+    """A release file edited after the fact is not compared (it was a warning, exit 0 or a
+    difference): the release is refused as damaged, naming the file."""
+    from creatio.diff.core import DamagedRelease
+
     dest, _, _ = make_release("0.1.0", data_dir, layout=layout)
     target = dest / "reports" / "ct02.json"
     target.chmod(0o644)
     target.write_text(json.dumps({"study": "ct02", "figure": 2.0}))
-    result = diff(str(dest), str(data_dir))
-    assert any("ct02.json does not match" in w for w in result["warnings"])
+    with pytest.raises(DamagedRelease, match=r"reports/ct02\.json: sha256 .* != manifest"):
+        diff(str(dest), str(data_dir))

@@ -188,3 +188,20 @@ def test_sweep_through_slurm_equals_local(slurm_cluster, tmp_path):
     for local, slurm in runs.pairs("data/sweeps/*/sweep.nc"):
         with xr.open_dataset(local) as a, xr.open_dataset(slurm) as b:
             xr.testing.assert_equal(a, b)  # not _identical: history, date_created differ
+
+
+def test_override_text_never_reaches_a_shell_through_slurm(slurm_cluster, tmp_path):
+    """Every SLURM job re-invokes Snakemake through three shells (sbatch --wrap on the
+    submitting host, the batch script, srun on the node) with the invocation's --config:
+    `$(...)`, backticks and `;` in an override stay text in the title of both runs."""
+    import xarray as xr
+
+    title = "$(touch injected) `touch pwned`; touch pwned2 'quoted' \"twice\""
+    entry = "overrides=['study.title=''" + title.replace("'", "\\''") + "''']"
+    runs = run_both(tmp_path, "all", "--config", entry, 'studies=["ct02"]')
+    assert "study_dataset" in runs.slurm_jobs.values()
+    planted = [p for p in tmp_path.rglob("*") if p.name in ("injected", "pwned", "pwned2")]
+    assert planted == [] and not any((ROOT / f).exists() for f in ("injected", "pwned"))
+    for local, slurm in runs.pairs("data/runs/*/studies/ct02/ct02.nc"):
+        with xr.open_dataset(local) as a, xr.open_dataset(slurm) as b:
+            assert a.attrs["title"] == b.attrs["title"] == title

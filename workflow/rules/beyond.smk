@@ -4,14 +4,15 @@
 #
 #   snakemake beyond -c 2                                          data/reports/en02g.* ...
 #   snakemake beyond -c 2 --config 'overrides=["sphere.mu=0.3"]'   -> data/runs/<hash>/
+#   snakemake beyond -c 2 --config 'studies=["en02f"]'             one of them
 #
 # Their dataset and report jobs are the sphere studies' rules (study_dataset, sphere_report);
 # this file adds the target, planned from the study registry (the studies with in_all=False
 # of the sphere kind), and lets a job re-invoked alone find its configuration.
-from creatio.studies.registry import select as select_studies
+from creatio.pipeline.planning import beyond_studies, beyond_targets
 
-BEYOND = StudyRuns(JOBS, config.get("overrides"),
-                   [s.id for s in select_studies(kind="sphere", in_all=False)])
+# --config studies=[...] selects among them too (snakemake beyond --config 'studies=["en02f"]')
+BEYOND = StudyRuns(JOBS, config.get("overrides"), beyond_studies(config.get("studies")))
 # planned last: a job re-invoked alone that no other planner knows is one of these
 JOBS.fallbacks.append(lambda: BEYOND.plans)
 
@@ -22,4 +23,4 @@ localrules:
 
 rule beyond:
     input:
-        lambda wc: BEYOND.targets(),
+        lambda wc: beyond_targets(BEYOND, config.get("studies")),

@@ -7,7 +7,7 @@ resolved configs key by key; provenance; and the JSON report figures, metrics-di
 
 A value differs when |a - b| > atol + rtol * |b| (b from B, as numpy.isclose; NaN vs NaN is
 equal, NaN vs a number is not). Exit status as nccmp: 0 nothing beyond tolerance, 1
-differences, 2 error.
+differences (or a damaged release), 2 error.
 """
 
 from __future__ import annotations
@@ -33,9 +33,11 @@ from creatio.pipeline.release import (
     is_version,
     read_manifest,
     sha256_file,
+    verify_release,
 )
 
-__all__ = ["DiffError", "Tolerance", "compare_arrays", "diff", "main", "render_text"]
+__all__ = ["DamagedRelease", "DiffError", "Tolerance", "compare_arrays", "diff", "main",
+           "render_text"]
 
 FORMAT = "creatio-diff/1"
 CATEGORIES = ("structure", "data", "config", "attrs", "reports", "provenance", "added")
@@ -47,6 +49,11 @@ ROWS = 6  # rows per section in the text report (all with --verbose)
 
 class DiffError(Exception):
     """The comparison cannot be made (unreadable file, missing release, bad argument)."""
+
+
+class DamagedRelease(DiffError):
+    """A release side does not match its manifest (a file missing, changed or unlisted):
+    nothing is compared against it, and the exit status is 1, as `creatio release verify`'s."""
 
 
 # ------------------------------------------------------------------------------ tolerance
@@ -589,7 +596,7 @@ def diff(
         pairs = {r: (fa[r], fb[r]) for r in sorted(set(fa) & set(fb))}
         for side in (sa, sb):
             if side.manifest:
-                warnings += _check_release(side)
+                _check_release(side)
     datasets: dict[str, Any] = {}
     reports: dict[str, Any] = {}
     identical: list[str] = []
@@ -632,17 +639,16 @@ def diff(
     })
 
 
-def _check_release(side: Side) -> list[str]:
-    """Warnings for release files that no longer match their manifest checksum."""
-    out = []
-    for entry in side.manifest.get("files", []) if side.manifest else []:
-        path = side.path / entry["path"]
-        if not path.is_file():
-            out.append(f"{side.label}: {entry['path']} listed in {MANIFEST} but missing")
-        elif sha256_file(path) != entry["sha256"]:
-            out.append(f"{side.label}: {entry['path']} does not match its {MANIFEST} sha256 "
-                       "(run `creatio release verify`)")
-    return out
+def _check_release(side: Side) -> None:
+    """Refuse a release whose files no longer match its manifest (a file missing, changed
+    or not listed): a comparison with it would pass off damage as a difference, or a
+    missing file as nothing to compare (which exited 0)."""
+    problems = verify_release(side.path)
+    if problems:
+        more = f" (and {len(problems) - 2} more)" if len(problems) > 2 else ""
+        raise DamagedRelease(f"{side.label} does not match its {MANIFEST}: "
+                             f"{'; '.join(problems[:2])}{more}: restore it from git "
+                             "(`creatio release verify` lists every problem)")
 
 
 def _aggregate_provenance(datasets: dict[str, Any]) -> list[dict[str, Any]]:
@@ -866,8 +872,10 @@ git_commit, git_dirty, source, version_*; counted with --strict-provenance) and 
 within tolerance. Volatile attributes (history, date_created) are ignored unless
 --all-attrs, which compares and counts them. Byte-identical files are skipped.
 
-exit status: 0 no difference beyond tolerance, 1 differences, 2 error (unreadable file,
-missing release, bad argument). --exit-zero turns 1 into 0 (for writing reports).
+exit status: 0 no difference beyond tolerance, 1 differences, or a release side that does
+not match its MANIFEST.json (a file missing, changed or unlisted: nothing is compared), 2
+error (unreadable file, missing release, bad argument). --exit-zero turns differences' 1
+into 0 (for writing reports), never a damaged release's.
 """
 
 
@@ -936,6 +944,9 @@ def main(argv: Sequence[str] | None = None) -> int:
             if path is not None:
                 with atomic_write(path) as fh:
                     fh.write(content)
+    except DamagedRelease as e:
+        print(f"creatio diff: {e}", file=sys.stderr)
+        return 1
     except DiffError as e:
         print(f"creatio diff: {e}", file=sys.stderr)
         return 2

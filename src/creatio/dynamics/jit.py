@@ -6,6 +6,11 @@ stale cache. Every compiled loop here is therefore cached under a directory name
 of the model and dynamics sources: new code, new cache. ``CREATIO_NUMBA_CACHE`` (or numba's
 own ``NUMBA_CACHE_DIR``) moves its root; the default is ``$XDG_CACHE_HOME/creatio/numba``.
 
+The cache is verified as it is used (:func:`_guard_cache`): a cache file that cannot be
+loaded (truncated, garbled) is removed with one warning naming it and the function is
+compiled anew, which rebuilds the entry; a cache that cannot be written (a full or read-only
+filesystem) leaves the run uncached, with one warning.
+
 Importing this module also lets compiled code call the scalar formulas of creatio.model
 (their SCALAR_KERNELS) as they are: numba compiles them where they are called.
 """
@@ -53,7 +58,68 @@ def _configure() -> None:
             config.reload_config()
 
 
+_WARNED: set[str] = set()
+
+
+def _warn_once(kind: str, message: str) -> None:
+    """One line on stderr per kind of cache trouble and process (the run goes on)."""
+    import sys
+
+    if kind not in _WARNED:
+        _WARNED.add(kind)
+        sys.stderr.write(f"creatio: warning: {message}\n")
+
+
+def _guard_cache() -> None:
+    """Make numba's on-disk cache repair itself and never fail a run.
+
+    numba loads a cache entry by unpickling its index (.nbi) and data (.nbc) files and lets
+    any error through: a truncated file failed every sphere run (UnpicklingError, naming no
+    file) and stayed damaged. Here a load that fails for any reason but a missing file
+    removes that function's index and data files and compiles anew (numba then writes a
+    fresh entry); a save that fails with an OSError (no space, read-only, no permission)
+    leaves the compiled function in memory, uncached."""
+    import glob
+    import os as _os
+
+    from numba.core import caching
+
+    if getattr(caching.Cache, "_creatio_guarded", False):
+        return
+    load, save = caching.Cache.load_overload, caching.Cache.save_overload
+
+    def load_overload(self, sig, target_context):  # type: ignore[no-untyped-def]
+        try:
+            return load(self, sig, target_context)
+        except Exception as e:  # noqa: BLE001 - any unreadable entry is rebuilt
+            index = self._cache_file._index_path
+            damaged = [index, *glob.glob(glob.escape(index[:-len(".nbi")]) + ".*.nbc")]
+            for path in damaged:
+                try:
+                    _os.unlink(path)
+                except OSError:
+                    pass
+            _warn_once("damaged", f"numba cache entry {index} could not be loaded "
+                       f"({type(e).__name__}: {str(e).splitlines()[0] if str(e) else ''}): "
+                       "removed; compiling anew, which rebuilds it")
+            return None
+
+    def save_overload(self, sig, data):  # type: ignore[no-untyped-def]
+        try:
+            save(self, sig, data)
+        except OSError as e:
+            where = e.filename or self._cache_path
+            _warn_once("unwritable", f"numba cache {where} cannot be written "
+                       f"({e.strerror or e}): running uncached (compiled code is not kept "
+                       "for the next run)")
+
+    caching.Cache.load_overload = load_overload
+    caching.Cache.save_overload = save_overload
+    caching.Cache._creatio_guarded = True
+
+
 _configure()
+_guard_cache()
 
 from numba import njit  # noqa: E402
 from numba.extending import register_jitable  # noqa: E402

@@ -10,11 +10,11 @@ sha256 identify a config: outputs are placed by it and jobs rerun when it change
 
 from __future__ import annotations
 
+import contextlib
 import functools
 import hashlib
-import math
+import json
 import os
-import pickle
 from collections.abc import Sequence
 from dataclasses import MISSING, dataclass, fields, is_dataclass
 from enum import Enum
@@ -26,17 +26,22 @@ from omegaconf.errors import OmegaConfBaseException
 
 from creatio.errors import ConfigError
 from creatio.studies import registry
-from creatio.studies.schema import ProbeConfig
+from creatio.studies.schema import HUGE, TINY, ProbeConfig, check_finite
 
 __all__ = [
     "CONF_DIR",
+    "HUGE",
+    "TINY",
     "ConfigError",
+    "check_finite",
     "Resolved",
     "applicable",
     "compose",
-    "dataset_path",
     "output_root",
     "plain",
+    "refuse_identity",
+    "refuse_interpolations",
+    "refuse_resolvers",
     "resolve",
     "validate",
 ]
@@ -125,7 +130,9 @@ def validate(cfg: DictConfig | dict, schema: type | None = None, check: bool = T
     """
     if not isinstance(cfg, dict):  # drop the composed types: every key meets the schema anew,
         cfg = OmegaConf.to_container(cfg, resolve=False)  # a `+key=` addition included
-    cfg = OmegaConf.create({k: v for k, v in cfg.items() if k != "hydra"})
+    cfg = {k: v for k, v in cfg.items() if k != "hydra"}
+    refuse_resolvers(cfg)
+    cfg = OmegaConf.create(cfg)
     study = str(OmegaConf.select(cfg, "study.id", default="probe"))
     if schema is None:
         if study not in registry.STUDIES:
@@ -149,6 +156,48 @@ def validate(cfg: DictConfig | dict, schema: type | None = None, check: bool = T
         obj.check()
     text = OmegaConf.to_yaml(OmegaConf.create(data), sort_keys=True)
     return Resolved(study, obj, data, text, hashlib.sha256(text.encode()).hexdigest())
+
+
+#: Why no user text may hold an interpolation: OmegaConf resolves it where the config is
+#: resolved, from outside the value (a resolver such as oc.env reads the environment).
+NO_INTERPOLATION = ("interpolations (${...}) are not accepted in overrides: they are resolved "
+                    "from outside the value (${oc.env:...} reads the environment); write the "
+                    "value itself")
+
+
+def refuse_interpolations(overrides: Sequence[str]) -> None:
+    """Refuse any override whose text holds ``${`` (an interpolation, escaped or not, which a
+    later OmegaConf pass would resolve), naming its key: user overrides carry values only."""
+    for ov in overrides:
+        if "${" in str(ov):
+            key, _, value = str(ov).partition("=")
+            raise ConfigError(key.lstrip("+~"), value, NO_INTERPOLATION)
+
+
+def refuse_identity(overrides: Sequence[str], key: str = "study.id",
+                    pick: str = "study=ID") -> None:
+    """Refuse an override of a config's own id (``study.id=en02r`` labelled an EN-02 run as
+    EN-02R: its outputs, provenance and report): the id is chosen with the group."""
+    for ov in overrides:
+        name, _, value = str(ov).partition("=")
+        if name.lstrip("+~").split("@", 1)[0] == key:
+            raise ConfigError(key, value, f"names the config and cannot be overridden: pick "
+                              f"another with {pick}")
+
+
+def refuse_resolvers(tree: Any, prefix: str = "") -> None:
+    """Refuse a resolver call (``${name:...}``) anywhere in a config tree before it is
+    resolved: conf/ uses plain references only (``${..phases.T}``), so a resolver came from
+    outside (a config file a task reads, a value smuggled past the override check)."""
+    items = tree.items() if isinstance(tree, dict) else enumerate(tree)
+    for name, value in items:
+        key = f"{prefix}[{name}]" if isinstance(tree, list) else f"{prefix}{name}"
+        if isinstance(value, dict | list):
+            refuse_resolvers(value, f"{key}." if isinstance(value, dict) else key)
+        elif isinstance(value, str) and "${" in value and ":" in value:
+            raise ConfigError(key, value, "resolvers (${name:...}) are not evaluated in "
+                              "configs (${oc.env:...} would read the environment); write "
+                              "the value itself")
 
 
 def _keys(schema: Any, prefix: str = "") -> list[str]:
@@ -179,49 +228,6 @@ def _nearest(schema: type, key: str) -> str:
     return f" (did you mean {match[0]}?)" if match else " (not in this study's config)"
 
 
-#: Magnitudes a config number may take (besides 0): squares and products of a few of them stay
-#: finite in double precision, so a validated value never overflows inside the model.
-TINY, HUGE = 1e-30, 1e15
-
-
-def check_finite(obj: Any, prefix: str = "") -> None:
-    """Refuse NaN and infinities in every number of a config tree (lists included), and
-    magnitudes outside [TINY, HUGE]: a number that cannot be finite is never meaningful here.
-    A field may accept infinity where it means something (a fixed structure's inertia): it
-    says so with the metadata ``{"infinite": True}``, or by being infinite by default."""
-    for f in fields(obj):
-        value = getattr(obj, f.name)
-        key = f"{prefix}{f.name}"
-        if is_dataclass(value):
-            check_finite(value, f"{key}.")
-            continue
-        if isinstance(value, dict):
-            for name, item in value.items():
-                if is_dataclass(item):
-                    check_finite(item, f"{key}.{name}.")
-            continue
-        default = f.default if f.default is not MISSING else (
-            f.default_factory() if f.default_factory is not MISSING else None)
-        infinite_ok = f.metadata.get("infinite", False) or _has_inf(default)
-        items = value if isinstance(value, list) else [value]
-        for i, item in enumerate(items):
-            where = f"{key}[{i}]" if isinstance(value, list) else key
-            if isinstance(item, float) and not math.isfinite(item):
-                if math.isinf(item) and infinite_ok:
-                    continue
-                raise ConfigError(where, item, "must be a finite number")
-            if isinstance(item, int | float) and not isinstance(item, bool) and item != 0 and (
-                    not TINY <= abs(item) <= HUGE):
-                raise ConfigError(where, item, f"must be 0 or between {TINY:g} and {HUGE:g} "
-                                  "in magnitude (beyond, the model's squares and products "
-                                  "overflow or divide by zero)")
-
-
-def _has_inf(default: Any) -> bool:
-    items = default if isinstance(default, list) else [default]
-    return any(isinstance(x, float) and math.isinf(x) for x in items)
-
-
 def applicable(study: str, overrides: Sequence[str]) -> list[str]:
     """The overrides whose full key (or group) exists in this study's config."""
     if not overrides:
@@ -250,23 +256,24 @@ def resolve(study: str, overrides: Sequence[str] = (), only_applicable: bool = F
 def _resolve(study: str, overrides: tuple[str, ...], only_applicable: bool) -> Resolved:
     if study not in registry.STUDIES:
         raise ConfigError("study", study, f"must be one of {', '.join(registry.STUDIES)}")
+    refuse_interpolations(overrides)
+    refuse_identity(overrides, "study.id", f"{registry.get(study).group}=ID")
     ovs = tuple(applicable(study, overrides) if only_applicable else overrides)
-    path = _cache_path(study, ovs)
+    spec = _cache_spec(study, ovs)
+    path = _cache_path(spec)
     if path is not None:
-        try:
-            with path.open("rb") as fh:
-                cached = pickle.load(fh)
-            if isinstance(cached, Resolved):
-                return cached
-        except Exception:  # noqa: BLE001 - no entry, or an unreadable one: compose again
-            pass
+        cached = _load(path, spec, study)
+        if cached is not None:
+            return cached
     try:
         cfg = compose(study, list(ovs))
     except Exception as e:  # Hydra refused an override: unknown key, bad type, bad syntax
         raise override_error(study, list(ovs), e) from None
     resolved = validate(cfg)
+    if resolved.study != study:  # conf/<group>/<study>.yaml names another study
+        raise ConfigError("study.id", resolved.study, f"must be {study} (the config chosen)")
     if path is not None:
-        _store(path, resolved)
+        _store(path, spec, resolved)
     return resolved
 
 
@@ -274,7 +281,14 @@ def cache_dir() -> Path:
     """Where resolved configs are kept between processes: composing with Hydra costs a few
     tenths of a second per study, loading a resolved one a millisecond. Entries are keyed by
     the content of conf/ and of the package's sources, so any edit recomposes.
-    ``CREATIO_CONFIG_CACHE`` moves it (``off`` disables it)."""
+    ``CREATIO_CONFIG_CACHE`` moves it (``off`` disables it).
+
+    An entry is JSON (never a pickle: loading one runs no code) holding its own key, the
+    resolved data, YAML and sha256, and an HMAC-SHA256 of all of it under a random key
+    that only this user can read (``.key``, mode 0600, refused if anyone else owns it or
+    can read it). An entry is used only when its HMAC, key, sha256 and YAML all check out
+    and the typed config rebuilt from its data gives the same data back; anything else
+    (damaged, planted, swapped, of another key) is removed and composed anew."""
     root = os.environ.get("CREATIO_CONFIG_CACHE") or Path(
         os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "creatio" / "configs"
     return Path(root)
@@ -303,24 +317,141 @@ _FINGERPRINT: dict[str, Any] = {}
 _PACKAGE_DIGEST = _digest(sorted(Path(__file__).resolve().parents[1].rglob("*.py")))
 
 
-def _cache_path(study: str, overrides: tuple[str, ...]) -> Path | None:
-    """The cache entry of a resolution (None when the cache is off)."""
+def _cache_spec(study: str, overrides: tuple[str, ...]) -> str:
+    """What identifies a resolution: the sources' fingerprint, the study, the overrides."""
     if os.environ.get("CREATIO_CONFIG_CACHE") == "off":
+        return ""
+    return hashlib.sha256("\0".join((_fingerprint(), study, *overrides)).encode()).hexdigest()
+
+
+def _cache_path(spec: str) -> Path | None:
+    """The cache entry of a resolution (None when the cache is off)."""
+    return cache_dir() / f"{spec[:32]}.json" if spec else None
+
+
+def _cache_key(create: bool) -> bytes | None:
+    """The cache's HMAC key: 32 random bytes in <cache>/.key, readable by this user only
+    (None when it is missing and not to be created, or not trustworthy)."""
+    import secrets
+
+    path = cache_dir() / ".key"
+    try:
+        st = path.stat()
+    except FileNotFoundError:
+        if not create:
+            return None
+        try:  # exclusive: never replaces a key another process made first (a reader that
+            # meets it half written finds 31 bytes or fewer and caches nothing this once)
+            path.parent.mkdir(parents=True, exist_ok=True)
+            fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o600)
+            with os.fdopen(fd, "wb") as fh:
+                fh.write(secrets.token_bytes(32))
+        except FileExistsError:
+            pass
+        except OSError:
+            return None
+        return _cache_key(create=False)
+    except OSError:
         return None
-    spec = "\0".join((_fingerprint(), study, *overrides))
-    return cache_dir() / f"{hashlib.sha256(spec.encode()).hexdigest()[:32]}.pkl"
+    if st.st_uid != os.getuid() or st.st_mode & 0o077 or st.st_size != 32:
+        return None
+    try:
+        return path.read_bytes()
+    except OSError:
+        return None
 
 
-def _store(path: Path, resolved: Resolved) -> None:
+def _mac(key: bytes, body: dict[str, Any]) -> str:
+    import hmac
+
+    text = json.dumps(body, sort_keys=True, separators=(",", ":"))
+    return hmac.new(key, text.encode(), hashlib.sha256).hexdigest()
+
+
+def _load(path: Path, spec: str, study: str) -> Resolved | None:
+    """A verified cache entry (see cache_dir), or None; a bad one is removed."""
+    import hmac
+
+    try:
+        entry = json.loads(path.read_text())
+    except FileNotFoundError:
+        return None
+    except (OSError, ValueError):
+        entry = None
+    key = _cache_key(create=False)
+    try:
+        body = {k: entry[k] for k in ("spec", "study", "data", "yaml", "sha256")}
+        ok = (key is not None and hmac.compare_digest(str(entry["mac"]), _mac(key, body))
+              and body["spec"] == spec and body["study"] == study
+              and hashlib.sha256(body["yaml"].encode()).hexdigest() == body["sha256"])
+        if ok:
+            obj = from_plain(registry.get(study).schema, body["data"])
+            ok = plain(obj) == body["data"]
+    except Exception:  # noqa: BLE001 - any entry that does not check out is not used
+        ok = False
+    if not ok:
+        with contextlib.suppress(OSError):
+            path.unlink()
+        return None
+    return Resolved(study, obj, body["data"], body["yaml"], body["sha256"])
+
+
+def _store(path: Path, spec: str, resolved: Resolved) -> None:
     """Write one cache entry atomically; a cache that cannot be written is skipped."""
+    key = _cache_key(create=True)
+    if key is None:
+        return
+    body = {"spec": spec, "study": resolved.study, "data": resolved.data,
+            "yaml": resolved.yaml, "sha256": resolved.sha256}
+    try:
+        text = json.dumps({**body, "mac": _mac(key, body)}, sort_keys=True)
+    except (TypeError, ValueError):  # a value JSON cannot hold: not cached
+        return
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
-        tmp = path.with_name(f".{path.name}.{os.getpid()}")
-        with tmp.open("wb") as fh:
-            pickle.dump(resolved, fh, protocol=pickle.HIGHEST_PROTOCOL)
+        tmp = path.with_name(f".{path.name}.tmp-{os.getpid()}")
+        tmp.write_text(text)
         os.replace(tmp, path)
     except OSError:
         pass
+
+
+@functools.cache
+def _hints(cls: type) -> dict[str, Any]:
+    import typing
+
+    return typing.get_type_hints(cls)
+
+
+def from_plain(cls: type, data: Any) -> Any:
+    """A typed config tree (dataclasses, enums) from its plain data, without OmegaConf: what
+    a verified cache entry is rebuilt with (a thousandth of validate's cost)."""
+    if not isinstance(data, dict) or set(data) != {f.name for f in fields(cls)}:
+        raise ValueError(f"{cls.__name__}: the data's keys are not its fields")
+    return cls(**{f.name: _typed(_hints(cls)[f.name], data[f.name]) for f in fields(cls)})
+
+
+def _typed(tp: Any, value: Any) -> Any:
+    import types
+    import typing
+
+    origin, args = typing.get_origin(tp), typing.get_args(tp)
+    if origin in (typing.Union, types.UnionType):
+        if value is None and type(None) in args:
+            return None
+        (tp,) = [a for a in args if a is not type(None)][:1] or [Any]
+        return _typed(tp, value)
+    if origin is list:
+        return [_typed(args[0] if args else Any, v) for v in value]
+    if origin is dict:
+        return {k: _typed(args[1] if args else Any, v) for k, v in value.items()}
+    if isinstance(tp, type) and is_dataclass(tp):
+        return from_plain(tp, value)
+    if isinstance(tp, type) and issubclass(tp, Enum):
+        return tp(value)
+    if tp is float and isinstance(value, int) and not isinstance(value, bool):
+        return float(value)
+    return value
 
 
 def override_error(
@@ -369,10 +500,3 @@ def plain(obj: Any) -> Any:
     if isinstance(obj, list | tuple):
         return [plain(v) for v in obj]
     return obj
-
-
-def dataset_path(root: str | Path, study: str, dt: float | None = None) -> Path:
-    """Where a study's dataset lives under an output root (sphere studies keyed by dt)."""
-    entry = registry.get(study)
-    name = study if dt is None else f"{study}_dt{float(dt)!r}"
-    return Path(root) / entry.kind.dataset_dir / study / f"{name}.nc"

@@ -10,24 +10,30 @@ from __future__ import annotations
 
 import functools
 import os
-import shlex
+import re
 import sys
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from creatio.errors import ConfigError
+from creatio.errors import ConfigError, one_line_errors
+from creatio.pipeline.code import CODE, code_version
 from creatio.pipeline.config import Resolved, applicable, output_root, resolve
 from creatio.studies import registry
 
 __all__ = [
+    "CODE",
+    "PASSED_CONFIG",
     "JobConfigs",
     "check_workflow_config",
+    "pass_config_safely",
     "code_version",
     "write_config_file",
     "one_line_errors",
     "analysis_ids",
+    "beyond_studies",
+    "beyond_targets",
     "StudyPlan",
     "StudyRuns",
     "SweepRegistry",
@@ -35,30 +41,7 @@ __all__ = [
     "compare_targets",
     "plan",
     "wildcard_pattern",
-    "workflow_against",
-    "workflow_diff_options",
-    "workflow_outputs",
-    "workflow_version",
 ]
-
-
-def one_line_errors(fn: Callable[..., Any]) -> Callable[..., Any]:
-    """For what the Snakefile calls: a bad config, sweep or release request ends Snakemake
-    with creatio's one-line message and exit status 2 instead of an InputFunctionException
-    and its traceback. (Planning happens before any job runs or any lock is taken.)"""
-
-    @functools.wraps(fn)
-    def wrapper(*args: Any, **kwargs: Any) -> Any:
-        from creatio.pipeline.release import ReleaseError
-
-        try:
-            return fn(*args, **kwargs)
-        except (ConfigError, ReleaseError) as e:
-            sys.stderr.write(f"creatio: {e}\n")
-            sys.stderr.flush()
-            os._exit(2)
-
-    return wrapper
 
 
 @one_line_errors
@@ -89,6 +72,54 @@ def check_workflow_config(config: Mapping[str, Any], schema: str | Path) -> None
         if error.schema.get("description"):
             rule += f" ({error.schema['description']})"
         raise ConfigError(key, error.instance, rule) from None
+
+
+#: The only --config entry a re-invoked job gets (a `run:` job, a cluster job): the
+#: invocation's own --config entries, as JSON in URL-safe base64.
+PASSED_CONFIG = "creatio_config"
+_SAFE_TEXT = re.compile(r"[A-Za-z0-9_=-]*")
+
+
+@one_line_errors
+def pass_config_safely(settings: Any, config: dict[str, Any]) -> None:
+    """Keep the user's --config text out of every shell.
+
+    Snakemake re-invokes itself for a job that runs in its own process (a ``run:`` rule
+    locally, every job on a cluster) through ``/bin/sh``, and writes the invocation's
+    --config entries into that command with ``repr()``, which is no shell quoting: an
+    override holding ``$(...)`` ran it, one holding a quote broke the command. Here the
+    entries are handed on as one ``creatio_config=<base64 of their JSON>`` entry, whose
+    letters (``A-Za-z0-9_-=``) no shell interprets, however many shells it passes through
+    (SLURM: sbatch --wrap, then srun on the node); the re-invoked job decodes them and
+    parses them as Snakemake parses --config, so both processes see the same config.
+    ``settings`` is the workflow's ``config_settings``, ``config`` its config, updated in
+    place.
+    """
+    import base64
+    import json
+
+    from snakemake.utils import update_config
+
+    if PASSED_CONFIG in config:  # a re-invoked job (or a user who typed it): decode
+        from snakemake.cli import parse_config
+
+        encoded = str(config.pop(PASSED_CONFIG))
+        try:
+            if not _SAFE_TEXT.fullmatch(encoded):
+                raise ValueError("not URL-safe base64")
+            entries = json.loads(base64.urlsafe_b64decode(encoded.encode()))
+            if not (isinstance(entries, list) and all(isinstance(e, str) for e in entries)):
+                raise ValueError("not a list of KEY=VALUE entries")
+            update_config(config, parse_config(entries))
+        except ValueError as e:
+            raise ConfigError(PASSED_CONFIG, encoded[:40], "is creatio's own --config key "
+                              f"for re-invoked jobs and this one cannot be read ({e})") from None
+        return
+    entries = settings.config_args
+    if entries:
+        text = json.dumps([str(e) for e in entries])
+        settings.config_args = [
+            f"{PASSED_CONFIG}={base64.urlsafe_b64encode(text.encode()).decode()}"]
 
 
 def as_list(value: Any) -> list[str]:
@@ -141,35 +172,27 @@ def default_studies() -> list[str]:
     return [s.id for s in registry.select(in_all=True)]
 
 
+def beyond_studies(selected: Any = None) -> list[str]:
+    """The studies `snakemake beyond` builds (the sphere studies outside `all`), or those of
+    them --config studies=[...] selects (the others it names are `all`'s business); an
+    empty selection builds none."""
+    ids = [s.id for s in registry.select(kind="sphere", in_all=False)]
+    return ids if selected is None else [s for s in ids if s in as_list(selected)]
+
+
+@one_line_errors
+def beyond_targets(runs: StudyRuns, selected: Any = None) -> list[str]:
+    """The files of `snakemake beyond`: its studies' targets; a --config studies=[...] that
+    names none of them is refused (it would build nothing, silently)."""
+    if not runs.studies:
+        raise ConfigError("studies", as_list(selected), "names no study of `snakemake beyond` "
+                          f"({', '.join(beyond_studies())})")
+    return runs.targets()
+
+
 def analysis_ids() -> list[str]:
     """The analyses (`snakemake benchmarks`)."""
     return [s.id for s in registry.select(kind="analysis")]
-
-
-# The sources whose change changes a rule's outputs (relative to the package): a rule
-# carries their hash as a parameter, so new code reruns what it would compute differently.
-CODE = {
-    "datasets": ("model", "dynamics", "studies", "pipeline/run.py", "pipeline/io.py",
-                 "pipeline/cf.py", "pipeline/sweep.py", "pipeline/points.py"),
-    "reports": ("reports", "pipeline/run.py", "pipeline/io.py"),
-    "scenes": ("scenes", "pipeline/io.py"),
-}
-
-
-@functools.cache
-def code_version(kind: str, package: Path | None = None) -> str:
-    """A short hash of the sources that make one kind of output (see CODE), read from the
-    installed package or from package."""
-    import hashlib
-
-    package = package or Path(__file__).resolve().parents[1]
-    h = hashlib.sha256()
-    for part in CODE[kind]:
-        target = package / part
-        for path in sorted(target.rglob("*.py")) if target.is_dir() else [target]:
-            if path.is_file():
-                h.update(str(path.relative_to(package)).encode() + b"\0" + path.read_bytes())
-    return h.hexdigest()[:12]
 
 
 def wildcard_pattern(kind: str | None = None, folder: str | None = None) -> str:
@@ -389,59 +412,3 @@ class SweepRegistry:
             return self.plans[name]
         except KeyError:
             raise ConfigError("sweep", name, "no sweep of this invocation has that name") from None
-
-
-# ------------------------------------------------------------------- releases and diffs
-@one_line_errors
-def workflow_outputs(plans: Mapping[str, Any], whole: bool = False) -> list[str]:
-    """Every file `snakemake all` makes with the default configs; refuses overrides, and
-    with whole (a release holds every study) a subset of the studies."""
-    from creatio.pipeline.release import ReleaseError
-
-    overridden = [p.study for p in plans.values() if p.root != "data"]
-    if overridden:
-        raise ReleaseError(f"releases and diffs use the default configs, and {overridden} "
-                           "have overrides: run without --config overrides=...")
-    absent = [s for s in default_studies() if s not in plans]
-    if whole and absent:
-        raise ReleaseError(f"a release holds every study and {absent} are not selected: run "
-                           "without --config studies=...")
-    return [f for p in plans.values() for f in (*p.datasets, *p.reports)] + \
-        compare_targets(plans)
-
-
-@one_line_errors
-def workflow_version(config: Mapping[str, Any], data_dir: str | Path = "data") -> str:
-    """The version `snakemake release` makes: given, valid and not released yet."""
-    from creatio.pipeline.release import ReleaseError, parse_version, releases_dir
-
-    version = str(config.get("version", ""))
-    if not version:
-        raise ReleaseError("snakemake release needs --config version=MAJOR.MINOR.PATCH")
-    parse_version(version)
-    if (releases_dir(data_dir) / version).exists():
-        raise ReleaseError(f"release {version} already exists in {releases_dir(data_dir)}: "
-                           "releases are never overwritten; choose a new version")
-    return version
-
-
-@one_line_errors
-def workflow_against(config: Mapping[str, Any], data_dir: str | Path = "data") -> str:
-    """The release `snakemake diff` compares data/ with: a version or latest, which exists."""
-    from creatio.pipeline.release import ReleaseError, find_release
-
-    against = str(config.get("against", ""))
-    if not against:
-        raise ReleaseError("snakemake diff needs --config against=VERSION (or against=latest)")
-    return find_release(against, data_dir).name
-
-
-@one_line_errors
-def workflow_diff_options(config: Mapping[str, Any], plans: Mapping[str, Any]) -> str:
-    """`creatio diff` options from --config atol=, rtol=, tol=[...] and the selected studies."""
-    opts = [f"--{k} {shlex.quote(str(config[k]))}" for k in ("atol", "rtol") if k in config]
-    tols = config.get("tol", [])
-    opts += [f"--tol {shlex.quote(str(t))}" for t in ([tols] if isinstance(tols, str) else tols)]
-    if set(plans) != set(default_studies()):
-        opts.append(f"--studies {','.join(plans)}")
-    return " ".join(opts)

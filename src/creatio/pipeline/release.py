@@ -25,10 +25,12 @@ import os
 import re
 import shutil
 import sys
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
+
+from creatio.errors import ReleaseError, one_line_errors
 
 __all__ = [
     "released_studies",
@@ -42,7 +44,13 @@ __all__ = [
     "main",
     "make_release",
     "parse_version",
+    "clean_stale_releases",
     "verify_release",
+    "workflow_against",
+    "workflow_diff_options",
+    "workflow_outputs",
+    "workflow_release_digest",
+    "workflow_version",
 ]
 
 MANIFEST = "MANIFEST.json"
@@ -52,10 +60,6 @@ VERSION_HELP = "MAJOR.MINOR.PATCH, optionally with a pre-release suffix a1, b2 o
 RELEASED_REPORTS = (".json", ".md")
 PRE_ORDER = {"a": 0, "b": 1, "rc": 2}
 READ_ONLY = 0o444
-
-
-class ReleaseError(Exception):
-    """A release cannot be made, found or read; the message says why and what to do."""
 
 
 # ------------------------------------------------------------------------------ versions
@@ -122,11 +126,35 @@ def read_manifest(release: str | Path) -> dict[str, Any]:
             and isinstance(f.get("sha256"), str) for f in files):
         raise ReleaseError(f"{path}: damaged manifest (every file needs a path and a sha256): "
                            "restore it from git")
+    omitted = manifest.get("omitted", [])
+    if not isinstance(omitted, list) or not all(
+            isinstance(f, dict) and isinstance(f.get("path"), str) for f in omitted):
+        raise ReleaseError(f"{path}: damaged manifest (every omitted file needs a path): "
+                           "restore it from git")
+    for rel in [f["path"] for f in files] + [f["path"] for f in omitted]:
+        if not _inside(rel):
+            raise ReleaseError(f"{path}: damaged manifest: path {rel!r} lies outside the "
+                               "release (a manifest names files below its own directory): "
+                               "restore it from git")
+    if not isinstance(manifest.get("studies", {}), dict):
+        raise ReleaseError(f"{path}: damaged manifest (studies must be a mapping): restore "
+                           "it from git")
     name = Path(release).name
     if is_version(name) and manifest.get("version") != name:
         raise ReleaseError(f"{path}: says version {manifest.get('version')!r} but lies in "
                            f"{name}/: restore it from git")
     return manifest
+
+
+def _inside(rel: str) -> bool:
+    """Whether a manifest path names a file below the release: relative, normalised, no
+    '..', no hidden part (``../../../../etc/hostname`` was followed)."""
+    from pathlib import PurePosixPath
+
+    path = PurePosixPath(rel)
+    return (bool(rel) and "\\" not in rel and not path.is_absolute()
+            and path.as_posix() == rel
+            and not any(part in ("..", ".") or part.startswith(".") for part in path.parts))
 
 
 def released_studies(spec: str = "latest", data_dir: str | Path = "data") -> list[str]:
@@ -234,6 +262,7 @@ def make_release(
     parse_version(version)
     data_dir = Path(data_dir)
     dest = releases_dir(data_dir) / version
+    clean_stale_releases(data_dir)
     if dest.exists():
         newest = list_releases(data_dir)
         hint = f" (the newest is {newest[-1].name})" if newest else ""
@@ -252,7 +281,8 @@ def make_release(
     kept += [(r, None) for r in layout.shared if Path(r).suffix in RELEASED_REPORTS]
 
     missing = [(rel, sf) for rel, sf in kept if not (data_dir / rel).is_file()]
-    empty = [rel for rel, _ in kept if (data_dir / rel).is_file()
+    # kept or only fingerprinted, an empty file is a killed writer's, never an output
+    empty = [rel for rel, _ in [*kept, *omitted] if (data_dir / rel).is_file()
              and (data_dir / rel).stat().st_size == 0]
     if empty:
         raise ReleaseError(f"cannot release {version}: empty files in {data_dir} (a killed "
@@ -365,6 +395,20 @@ def make_release(
     return dest, manifest, warnings
 
 
+def clean_stale_releases(data_dir: str | Path = "data") -> list[Path]:
+    """Remove the temporary directories (``.VERSION.tmp-PID``) of releases whose maker no
+    longer runs (a SIGKILL leaves one behind: it never becomes a release); returns them."""
+    from creatio.pipeline.io import clean_stale
+
+    root = releases_dir(data_dir)
+    stale = list(root.glob(".*.tmp-*")) if root.is_dir() else []
+    for tmp in stale:
+        m = re.fullmatch(r"\.(.+)\.tmp-\d+", tmp.name)
+        if m and is_version(m.group(1)):
+            clean_stale(root / m.group(1))
+    return [t for t in stale if not t.exists()]
+
+
 # ------------------------------------------------------------------------------ verify
 def verify_release(release: str | Path) -> list[str]:
     """Problems found checking a release against its manifest (empty when it is intact)."""
@@ -388,6 +432,76 @@ def verify_release(release: str | Path) -> list[str]:
         if path.is_file() and rel != MANIFEST and rel not in listed:
             problems.append(f"{rel}: not in the manifest")
     return problems
+
+
+# -------------------------------------------------------------- the workflow's release rules
+@one_line_errors
+def workflow_outputs(plans: Mapping[str, Any], whole: bool = False) -> list[str]:
+    """Every file `snakemake all` makes with the default configs; refuses overrides, and
+    with whole (a release holds every study) a subset of the studies."""
+    from creatio.pipeline.planning import compare_targets, default_studies
+
+    overridden = [p.study for p in plans.values() if p.root != "data"]
+    if overridden:
+        raise ReleaseError(f"releases and diffs use the default configs, and {overridden} "
+                           "have overrides: run without --config overrides=...")
+    absent = [s for s in default_studies() if s not in plans]
+    if whole and absent:
+        raise ReleaseError(f"a release holds every study and {absent} are not selected: run "
+                           "without --config studies=...")
+    return [f for p in plans.values() for f in (*p.datasets, *p.reports)] + \
+        compare_targets(plans)
+
+
+@one_line_errors
+def workflow_version(config: Mapping[str, Any], data_dir: str | Path = "data") -> str:
+    """The version `snakemake release` makes: given, valid and not released yet."""
+    version = str(config.get("version", ""))
+    if not version:
+        raise ReleaseError("snakemake release needs --config version=MAJOR.MINOR.PATCH")
+    parse_version(version)
+    if (releases_dir(data_dir) / version).exists():
+        raise ReleaseError(f"release {version} already exists in {releases_dir(data_dir)}: "
+                           "releases are never overwritten; choose a new version")
+    return version
+
+
+@one_line_errors
+def workflow_against(config: Mapping[str, Any], data_dir: str | Path = "data") -> str:
+    """The release `snakemake diff` compares data/ with: a version or latest, which exists."""
+    against = str(config.get("against", ""))
+    if not against:
+        raise ReleaseError("snakemake diff needs --config against=VERSION (or against=latest)")
+    return find_release(against, data_dir).name
+
+
+@one_line_errors
+def workflow_release_digest(version: str, data_dir: str | Path = "data") -> str:
+    """A hash of what a release holds now (each listed file's bytes, or its absence): the
+    diff rule's parameter, so that an edited, deleted or restored release file reruns the
+    diff (which then refuses a release that no longer matches its manifest)."""
+    release = releases_dir(data_dir) / version
+    h = hashlib.sha256()
+    for entry in read_manifest(release)["files"]:
+        path = release / entry["path"]
+        h.update(entry["path"].encode() + b"\0")
+        h.update(sha256_file(path).encode() if path.is_file() else b"missing")
+    return h.hexdigest()[:16]
+
+
+@one_line_errors
+def workflow_diff_options(config: Mapping[str, Any], plans: Mapping[str, Any]) -> str:
+    """`creatio diff` options from --config atol=, rtol=, tol=[...] and the selected studies."""
+    import shlex
+
+    from creatio.pipeline.planning import default_studies
+
+    opts = [f"--{k} {shlex.quote(str(config[k]))}" for k in ("atol", "rtol") if k in config]
+    tols = config.get("tol", [])
+    opts += [f"--tol {shlex.quote(str(t))}" for t in ([tols] if isinstance(tols, str) else tols)]
+    if set(plans) != set(default_studies()):
+        opts.append(f"--studies {','.join(plans)}")
+    return " ".join(opts)
 
 
 # ------------------------------------------------------------------------------ CLI
@@ -449,8 +563,24 @@ def _list_parser() -> argparse.ArgumentParser:
     return ap
 
 
-def _kb(n: int) -> str:
+def _kb(n: Any) -> str:
+    if not isinstance(n, int | float) or isinstance(n, bool):
+        return "? kB"
     return f"{n / 1000:.0f} kB" if n < 1_000_000 else f"{n / 1e6:.2f} MB"
+
+
+def _list_line(path: Path) -> str:
+    """One release as a line of `creatio release list`; a damaged manifest, or one with
+    null fields, is listed as such instead of ending the listing."""
+    try:
+        m = read_manifest(path)
+    except ReleaseError as e:
+        return f"{path.name:<10} damaged: {e}"
+    commits = sorted({str((s or {}).get("git_commit") or "?")[:10]
+                      for s in m.get("studies", {}).values() if isinstance(s, dict | None)})
+    return (f"{m['version']:<10} {str(m.get('created') or '?'):<26} "
+            f"{len(m['files']):>3} files {_kb(m.get('total_size')):>8}"
+            f"  commit {', '.join(commits) or '?'}")
 
 
 def _release_path(spec: str, data_dir: Path) -> Path:
@@ -471,10 +601,10 @@ def main(argv: Sequence[str] | None = None) -> int:
             args = _verify_parser().parse_args(argv)
             path = _release_path(args.release, args.data_dir)
             problems = verify_release(path)
-            for p in problems:
-                print(f"creatio release verify: {path}: {p}", file=sys.stderr)
             if problems:
-                print(f"{path}: {len(problems)} problem(s); restore the release from git "
+                more = f" (and {len(problems) - 3} more)" if len(problems) > 3 else ""
+                print(f"creatio release verify: {path}: {len(problems)} problem(s): "
+                      f"{'; '.join(problems[:3])}{more}: restore the release from git "
                       "(git checkout -- PATH)", file=sys.stderr)
                 return 1
             n = len(read_manifest(path)["files"])
@@ -483,12 +613,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         if command == "list":
             args = _list_parser().parse_args(argv)
             for path in list_releases(args.data_dir):
-                m = read_manifest(path)
-                commits = sorted({s.get("git_commit", "")[:10]
-                                  for s in m.get("studies", {}).values()})
-                print(f"{m['version']:<10} {m.get('created', '?'):<26} "
-                      f"{len(m.get('files', [])):>3} files {_kb(m.get('total_size', 0)):>8}"
-                      f"  commit {', '.join(commits)}")
+                print(_list_line(path))
             return 0
         args = _create_parser().parse_args(argv)
         dest, manifest, warnings = make_release(args.version, args.data_dir,

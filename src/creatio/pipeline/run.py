@@ -39,6 +39,10 @@ def run_study(resolved: Resolved, part: str | None = None, **args: Any) -> Any:
     ds = entry.run_function()(resolved.obj, **p.args)
     title = getattr(resolved.obj.study, "title", "") or resolved.study
     ds.attrs = {**provenance(resolved.study, resolved.yaml, resolved.sha256, title), **ds.attrs}
+    if entry.kind.name == "sphere":  # absurd own checks: status checks_failed, with why
+        from creatio.pipeline.checks import mark
+
+        mark(ds)
     return ds
 
 
@@ -56,10 +60,26 @@ def compute_dataset(resolved: Resolved, out: Path, part: str | None = None) -> P
 
 
 def write_report(study: str, outdir: Path, datasets: Sequence[Path]) -> dict[str, Path]:
-    """Derive a study's report files from its datasets (the registry's report writer)."""
+    """Derive a study's report files from its datasets (the registry's report writer). A
+    sphere study whose own checks are absurd (creatio.pipeline.checks) gets no report:
+    ChecksFailed, one line naming each check."""
     from creatio.studies import registry
 
-    paths = registry.get(study).report_function()([Path(p) for p in datasets], outdir)
+    entry = registry.get(study)
+    if entry.kind.name == "sphere":
+        from creatio.pipeline.checks import ChecksFailed, run_problems
+        from creatio.pipeline.io import read_dataset
+
+        runs = [read_dataset(Path(p))[0] for p in datasets]
+        try:
+            problems = run_problems(runs)
+        finally:
+            for ds in runs:
+                ds.close()
+        if problems:
+            raise ChecksFailed(f"{study}: the run's own checks are absurd, no report written: "
+                               f"{'; '.join(problems)} (bounds: creatio.pipeline.checks)")
+    paths = entry.report_function()([Path(p) for p in datasets], outdir)
     log.info("%s: report %s", study, ", ".join(str(p) for p in paths.values()))
     return paths
 

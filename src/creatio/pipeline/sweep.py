@@ -8,12 +8,14 @@ each). A batch job composes the base config once and varies it per point
 (creatio.studies.schema.vary: a validated copy, no Hydra), runs the study's first dataset
 part in the same process and keeps each point's summary figures as a row of its batch file.
 
-Points are identified by their resolved config: a point that any earlier sweep of the study
-computed is taken from that sweep's batch files instead of being run again, so rerunning a
-sweep with more points computes only the new ones. A point refused by validation (an
-unstable dt, an amplitude too large) is recorded with its reason, as a run that stopped early
-keeps its status; neither aborts the rest. The aggregate fills one array per summary figure
-from the batch files, never holding the points' datasets.
+Points are identified by their resolved config and the code that computes them: a point
+that any earlier sweep of the study computed with the same code (the ``datasets`` code
+version of creatio.pipeline.planning, which the dataset rules carry too) is taken from that
+sweep's batch files instead of being run again, so rerunning a sweep with more points
+computes only the new ones, and a code change computes every point anew. A point refused by
+validation (an unstable dt, an amplitude too large) is recorded with its reason, as a run that
+stopped early keeps its status; neither aborts the rest. The aggregate fills one array per
+summary figure from the batch files, never holding the points' datasets.
 """
 
 from __future__ import annotations
@@ -33,6 +35,7 @@ from creatio.errors import ConfigError
 from creatio.studies import registry
 
 __all__ = [
+    "HARD_MAX_POINTS",
     "MAX_POINTS",
     "SweepPlan",
     "aggregate",
@@ -46,6 +49,9 @@ log = logging.getLogger("creatio")
 
 #: Largest sweep planned without asking (its aggregate holds one float per point and figure).
 MAX_POINTS = 200_000
+#: Largest sweep planned at all (sweep_max_points cannot go beyond): its aggregate holds
+#: ~20 float64 figures, a status and a message per point, ~2 GB at 10 million points.
+HARD_MAX_POINTS = 10_000_000
 #: Default batching: about this many batches, each at most MAX_BATCH points.
 TARGET_BATCHES = 8
 MAX_BATCH = 250
@@ -61,6 +67,10 @@ class SweepPlan:
     name: str
     outdir: str
     batch_size: int
+    #: the sweep overrides as given (``sphere.mu=range(0,1,0.001)``), what a job re-parses
+    texts: tuple[str, ...] = ()
+    #: the size limit the plan was made under (a job re-plans under the same one)
+    max_points: int = MAX_POINTS
 
     @property
     def shape(self) -> tuple[int, ...]:
@@ -119,9 +129,14 @@ class SweepPlan:
         import shlex
 
         args = [f"--study {self.study}"]
-        args += [f"--sweep {shlex.quote(f'{k}=' + ','.join(v))}" for k, v in self.axes]
+        # the overrides as typed, not their expansion: a job's command line stays short (a
+        # million values written into each of 4000 jobs' parameters took 24 GB)
+        texts = self.texts or tuple(f"{k}=" + ",".join(v) for k, v in self.axes)
+        args += [f"--sweep {shlex.quote(t)}" for t in texts]
         args += [f"--override {shlex.quote(o)}" for o in self.base]
         args.append(f"--batch-size {self.batch_size}")
+        if self.max_points != MAX_POINTS:
+            args.append(f"--max-points {self.max_points}")
         return " ".join(args)
 
 
@@ -133,31 +148,91 @@ def _unravel(index: int, shape: Sequence[int]) -> tuple[int, ...]:
     return tuple(reversed(out))
 
 
-def parse_axes(sweep: Sequence[str]) -> list[tuple[str, list[str]]]:
-    """Split sweep overrides into (key, values) with Hydra's override grammar."""
+def _axis_size(ov: Any) -> int | None:
+    """How many values a parsed sweep override expands to, computed without expanding it
+    (None: Hydra must expand it to tell, a glob over a config group's few options)."""
+    import decimal
+
+    from hydra.core.override_parser.types import ChoiceSweep, RangeSweep
+
+    if not ov.is_sweep_override():
+        return 1
+    sweep = ov.value()
+    if isinstance(sweep, ChoiceSweep):
+        return len(sweep.list)
+    if isinstance(sweep, RangeSweep):
+        if sweep.start is None or sweep.stop is None:
+            return None
+        try:  # as Hydra counts: a Python range for ints, exact decimals for floats
+            if all(isinstance(x, int) for x in (sweep.start, sweep.stop, sweep.step)):
+                return len(range(sweep.start, sweep.stop, sweep.step))
+            start, stop, step = (decimal.Decimal(x) for x in (sweep.start, sweep.stop,
+                                                              sweep.step))
+        except (ValueError, decimal.InvalidOperation) as e:  # step 0, nan
+            raise ValueError(str(e) or "a range needs a finite, non-zero step") from None
+        if not (start.is_finite() and stop.is_finite() and step.is_finite()) or step == 0:
+            raise ValueError("a range needs finite bounds and a non-zero step")
+        span = (stop - start) / step
+        return max(0, int(span.to_integral_value(rounding=decimal.ROUND_CEILING)))
+    return None
+
+
+def parse_axes(sweep: Sequence[str], max_points: int = MAX_POINTS
+               ) -> list[tuple[str, list[str]]]:
+    """Split sweep overrides into (key, values) with Hydra's override grammar.
+
+    The size of every axis, and of their product, is computed from the override before any
+    axis is expanded, and a product beyond max_points is refused with its size: a
+    ``range(0, 1e8, 1)`` used to be expanded (7 GB) before the size was checked."""
+    import itertools
+
     from hydra.core.override_parser.overrides_parser import OverridesParser
 
+    from creatio.pipeline.config import refuse_identity, refuse_interpolations
+
+    refuse_interpolations([str(t) for t in sweep])
+    refuse_identity([str(t) for t in sweep], "study.id", "--config study=ID")
     parser = OverridesParser.create()
-    axes = []
+    parsed = []
     for text in sweep:
         try:
             (ov,) = parser.parse_overrides([str(text)])
         except Exception as e:  # noqa: BLE001 - Hydra's grammar errors, re-worded
             raise ConfigError("sweep", text, str(e).splitlines()[0]) from None
-        key = ov.get_key_element()
         try:
-            values = list(ov.sweep_string_iterator()) if ov.is_sweep_override() else [
-                ov.get_value_element_as_str()]
-        except Exception as e:  # noqa: BLE001 - a range Hydra cannot expand (step 0, ...)
+            size = _axis_size(ov)
+        except ValueError as e:
+            raise ConfigError("sweep", text, f"cannot be expanded: {e}") from None
+        if ov.get_key_element() in [o.get_key_element() for _, o, _ in parsed]:
+            raise ConfigError("sweep", text, f"key {ov.get_key_element()} is swept twice")
+        parsed.append((text, ov, size))
+    if not parsed:
+        raise ConfigError("sweep", list(sweep), "needs at least one KEY=V1,V2,... entry")
+    known = math.prod(size for _, _, size in parsed if size is not None)
+    if known > max_points:
+        _too_many(known, max_points)
+    axes = []
+    for text, ov, _ in parsed:
+        try:  # never more values than the limit allows, whatever the count said
+            values = list(itertools.islice(ov.sweep_string_iterator(), max_points + 1)) \
+                if ov.is_sweep_override() else [ov.get_value_element_as_str()]
+        except Exception as e:  # noqa: BLE001 - a sweep Hydra cannot expand (interval, ...)
             raise ConfigError("sweep", text, f"cannot be expanded: {e}") from None
         if not values:
             raise ConfigError("sweep", text, "sweeps over no value")
-        if key in [k for k, _ in axes]:
-            raise ConfigError("sweep", text, f"key {key} is swept twice")
-        axes.append((key, values))
-    if not axes:
-        raise ConfigError("sweep", list(sweep), "needs at least one KEY=V1,V2,... entry")
+        axes.append((ov.get_key_element(), values))
+    n = math.prod(len(v) for _, v in axes)
+    if n > max_points:
+        _too_many(n, max_points)
     return axes
+
+
+def _too_many(n: int, max_points: int) -> None:
+    hint = (f"raise the limit with --config sweep_max_points={n}" if n <= HARD_MAX_POINTS
+            else f"the limit cannot exceed {HARD_MAX_POINTS:,}")
+    raise ConfigError("sweep", f"{n:,} points", f"exceeds {max_points:,} points (the "
+                      f"aggregate keeps a float per point and figure): split it into several "
+                      f"sweeps, or {hint}")
 
 
 def plan_sweep(
@@ -176,17 +251,16 @@ def plan_sweep(
         raise ConfigError("study", study, "a sweep needs the study to sweep (study=en02)")
     if study not in registry.STUDIES:
         raise ConfigError("study", study, f"must be one of {', '.join(registry.STUDIES)}")
-    axes = parse_axes(sweep)
+    if not (isinstance(max_points, int) and 1 <= max_points <= HARD_MAX_POINTS):
+        raise ConfigError("sweep_max_points", max_points,
+                          f"must be an integer in [1, {HARD_MAX_POINTS:,}] (the aggregate "
+                          "holds every point's figures in memory)")
+    axes = parse_axes(sweep, max_points)
     base = tuple(str(o) for o in base)
     for key, values in axes:
         if not applicable(study, [f"{key}={values[0]}"]):
             raise ConfigError(key, values[0], f"unknown key (not in {study}'s config)")
     n = math.prod(len(v) for _, v in axes)
-    if n > max_points:
-        raise ConfigError("sweep", f"{n:,} points", f"exceeds {max_points:,} points (the "
-                          "aggregate keeps a float per point and figure): split it into "
-                          "several sweeps, or raise the limit with --config "
-                          f"sweep_max_points={n}")
     if batch_size is None:
         batch_size = min(MAX_BATCH, max(1, math.ceil(n / TARGET_BATCHES)))
     if not (isinstance(batch_size, int) and batch_size >= 1):
@@ -194,7 +268,8 @@ def plan_sweep(
     spec = json.dumps({"study": study, "axes": axes, "base": base}, sort_keys=True)
     name = f"{study}-{hashlib.sha256(spec.encode()).hexdigest()[:12]}"
     plan = SweepPlan(study, tuple((k, tuple(v)) for k, v in axes), base, name,
-                     f"{data_dir}/sweeps/{name}", batch_size)
+                     f"{data_dir}/sweeps/{name}", batch_size, tuple(str(t) for t in sweep),
+                     max_points)
     first = plan.overrides(0)
     try:
         resolve(study, [*base, *first])
@@ -286,21 +361,40 @@ def _point_key(obj: Any) -> str:
     return hashlib.sha256(text.encode()).hexdigest()
 
 
-def _known_points(plan: SweepPlan) -> dict[str, dict[str, Any]]:
-    """Rows of this study's points already computed by any sweep (point key -> row)."""
+def _code() -> str:
+    """The version of the code that computes a point (the dataset rules' ``code``)."""
+    from creatio.pipeline.code import code_version
+
+    return code_version("datasets")
+
+
+def _batch_code(path: str | Path) -> str | None:
+    """The code version a batch file was computed with (None: unreadable or unrecorded)."""
+    import xarray as xr
+
+    try:
+        with xr.open_dataset(path, engine="netcdf4") as ds:
+            return ds.attrs.get("code_version")
+    except Exception:  # noqa: BLE001 - a batch being written or damaged: not current
+        return None
+
+
+def _known_points(plan: SweepPlan, code: str) -> dict[str, dict[str, Any]]:
+    """Rows of this study's points already computed by any sweep with the same code
+    (point key -> row); a batch of other code, or of none recorded, is never a source."""
     import xarray as xr
 
     rows: dict[str, dict[str, Any]] = {}
     for path in Path(plan.outdir).parent.glob("*/batches/*.nc"):
         try:
             with xr.open_dataset(path, engine="netcdf4") as ds:
-                if ds.attrs.get("study") != plan.study:
+                if ds.attrs.get("study") != plan.study or ds.attrs.get("code_version") != code:
                     continue
                 table = {name: ds[name].values for name in ds.data_vars}
         except Exception:  # noqa: BLE001 - a batch being written or damaged: not a source
             continue
         for i, key in enumerate(table.get("point_key", [])):
-            if str(table["status"][i]) != "invalid":
+            if str(table["status"][i]) not in ("invalid", "failed") and str(key):
                 rows[str(key)] = {name: col[i].item() if hasattr(col[i], "item") else col[i]
                                   for name, col in table.items()}
     return rows
@@ -313,8 +407,17 @@ def _run_point(entry: registry.Study, obj: Any) -> dict[str, Any]:
     part = entry.parts(obj)[0]
     ds = entry.run_function()(obj, **part.args)
     ds.attrs["study"] = entry.id
-    return {k: v for k, v in summary(ds).items()
-            if isinstance(v, int | float | str) and not isinstance(v, bool)}
+    checks = ""
+    if entry.kind is registry.SPHERE:  # absurd own checks: status checks_failed, with why
+        from creatio.pipeline.checks import dataset_problems
+
+        checks = "; ".join(dataset_problems(ds))
+    row = {k: v for k, v in summary(ds).items()
+           if isinstance(v, int | float | str) and not isinstance(v, bool)}
+    if checks:
+        row.update(status="checks_failed",
+                   message=f"{checks} (the run's own status: {row.get('status', '?')})")
+    return row
 
 
 def _sphere_extras(obj: Any, changes: dict[str, Any], base: Any) -> dict[str, float]:
@@ -323,17 +426,28 @@ def _sphere_extras(obj: Any, changes: dict[str, Any], base: Any) -> dict[str, fl
     from creatio.studies.schema import vary
 
     cfg = obj
-    if cfg is None:
-        try:
+    try:
+        if cfg is None:
             cfg = vary(base, {**changes, "solver.allow_unstable": True})
-        except ConfigError:
-            return {"stability_limit_dt_s": math.nan, "dt_s": math.nan}
-    return {"stability_limit_dt_s": float(cfg.step_limit()), "dt_s": float(cfg.solver.dt)}
+        return {"stability_limit_dt_s": float(cfg.step_limit()), "dt_s": float(cfg.solver.dt)}
+    except Exception:  # noqa: BLE001 - no limit for a config that cannot be built
+        return {"stability_limit_dt_s": math.nan, "dt_s": math.nan}
+
+
+def _failure(e: Exception) -> str:
+    """A point's failure as one line (what and where), as the command line words it."""
+    import traceback
+
+    first = str(e).splitlines()[0] if str(e) else ""
+    frame = traceback.extract_tb(e.__traceback__)[-1] if e.__traceback__ else None
+    where = f" at {Path(frame.filename).name}:{frame.lineno}" if frame else ""
+    return f"{type(e).__name__}: {first}{where}"
 
 
 def run_batch(plan: SweepPlan, k: int, out: str | Path | None = None,
               progress: Callable[[str], None] | None = None) -> Path:
-    """Compute batch k: each point's summary row (reused when known), written atomically."""
+    """Compute batch k: each point's summary row (reused when known to the same code),
+    written atomically."""
     import numpy as np
     import xarray as xr
 
@@ -344,10 +458,11 @@ def run_batch(plan: SweepPlan, k: int, out: str | Path | None = None,
     entry = registry.get(plan.study)
     sphere = entry.kind is registry.SPHERE
     base = _base(plan)
-    known = _known_points(plan)
+    code = _code()
+    known = _known_points(plan, code)
     indices = list(plan.batch_range(k))
     rows: list[dict[str, Any]] = []
-    counts = {"computed": 0, "reused": 0, "refused": 0}
+    counts = {"computed": 0, "reused": 0, "refused": 0, "failed": 0}
     compute_s = 0.0
     t0 = last = time.perf_counter()
     for done, index in enumerate(indices, start=1):
@@ -368,10 +483,21 @@ def run_batch(plan: SweepPlan, k: int, out: str | Path | None = None,
                 counts["reused"] += 1
             else:
                 tc = time.perf_counter()
-                row = {"status": "ok", **plan.row(entry, obj), "message": "",
-                       "point_key": key}
+                try:
+                    row = {"status": "ok", "message": "", **plan.row(entry, obj),
+                           "point_key": key}
+                except Exception as e:  # noqa: BLE001 - one point's failure is its row
+                    from creatio.errors import interrupted
+
+                    if interrupted(e):  # Ctrl-C inside the compiled loop: stop the batch
+                        raise KeyboardInterrupt from e
+                    row = {"status": "failed", "message": _failure(e), "point_key": ""}
+                    say(f"sweep {plan.name}: point {index} {list(plan.overrides(index))} "
+                        f"failed: {row['message']}")
+                    counts["failed"] += 1
+                else:
+                    counts["computed"] += 1
                 compute_s += time.perf_counter() - tc
-                counts["computed"] += 1
         if sphere and "dt_s" not in row:
             row.update(_sphere_extras(obj, changes, base.obj))
         row["point"] = index
@@ -382,7 +508,7 @@ def run_batch(plan: SweepPlan, k: int, out: str | Path | None = None,
             say(f"sweep {plan.name} batch {k + 1}/{plan.n_batches}: {done}/{len(indices)} "
                 f"points, {rate:.1f}/s, ETA {(len(indices) - done) / rate:.0f} s "
                 f"({counts['computed']} computed, {counts['reused']} reused, "
-                f"{counts['refused']} refused)")
+                f"{counts['refused']} refused, {counts['failed']} failed)")
             last = now
     names = sorted({n for r in rows for n, v in r.items()
                     if n != "point" and isinstance(v, int | float) and not isinstance(v, bool)})
@@ -395,18 +521,23 @@ def run_batch(plan: SweepPlan, k: int, out: str | Path | None = None,
     spec = json.dumps(plan.spec(), sort_keys=True)
     ds.attrs = {**provenance(plan.study, spec, hashlib.sha256(spec.encode()).hexdigest(),
                              f"sweep {plan.name} batch {k}"),
-                "batch": k, "batch_size": plan.batch_size, **counts,
+                "batch": k, "batch_size": plan.batch_size, "code_version": code, **counts,
                 "compute_s": compute_s, "wall_s": time.perf_counter() - t0}
     target = Path(out) if out is not None else Path(plan.batch_file(k))
     return write_dataset(ds, target)
 
 
 # ----------------------------------------------------------------------------- aggregate
-def _coordinate(values: Sequence[str]) -> list[Any]:
+def _coordinate(key: str, values: Sequence[str]) -> list[Any]:
+    """An axis's values as its coordinate: numbers, or the strings the points got (a quoted
+    Hydra string without its quotes)."""
     try:
         return [float(v) for v in values]
     except ValueError:
-        return list(values)
+        from hydra.core.override_parser.overrides_parser import OverridesParser
+
+        parser = OverridesParser.create()
+        return [str(parser.parse_override(f"{key}={v}").value()) for v in values]
 
 
 def aggregate(plan: SweepPlan):
@@ -440,7 +571,7 @@ def aggregate(plan: SweepPlan):
     data["status"] = (dims, status.astype(str))
     data["message"] = (dims, message.astype(str),
                        {"long_name": "why a point was refused (empty when it ran)"})
-    coords = {d: (d, _coordinate(v), {"long_name": k})
+    coords = {d: (d, _coordinate(k, v), {"long_name": k})
               for d, (k, v) in zip(dims, plan.axes, strict=True)}
     ds = xr.Dataset(data, coords=coords)
     ds.attrs.update({
@@ -458,8 +589,8 @@ def aggregate(plan: SweepPlan):
 def write_sweep(plan: SweepPlan, compute_missing: bool = False) -> dict[str, Path]:
     """Aggregate, then write sweep.nc, a markdown table and one figure per summary figure.
 
-    ``compute_missing`` runs the batches whose files are absent first, in this process
-    (`creatio run -m`, outside Snakemake).
+    ``compute_missing`` runs the batches whose files are absent, or were computed by other
+    code, first, in this process (`creatio run -m`, outside Snakemake).
     """
     from creatio.pipeline.index import record_sweep, refresh_index
     from creatio.pipeline.io import provenance, write_dataset
@@ -467,7 +598,7 @@ def write_sweep(plan: SweepPlan, compute_missing: bool = False) -> dict[str, Pat
 
     if compute_missing:
         for k in range(plan.n_batches):
-            if not Path(plan.batch_file(k)).is_file():
+            if _batch_code(plan.batch_file(k)) != _code():
                 run_batch(plan, k)
     ds = aggregate(plan)
     spec = json.dumps(plan.spec(), sort_keys=True)

@@ -27,7 +27,13 @@ from omegaconf import DictConfig, OmegaConf
 from omegaconf.errors import OmegaConfBaseException
 
 from creatio.errors import ConfigError
-from creatio.pipeline.config import CONF_DIR, Resolved
+from creatio.pipeline.config import (
+    CONF_DIR,
+    Resolved,
+    refuse_identity,
+    refuse_interpolations,
+    refuse_resolvers,
+)
 from creatio.pipeline.config import validate as validate_study
 from creatio.scenes import registry
 
@@ -103,8 +109,11 @@ def compose(scene: str, overrides: Sequence[str] = ()) -> DictConfig:
 
 def validate(cfg: DictConfig | dict) -> SceneResolved:
     """Merge onto the scene's schema, check every rule, return the resolved config."""
-    cfg = OmegaConf.create(cfg) if isinstance(cfg, dict) else cfg
-    cfg = OmegaConf.masked_copy(cfg, [k for k in cfg if k != "hydra"])
+    if not isinstance(cfg, dict):
+        cfg = OmegaConf.to_container(cfg, resolve=False)
+    cfg = {k: v for k, v in cfg.items() if k != "hydra"}
+    refuse_resolvers(cfg)
+    cfg = OmegaConf.create(cfg)
     scene = str(OmegaConf.select(cfg, "scene.id", default=""))
     if scene not in registry.SCENES:
         raise ConfigError("scene.id", scene, f"must be one of {', '.join(registry.SCENES)}")
@@ -169,6 +178,8 @@ def resolve(scene: str, overrides: Sequence[str] = ()) -> SceneResolved:
 
 @functools.lru_cache(maxsize=256)
 def _resolve(scene: str, overrides: tuple[str, ...]) -> SceneResolved:
+    refuse_interpolations(overrides)
+    refuse_identity(overrides, "scene.id", "--config 'scenes=[ID]'")
     try:
         cfg = compose(scene, overrides)
     except KeyError:

@@ -23,7 +23,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from creatio.errors import ConfigError
+from creatio.errors import ConfigError, one_line_errors
 from creatio.model.numerics import steps_in
 from creatio.pipeline.config import Resolved
 from creatio.pipeline.config import output_root as study_root
@@ -159,15 +159,18 @@ class SceneRuns:
             raise ConfigError("overrides", unused, "no selected scene has these keys")
         return out
 
+    @one_line_errors
     def targets(self) -> list[str]:
         """Every file of every selected scene."""
         return [f for p in self.plans.values() for f in p.files]
 
+    @one_line_errors
     def built(self) -> list[str]:
         """The files of the scenes whose every file exists (what a report can include)."""
         return [f for p in self.plans.values() if all(Path(x).is_file() for x in p.files)
                 for f in p.files]
 
+    @one_line_errors
     def get(self, root: str, scene: str) -> ScenePlan:
         """The plan that writes ``<root>/scenes/<scene>/``: this invocation's, or the default
         config's when the root is the data directory (a scene file asked for by path)."""
@@ -179,10 +182,12 @@ class SceneRuns:
         raise ConfigError("output", f"{root}/scenes/{scene}",
                           "no scene configuration of this invocation writes there")
 
+    @one_line_errors
     def sha(self, root: str, scene: str) -> str:
         """The sha256 of a scene's canonical resolved YAML (its config rule's parameter)."""
         return self.get(root, scene).resolved.sha256
 
+    @one_line_errors
     def write(self, root: str, scene: str, path: str | Path, log: str | Path) -> None:
         """Write a scene's canonical resolved YAML to path (temporary, then renamed) and its
         hash to the log; a run folder also gets its overrides.json."""
@@ -196,14 +201,17 @@ class SceneRuns:
             record_run(root, "scene", scene, resolved.data, resolve(scene).data,
                        plan.overrides, resolved.sha256, self.data_dir)
 
+    @one_line_errors
     def yaml(self, root: str, scene: str) -> str:
         """The canonical resolved YAML of a scene job (its only config parameter)."""
         return self.get(root, scene).resolved.yaml
 
+    @one_line_errors
     def reuse(self, root: str, scene: str) -> dict[str, str]:
         """{study: dataset} a scene job reads instead of computing (its extra inputs)."""
         return self.get(root, scene).reuse(self.data_dir)
 
+    @one_line_errors
     def reuse_args(self, root: str, scene: str) -> str:
         """``--reuse STUDY=PATH ...`` for `creatio task scene dataset`."""
         return " ".join(f"--reuse {s}={p}" for s, p in self.reuse(root, scene).items())

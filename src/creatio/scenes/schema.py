@@ -128,6 +128,11 @@ class MediaConfig:
                 "must be finite")
 
 
+#: The most frames a scene may have: the page holds every one and the animation draws every
+#: `media.every`-th with matplotlib (~0.1 s each); the defaults use 300.
+MAX_FRAMES = 20_000
+
+
 # ------------------------------------------------------------------------- sphere scenes
 @dataclass
 class SphereSceneSettings:
@@ -183,6 +188,10 @@ class SphereSceneConfig:
                 require(steps_in(interval, base.solver.dt) is not None, "scene.playback",
                         f"speed / fps = {interval:g} s",
                         f"must be a multiple of bases.{name}.solver.dt = {base.solver.dt:g} s")
+            frames = base.study.duration / interval
+            require(frames <= MAX_FRAMES, "scene.playback.fps", s.playback.fps,
+                    f"asks for {frames:,.0f} frames (bases.{name}.study.duration x fps / "
+                    f"speed), more than {MAX_FRAMES:,}: lower fps or raise speed")
 
 
 # ---------------------------------------------------------------------- kinematic scenes
@@ -224,6 +233,10 @@ class SurfaceFamilyConfig:
                 s.gamma_max_deg, f"must lie in [gamma_min_deg = {s.gamma_min_deg}, 90]")
         require(s.gamma_step_deg > 0.0, "scene.gamma_step_deg", s.gamma_step_deg, "must be > 0")
         span = s.gamma_max_deg - s.gamma_min_deg
+        stops = span / s.gamma_step_deg + 1
+        require(stops <= MAX_FRAMES, "scene.gamma_step_deg", s.gamma_step_deg,
+                f"asks for {stops:,.0f} slider stops (animation frames), more than "
+                f"{MAX_FRAMES:,}")
         require(steps_in(span, s.gamma_step_deg) is not None or span == 0.0,
                 "scene.gamma_step_deg", s.gamma_step_deg,
                 f"must divide gamma_max_deg - gamma_min_deg = {span:g}")

@@ -47,6 +47,7 @@ __all__ = [
     "SolverConfig",
     "SphereConfig",
     "StructureConfig",
+    "check_finite",
     "require",
     "vary",
 ]
@@ -55,12 +56,58 @@ __all__ = [
 MISSING: Any = "???"
 
 
+#: Magnitudes a config number may take (besides 0): squares and products of a few of them stay
+#: finite in double precision, so a validated value never overflows inside the model.
+TINY, HUGE = 1e-30, 1e15
+
+
+def check_finite(obj: Any, prefix: str = "") -> None:
+    """Refuse NaN and infinities in every number of a config tree (lists included), and
+    magnitudes outside [TINY, HUGE]: a number that cannot be finite is never meaningful here.
+    A field may accept infinity where it means something (a fixed structure's inertia): it
+    says so with the metadata ``{"infinite": True}``, or by being infinite by default."""
+    for f in fields(obj):
+        value = getattr(obj, f.name)
+        key = f"{prefix}{f.name}"
+        if is_dataclass(value):
+            check_finite(value, f"{key}.")
+            continue
+        if isinstance(value, dict):
+            for name, item in value.items():
+                if is_dataclass(item):
+                    check_finite(item, f"{key}.{name}.")
+            continue
+        default = f.default if f.default is not dataclasses.MISSING else (
+            f.default_factory() if f.default_factory is not dataclasses.MISSING else None)
+        infinite_ok = f.metadata.get("infinite", False) or _has_inf(default)
+        items = value if isinstance(value, list) else [value]
+        for i, item in enumerate(items):
+            where = f"{key}[{i}]" if isinstance(value, list) else key
+            if isinstance(item, float) and not math.isfinite(item):
+                if math.isinf(item) and infinite_ok:
+                    continue
+                raise ConfigError(where, item, "must be a finite number")
+            if isinstance(item, int | float) and not isinstance(item, bool) and item != 0 and (
+                    not TINY <= abs(item) <= HUGE):
+                raise ConfigError(where, item, f"must be 0 or between {TINY:g} and {HUGE:g} "
+                                  "in magnitude (beyond, the model's squares and products "
+                                  "overflow or divide by zero)")
+
+
+def _has_inf(default: Any) -> bool:
+    items = default if isinstance(default, list) else [default]
+    return any(isinstance(x, float) and math.isinf(x) for x in items)
+
+
 def vary(cfg: Any, changes: Mapping[str, Any]) -> Any:
     """A copy of a validated config tree with dotted keys set (``{"sphere.mu": 0.3}``),
     checked again: how an analysis or a sweep varies a base config without composing it.
 
-    Values are converted to the field's type (int, float, bool, str or an Enum); a key the
-    schema does not have, or a value its type refuses, raises ConfigError like validation.
+    Values are converted to the field's type (int, float, bool, str or an Enum; a list of
+    numbers item by item); a key the schema does not have, or a value its type refuses,
+    raises ConfigError like validation, and so do a non-finite number and a magnitude
+    outside [TINY, HUGE] (check_finite), then the rules (``check``): every point of a
+    sweep meets the checks of a single run.
     Interpolations were resolved at validation, so a key that others follow must be varied
     with them (``phases.T`` with ``study.duration``).
     """
@@ -76,6 +123,7 @@ def vary(cfg: Any, changes: Mapping[str, Any]) -> Any:
         if name not in types:
             raise ConfigError(key, value, "unknown key (not in this study's config)")
         setattr(node, name, _coerce(key, value, getattr(node, name)))
+    check_finite(out)
     out.check()
     return out
 
@@ -98,9 +146,14 @@ def _coerce(key: str, value: Any, current: Any) -> Any:
                 raise TypeError("not a number")
             return float(value)
         if isinstance(current, list):
+            if isinstance(value, str | bytes) or not isinstance(value, Sequence):
+                raise TypeError("not a list")
+            kinds = {type(x) for x in current}
+            if len(kinds) == 1 and kinds <= {int, float}:  # numbers: each meets the type
+                return [_coerce(f"{key}[{i}]", x, current[0]) for i, x in enumerate(value)]
             return list(value)
         return value
-    except (TypeError, ValueError) as e:
+    except (TypeError, ValueError, OverflowError) as e:  # int(inf): OverflowError
         raise ConfigError(key, value, f"has the wrong type ({e})") from None
 
 
@@ -129,6 +182,21 @@ def require(ok: bool, key: str, value: Any, rule: str) -> None:
     """Raise ConfigError(key, value, rule) unless ok."""
     if not ok:
         raise ConfigError(key, value, rule)
+
+
+#: The most samples one array of a run may hold (grid points, history rows, a scene's
+#: slider stops x mesh points): each sample carries tens of float64 figures, so 2 million
+#: keep a run within about a GB (the defaults use 28,224 at most, EN-01's regularity grid).
+#: The size is computed from the config and refused before anything is allocated: a step
+#: of 1e-6 degrees passed validation and died in a MemoryError.
+MAX_SAMPLES = 2_000_000
+
+
+def require_samples(key: str, value: Any, n: float, what: str) -> None:
+    """Refuse a config whose `what` would number n > MAX_SAMPLES, naming the key that sets
+    it and the count."""
+    require(n <= MAX_SAMPLES, key, value,
+            f"asks for {n:,.0f} {what}, more than {MAX_SAMPLES:,} (memory): use fewer")
 
 
 # --------------------------------------------------------------------------------- schemas
@@ -350,9 +418,13 @@ def _check_inclinations(path: str, values: Sequence[float]) -> None:
         require(-90.0 <= v <= 90.0, f"{path}[{i}]", v, "must lie in [-90, 90] degrees")
 
 
-def _check_grid(path: str, n_radii: int, n_angles: int) -> None:
+def _check_grid(path: str, n_radii: int, n_angles: int, per: int = 1) -> None:
+    """Both counts positive, and the grid (times `per` evaluations of it at once) within
+    MAX_SAMPLES."""
     require(n_radii >= 2, f"{path}.n_radii", n_radii, "must be >= 2 (both ends are sampled)")
     require(n_angles >= 1, f"{path}.n_angles", n_angles, "must be >= 1")
+    require_samples(f"{path}.n_radii", n_radii, n_radii * n_angles * per,
+                    f"grid points ({n_radii} x {n_angles}" + (f" x {per})" if per > 1 else ")"))
 
 
 @dataclass
@@ -374,8 +446,8 @@ class Ct02Study:
         """Steps positive, inclinations in range, grid sizes sane, gamma(t) in range."""
         _check_positive_list(f"{path}.h", self.h)
         _check_inclinations(f"{path}.inclinations_deg", self.inclinations_deg)
-        _check_grid(path, self.n_radii, self.n_angles)
         require(len(self.times) >= 1, f"{path}.times", self.times, "needs at least 1 value")
+        _check_grid(path, self.n_radii, self.n_angles, len(self.times))
         require(len(self.feature_times) >= 1, f"{path}.feature_times", self.feature_times,
                 "needs at least 1 value (the report's feature check)")
         self.varying_gamma.check(f"{path}.varying_gamma", inclination=True, kinds=_NO_CYCLE)
@@ -431,6 +503,8 @@ class PatternConfig:
             f"must lie in (0, T = {self.T}]",
         )
         require(self.fd_step > 0.0, f"{path}.fd_step", self.fd_step, "must be > 0")
+        require_samples(f"{path}.sample_interval", self.sample_interval,
+                        self.T / self.sample_interval, "pattern samples (T / sample_interval)")
 
 
 @dataclass
@@ -450,8 +524,8 @@ class En01Study:
     def check(self, path: str) -> None:
         """Every sub-config valid; at least one law case."""
         _check_positive_list(f"{path}.h", self.h)
-        _check_grid(path, self.n_radii, self.n_angles)
         require(len(self.times) >= 1, f"{path}.times", self.times, "needs at least 1 value")
+        _check_grid(path, self.n_radii, self.n_angles, len(self.times))
         require(len(self.laws) >= 1, f"{path}.laws", dict(self.laws), "needs at least 1 case")
         for name, case in self.laws.items():
             case.check(f"{path}.laws.{name}")
@@ -538,6 +612,7 @@ class DynamicConfig:
         self.sphere.check("sphere")
         self.solver.check("solver")
         self.study.check("study")
+        self._check_rows()
         R = self.study.initial.R
         require(
             0.0 <= R <= self.geometry.dR,
@@ -554,10 +629,32 @@ class DynamicConfig:
         )
         self._check_stability()
 
+    def durations(self) -> list[float]:
+        """The simulated time of each run of the study (one run here)."""
+        return [self.study.duration]
+
+    def _check_rows(self) -> None:
+        """The longest run's history (one row every solver.output_interval) within
+        MAX_SAMPLES rows."""
+        longest = max(self.durations())
+        require_samples("solver.output_interval", self.solver.output_interval,
+                        longest / self.solver.output_interval,
+                        f"history rows ({longest:g} s / solver.output_interval)")
+
     def _check_stability(self) -> None:
         """Refuse a fixed dt beyond the explicit scheme's limit for the regularised friction
-        (docs/model.md s.6); adaptive and L-stable methods have no such limit."""
-        limit = self.step_limit()
+        (docs/model.md s.6); adaptive and L-stable methods have no such limit. Building
+        the runs' problems is the last check: a value the rules above let through but a
+        problem refuses is named by its config key, never a bare ValueError."""
+        try:
+            limit = self.step_limit()
+        except ValueError as e:
+            field_name = str(e).split()[0].split("=")[0].rstrip(":")
+            key = _PROBLEM_KEYS.get(field_name, "study")
+            value: Any = self
+            for part in key.split("."):
+                value = getattr(value, part, None)
+            raise ConfigError(key, plain_value(value), f"the run refuses it: {e}") from None
         if self.solver.dt > limit and not self.solver.allow_unstable:
             raise ConfigError(
                 "solver.dt",
@@ -592,6 +689,30 @@ class DynamicConfig:
         """Largest stable fixed step (s) of this configuration's explicit scheme (inf without
         friction, for an adaptive method and for radau5)."""
         return stability_limit(self.sphere_problem())
+
+
+#: The config key behind each field of a run's SphereProblem (the first word of its
+#: ValueError), for a refusal that only building the problem finds.
+_PROBLEM_KEYS = {
+    "R0": "geometry.R0", "dR": "geometry.dR", "A": "geometry.A", "Kr": "geometry.Kr",
+    "Ka": "geometry.Ka", "m": "sphere.m", "b": "sphere.b", "eps": "sphere.eps",
+    "g": "sphere.g", "mu": "sphere.mu", "dt": "solver.dt",
+    "output_interval": "solver.output_interval", "t_end": "study.duration",
+    "rtol": "solver.rtol", "atol": "solver.atol", "law_r": "phases.r", "law_a": "phases.a",
+    "law_gamma": "phases.gamma", "rotation": "study.outputs", "equilibrium_start": "sphere.g",
+    "structure_inertia": "structure.inertia", "confinement": "structure.confinement",
+    "confining_force": "structure.force", "restitution": "flight.restitution",
+    "resume_speed": "flight.resume_speed", "impact_cap": "flight.impact_cap",
+}
+
+
+def plain_value(value: Any) -> Any:
+    """A config value as the user wrote it (enums as their text, dataclasses by name)."""
+    if isinstance(value, Enum):
+        return value.value
+    if is_dataclass(value):
+        return type(value).__name__
+    return value
 
 
 @dataclass
@@ -690,7 +811,11 @@ class En02gConfig(DynamicConfig):
     study: En02gStudy = field(default_factory=En02gStudy)
 
     def check(self) -> None:
-        """phases.gamma untouched, then the rules of the sphere studies over every run."""
+        """phases.gamma untouched, gravity to find the equilibrium, then the rules of the
+        sphere studies over every run."""
+        require(self.sphere.g > 0.0, "sphere.g", self.sphere.g,
+                "must be > 0: every EN-02G run starts at the static equilibrium, the lowest "
+                "point under gravity")
         gamma = self.phases.gamma
         require(gamma.kind is LawKind.constant and gamma.phi0 == 0.0, "phases.gamma",
                 f"{gamma.kind.value}, phi0 = {gamma.phi0}",
@@ -775,6 +900,13 @@ class DropConfig:
                 "must be in (0, 1]")
         require(steps_in(self.duration, self.dt) is not None, f"{path}.duration",
                 self.duration, f"must be an integer multiple of {path}.dt = {self.dt}")
+        require_samples(f"{path}.duration", self.duration,
+                        self.duration / self.output_interval(),
+                        f"history rows ({path}.duration / {self.output_interval():g} s)")
+
+    def output_interval(self) -> float:
+        """The drop test's history interval: the multiple of dt nearest 0.01 s."""
+        return self.dt * max(1, round(0.01 / self.dt))
 
 
 @dataclass
@@ -814,11 +946,19 @@ class En02fConfig(DynamicConfig):
                 "solver.dense_output", self.solver.dense_output,
                 "is not available with flight.contact_loss = flight (the flight loop takes "
                 "its own steps to every event)")
-        super().check()
+        # the runs' own values before the rules that build their problems (the stability
+        # limit): a cycle that is no multiple of dt reached the problem's ValueError, keyless
+        self.study.check("study")
+        self.solver.check("solver")
         for i, T in enumerate(self.study.cycles_s):
             require(self.solver.adaptive or steps_in(T, self.solver.dt) is not None,
                     f"study.cycles_s[{i}]", T,
                     f"must be an integer multiple of solver.dt = {self.solver.dt}")
+        super().check()
+
+    def durations(self) -> list[float]:
+        """The default run's length and each cycle's (one run per cycle)."""
+        return [self.study.duration, *self.study.cycles_s]
 
     def run_problems(self, dt: float | None = None
                      ) -> list[tuple[float, float, SphereProblem]]:
@@ -839,7 +979,7 @@ class En02fConfig(DynamicConfig):
         still = (0.0, 0.0, 0.0, 1.0, 0.0, 0.0)
         return dataclasses.replace(
             self.sphere_problem(d.dt), A=0.0, law_r=still, law_a=still, law_gamma=still,
-            t_end=d.duration, output_interval=d.dt * max(1, round(0.01 / d.dt)),
+            t_end=d.duration, output_interval=d.output_interval(),
             method="rk4", fixed_step=False,
             **self.flight.problem_fields(d.restitution) | {"flight": True},
             start_height=d.height)
