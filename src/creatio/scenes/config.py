@@ -142,6 +142,15 @@ def route(scene: str, overrides: Sequence[str]) -> tuple[list[str], list[str]]:
         key, sep, value = ov.partition("=")
         prefix = key[: len(key) - len(key.lstrip("+~"))]
         key = key.lstrip("+~")
+        if key.startswith("scene.axes.") and OmegaConf.select(
+                base, "scene.axes", default=missing, throw_on_missing=False) is not missing:
+            # an axis is the scene's own key (a new one is added); its value is sweep grammar
+            if not prefix and OmegaConf.select(base, key, default=missing,
+                                               throw_on_missing=False) is missing:
+                prefix = "+"
+            routed.append(f"{prefix}{key}{sep}{_axis_value(value) if sep else ''}")
+            used.append(ov)
+            continue
         if OmegaConf.select(base, key, default=missing, throw_on_missing=False) is not missing:
             routed.append(ov)
             used.append(ov)
@@ -160,6 +169,18 @@ def route(scene: str, overrides: Sequence[str]) -> tuple[list[str], list[str]]:
         if hit:
             used.append(ov)
     return routed, used
+
+
+def _axis_value(value: str) -> str:
+    """An axis value as Hydra must read it: the sweep grammar (``range(0,0.4,0.1)``,
+    ``0,0.1``) quoted, so that composing keeps it as text; lists, null and quoted text as
+    given."""
+    text = value.strip()
+    if not text or text[0] in "'\"[{" or text in ("null", "None"):
+        return value
+    if "'" not in text:
+        return f"'{text}'"
+    return f'"{text}"' if '"' not in text else value
 
 
 def resolve(scene: str, overrides: Sequence[str] = ()) -> SceneResolved:

@@ -13,6 +13,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 from enum import StrEnum
+from typing import Any
 
 from creatio.errors import ConfigError
 from creatio.model.numerics import steps_in
@@ -141,6 +142,7 @@ class SphereSceneSettings:
     playback: PlaybackConfig = field(default_factory=lambda: PlaybackConfig(speed=8.0))
     mesh: MeshConfig = field(default_factory=MeshConfig)
     media: MediaConfig = field(default_factory=MediaConfig)
+    axes: dict[str, Any] = field(default_factory=dict)
 
     @property
     def rotation(self) -> bool:
@@ -183,6 +185,10 @@ class SphereSceneConfig:
                 require(steps_in(interval, base.solver.dt) is not None, "scene.playback",
                         f"speed / fps = {interval:g} s",
                         f"must be a multiple of bases.{name}.solver.dt = {base.solver.dt:g} s")
+        if s.axes:
+            from creatio.scenes.family import plan_family
+
+            plan_family(self)
 
 
 # ---------------------------------------------------------------------- kinematic scenes
