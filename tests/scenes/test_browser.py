@@ -40,8 +40,8 @@ def _canvas_statistics(browser: Browser) -> list[tuple[float, float]]:
     from PIL import Image
 
     img = np.asarray(Image.open(io.BytesIO(browser.screenshot())).convert("L"), float)
-    rects = browser.evaluate("[...document.querySelectorAll('canvas')].map(c => {"
-                             "const r = c.getBoundingClientRect();"
+    rects = browser.evaluate("[...document.querySelectorAll('.view > canvas:not(.triad)')]"
+                             ".map(c => { const r = c.getBoundingClientRect();"
                              "return [r.left, r.top, r.width, r.height]; })")
     out = []
     for x, y, w, h in rects:

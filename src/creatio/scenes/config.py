@@ -176,8 +176,10 @@ def _axis_value(value: str) -> str:
     ``0,0.1``) quoted, so that composing keeps it as text; lists, null and quoted text as
     given."""
     text = value.strip()
-    if not text or text[0] in "'\"[{" or text in ("null", "None"):
+    if not text or text[0] in "[{" or text in ("null", "None"):
         return value
+    if len(text) > 1 and text[0] == text[-1] and text[0] in "'\"" and text[0] not in text[1:-1]:
+        return value  # one quoted string already
     if "'" not in text:
         return f"'{text}'"
     return f'"{text}"' if '"' not in text else value

@@ -199,8 +199,16 @@ def _spec_text(key: str, spec: Any) -> str:
         if any(isinstance(v, list | tuple | Mapping) for v in spec):
             raise ConfigError(f"scene.axes.{key}", list(spec), "values must be plain numbers "
                               "or words")
-        return f"{key}={','.join(str(v) for v in spec)}"
+        return f"{key}={','.join(_element(v) for v in spec)}"
     return f"{key}={spec}"
+
+
+def _element(value: Any) -> str:
+    """One listed value in the sweep grammar: a number as written, a word quoted."""
+    if isinstance(value, int | float) and not isinstance(value, bool):
+        return repr(value)
+    text = str(value).replace("\\", "\\\\").replace("'", "\\'")
+    return f"'{text}'"
 
 
 def _typed(key: str, texts: Sequence[str]) -> list[Any]:

@@ -157,8 +157,10 @@
   // camera that frames a box (the annulus, the surface at its inclination) until the reader
   // moves it; "reset view" frames it again.
   const HOME = new T.Vector3(0.2, -2.5, 1.9).normalize();
+  const VIEWS = [];
   class View {
     constructor(title, subtitle, unit) {
+      VIEWS.push(this);
       this.unit = unit || "m";
       const box = el("div", { class: "view" });
       document.getElementById("views").appendChild(box);
@@ -264,6 +266,10 @@
       this.update();
     }
     unfollow() { this.followed = null; this.touched = false; this.fit(); this.render(); }
+    state() {  // where the camera is and looks (read by tests)
+      return { position: this.camera.position.toArray(), target: this.controls.target.toArray(),
+               fov: this.camera.fov, height: this.el.clientHeight, width: this.el.clientWidth };
+    }
     reset() { this.touched = false; this.fit(); this.render(); }
     render() {
       this.renderer.render(this.scene, this.camera);
@@ -681,6 +687,7 @@
         out.runs[runs[r]].drawn = [p.x, p.y, p.z];
         out.runs[runs[r]].frame = ii;
         if (following) o.view.follow(p, 2 * src.scalar("sphere_radius", r));
+        out.runs[runs[r]].camera = o.view.state();
         for (const key of readouts) {
           if (key === "time") continue;
           const a = src.frame(key, r, ii)[0], b = src.frame(key, r, jj)[0];
@@ -700,7 +707,7 @@
     let chart = null;
     if (F) chart = familyControls(F, (m) => { setSource(m === F.base ? own : memberSource(m));
                                               setTime(state.t); });
-    const camera = viewControls(views, (on, again) => {
+    const camera = viewControls(views, (on) => {
       following = on;
       objs.forEach((o, r) => {
         if (!on) { o.view.unfollow(); return; }
@@ -710,7 +717,7 @@
         o.view.follow(p, 2 * src.scalar("sphere_radius", r), true);
         o.view.render();
       });
-      if (!on || again) setTime(state.t);
+      setTime(state.t);
     });
     const h = hashParams();
     if (F) chart.fromHash(h);
@@ -994,8 +1001,7 @@
       table.set("pha", "angular phase φa", [fmt(A.phase_a[0] * 180 / Math.PI)], "deg");
       view.render();
       publish({ inclination: incl[k], surface_class: cls, surface: membrane.probe(),
-                camera: { target: view.controls.target.toArray(),
-                          position: view.camera.position.toArray() } });
+                camera: view.state() });
     };
     slider.addEventListener("input", () => set(Number(slider.value)));
     const h = hashParams();
@@ -1120,9 +1126,9 @@
     if (!(probe.getContext("webgl2") || probe.getContext("webgl"))) {
       throw new Error("this browser has no WebGL: the 3D view cannot be drawn");
     }
+    window.creatio = { state: state, views: VIEWS };
     ({ sphere: sphereScene, surface_family: surfaceFamilyScene,
        velocity_normal: velocityNormalScene })[D.kind]();
-    window.creatio = { state: state };
   } catch (e) {
     showError(String(e && e.message ? e.message : e));
     throw e;
