@@ -106,7 +106,7 @@ rule scene_page:
         nc="{root}/scenes/{scene}/scene.nc",
         library=SCENE_LIBRARY,
     output:
-        reported_scene("{root}/scenes/{scene}/index.html"),
+        "{root}/scenes/{scene}/index.html",
     wildcard_constraints:
         scene=scene_ids(),
     params:
@@ -126,7 +126,7 @@ rule scene_media:
     input:
         "{root}/scenes/{scene}/scene.nc",
     output:
-        animation=reported_scene("{root}/scenes/{scene}/animation.webp"),
+        animation="{root}/scenes/{scene}/animation.webp",
         poster=reported_scene("{root}/scenes/{scene}/poster.png"),
     wildcard_constraints:
         scene=scene_ids(),

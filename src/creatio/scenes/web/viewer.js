@@ -865,8 +865,11 @@
         s.append(svg("text", { x: 3, y: 11, class: "ctitle" }, `${pan.fig.label} (${pan.fig.unit})`));
         s.append(svg("line", { x1: L, y1: H - BOT, x2: W - R, y2: H - BOT, class: "axis" }));
         s.append(svg("line", { x1: L, y1: TOP, x2: L, y2: H - BOT, class: "axis" }));
-        s.append(svg("text", { x: L - 2, y: TOP + 3, class: "tick", "text-anchor": "end" }, fmt(hi, 3)));
-        s.append(svg("text", { x: L - 2, y: H - BOT, class: "tick", "text-anchor": "end" }, fmt(lo, 3)));
+        // enough digits that the two ends of the axis read differently
+        const digits = Math.min(8, Math.max(3, 2 + Math.ceil(Math.log10(
+          Math.max(Math.abs(hi), Math.abs(lo), 1e-300) / (hi - lo)))));
+        s.append(svg("text", { x: L - 2, y: TOP + 3, class: "tick", "text-anchor": "end" }, fmt(hi, digits)));
+        s.append(svg("text", { x: L - 2, y: H - BOT, class: "tick", "text-anchor": "end" }, fmt(lo, digits)));
         const labels = axes[against].labels;
         s.append(svg("text", { x: L, y: H - 5, class: "tick" }, labels[0]));
         s.append(svg("text", { x: (L + W - R) / 2, y: H - 5, class: "tick", "text-anchor": "middle" },
@@ -923,8 +926,10 @@
     let drawnFor = null;
     function select(d, i) {
       idx[d] = i;
-      sliders[d].input.value = String(i);
-      axes.forEach((a, k) => { sliders[k].value.textContent = a.labels[idx[k]]; });
+      axes.forEach((a, k) => {
+        sliders[k].input.value = String(idx[k]);
+        sliders[k].value.textContent = a.labels[idx[k]];
+      });
       const key = idx.filter((_, k) => k !== against).join(",");
       if (key !== drawnFor) { draw(); drawnFor = key; }
       onMember(ravel(idx));
