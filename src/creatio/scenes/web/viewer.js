@@ -857,16 +857,17 @@
           if (y !== null && Number.isFinite(y)) ys.push(y);
         }));
         let lo = ys.length ? Math.min(...ys) : 0, hi = ys.length ? Math.max(...ys) : 1;
-        if (!(hi - lo > 1e-9 * Math.max(1, Math.abs(hi)))) {  // a flat figure: centre it
-          const pad = 0.05 * Math.abs(hi) || 0.5;
-          lo -= pad; hi += pad;
-        }
+        // differences below 1e-4 of the figure's size are drawn flat (a final radius that
+        // moves by 1e-7 m is not a trend); a figure that does not move at all is centred
+        const floor = 1e-4 * Math.max(Math.abs(lo), Math.abs(hi));
+        if (hi - lo < floor) { const mid = (hi + lo) / 2; lo = mid - floor / 2; hi = mid + floor / 2; }
+        if (!(hi > lo)) { const pad = 0.05 * Math.abs(hi) || 0.5; lo -= pad; hi += pad; }
         const yOf = (y) => TOP + (H - TOP - BOT) * (1 - (y - lo) / (hi - lo));
         s.append(svg("text", { x: 3, y: 11, class: "ctitle" }, `${pan.fig.label} (${pan.fig.unit})`));
         s.append(svg("line", { x1: L, y1: H - BOT, x2: W - R, y2: H - BOT, class: "axis" }));
         s.append(svg("line", { x1: L, y1: TOP, x2: L, y2: H - BOT, class: "axis" }));
-        // enough digits that the two ends of the axis read differently
-        const digits = Math.min(8, Math.max(3, 2 + Math.ceil(Math.log10(
+        // enough digits that the two ends of the axis read differently (at most 5)
+        const digits = Math.min(5, Math.max(3, 2 + Math.ceil(Math.log10(
           Math.max(Math.abs(hi), Math.abs(lo), 1e-300) / (hi - lo)))));
         s.append(svg("text", { x: L - 2, y: TOP + 3, class: "tick", "text-anchor": "end" }, fmt(hi, digits)));
         s.append(svg("text", { x: L - 2, y: H - BOT, class: "tick", "text-anchor": "end" }, fmt(lo, digits)));
