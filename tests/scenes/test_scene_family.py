@@ -55,6 +55,11 @@ def test_overrides_change_add_and_remove_axes():
     assert fam.base_member == fam.ravel((3, 1))  # mu = 0.15, T = 120
     assert family_of(_resolve("en02", ["scene.axes.sphere.mu=null"])) is None
     assert family_of(_resolve("en02", ["~scene.axes.sphere"])) is None
+    assert family_of(_resolve("en02", ["scene.axes={}"])) is None
+    # a whole mapping replaces the declared axes (Hydra alone would merge it into them)
+    fam = family_of(_resolve("compare", ["scene.axes={phases.T:'60,120'}"]))
+    assert [(a.key, a.labels, a.studies) for a in fam.axes] == [
+        ("phases.T", ("60", "120"), ("en02", "en02r"))]
     # a value the axis does not list is inserted: the page opens on the scene's own config
     (axis,) = family_of(_resolve("en02", ["sphere.mu=0.155"])).axes
     assert axis.inserted and axis.labels[axis.base] == "0.155" and len(axis.values) == 42

@@ -142,8 +142,12 @@ def route(scene: str, overrides: Sequence[str]) -> tuple[list[str], list[str]]:
         key, sep, value = ov.partition("=")
         prefix = key[: len(key) - len(key.lstrip("+~"))]
         key = key.lstrip("+~")
-        if key.startswith("scene.axes.") and OmegaConf.select(
-                base, "scene.axes", default=missing, throw_on_missing=False) is not missing:
+        axes = OmegaConf.select(base, "scene.axes", default=missing, throw_on_missing=False)
+        if key == "scene.axes" and axes is not missing and sep and not prefix:
+            routed += _replace_axes(axes, value)  # the whole set: {} or null for none
+            used.append(ov)
+            continue
+        if key.startswith("scene.axes.") and axes is not missing:
             # an axis is the scene's own key (a new one is added); its value is sweep grammar
             if not prefix and OmegaConf.select(base, key, default=missing,
                                                throw_on_missing=False) is missing:
@@ -169,6 +173,31 @@ def route(scene: str, overrides: Sequence[str]) -> tuple[list[str], list[str]]:
         if hit:
             used.append(ov)
     return routed, used
+
+
+def _replace_axes(current: Any, value: str) -> list[str]:
+    """``scene.axes=<mapping>`` as overrides Hydra applies: every declared axis removed, each
+    one of the mapping added (a structured config's mapping is merged, not replaced)."""
+    from hydra.core.override_parser.overrides_parser import OverridesParser
+
+    from creatio.scenes.family import flatten_axes, listed_value
+
+    try:
+        new = OverridesParser.create().parse_override(f"scene.axes={value}").value()
+    except Exception as e:  # noqa: BLE001 - Hydra's grammar error, re-worded
+        raise ConfigError("scene.axes", value, "must be a mapping of axes, e.g. "
+                          f"{{sphere.mu:'0,0.1'}} ({str(e).splitlines()[0]})") from None
+    if new is None or new == "":
+        new = {}
+    if not isinstance(new, dict):
+        raise ConfigError("scene.axes", value, "must be a mapping of axes, e.g. "
+                          "{sphere.mu:'0,0.1'}, or {} for none")
+    out = [f"~scene.axes.{name}" for name in current]
+    for key, spec in flatten_axes(new):
+        text = (f"[{','.join(listed_value(v) for v in spec)}]" if isinstance(spec, list)
+                else _axis_value(str(spec)))
+        out.append(f"+scene.axes.{key}={text}")
+    return out
 
 
 def _axis_value(value: str) -> str:

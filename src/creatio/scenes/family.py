@@ -51,6 +51,8 @@ __all__ = [
     "attach",
     "compute_family",
     "family_of",
+    "flatten_axes",
+    "listed_value",
     "plan_family",
     "run_batch",
 ]
@@ -178,14 +180,14 @@ class Family:
                  "studies": list(a.studies), "inserted": a.inserted} for a in self.axes]
 
 
-def _flatten(axes: Mapping[str, Any], prefix: str = "") -> list[tuple[str, Any]]:
+def flatten_axes(axes: Mapping[str, Any], prefix: str = "") -> list[tuple[str, Any]]:
     """(dotted key, value spec) of a nested axes mapping; a None or empty leaf is no axis
     (``scene.axes.sphere.mu=null`` removes one)."""
     out: list[tuple[str, Any]] = []
     for name, value in axes.items():
         key = f"{prefix}{name}"
         if isinstance(value, Mapping):
-            out += _flatten(value, f"{key}.")
+            out += flatten_axes(value, f"{key}.")
         elif value is not None and value != "":
             out.append((key, value))
     return out
@@ -199,11 +201,11 @@ def _spec_text(key: str, spec: Any) -> str:
         if any(isinstance(v, list | tuple | Mapping) for v in spec):
             raise ConfigError(f"scene.axes.{key}", list(spec), "values must be plain numbers "
                               "or words")
-        return f"{key}={','.join(_element(v) for v in spec)}"
+        return f"{key}={','.join(listed_value(v) for v in spec)}"
     return f"{key}={spec}"
 
 
-def _element(value: Any) -> str:
+def listed_value(value: Any) -> str:
     """One listed value in the sweep grammar: a number as written, a word quoted."""
     if isinstance(value, int | float) and not isinstance(value, bool):
         return repr(value)
@@ -268,7 +270,7 @@ def plan_family(obj: Any) -> Family | None:
     against the scene's studies and the page size; lists no member."""
     from creatio.pipeline.sweep import MAX_BATCH, parse_axes
 
-    declared = _flatten(obj.scene.axes)
+    declared = flatten_axes(obj.scene.axes)
     if not declared:
         return None
     axes: list[Axis] = []
