@@ -252,3 +252,44 @@ def test_a_narrow_screen_stacks_the_views_above_the_panel(browser, scenes, scene
         browser.call("Emulation.setDeviceMetricsOverride", {"width": 1400, "height": 900,
                                                             "deviceScaleFactor": 1,
                                                             "mobile": False})
+
+
+def test_two_axes_give_two_sliders_and_each_member_its_own_run(browser, tmp_path, library):
+    """mu x T: the T slider switches to a member whose run lasts its own T (the study's
+    duration follows T), drawn from that member's frames; the chart follows the other axis."""
+    from creatio.pipeline.io import read_dataset
+    from creatio.scenes.config import resolve, route
+    from creatio.scenes.run import write_page, write_scene_dataset
+
+    r = resolve("en02", route("en02", ["phases.T=12", "scene.axes.sphere.mu=0.1,0.2",
+                                       "scene.axes.phases.T=8,12"])[0])
+    write_scene_dataset(r, tmp_path / "scene.nc", store=tmp_path / "members")
+    page = write_page(tmp_path / "scene.nc", tmp_path / "index.html", library)
+    ds, _ = read_dataset(tmp_path / "scene.nc")
+    axes = json.loads(ds.attrs["family_axes"])
+    assert [(a["key"], a["labels"]) for a in axes] == [("sphere.mu", ["0.1", "0.15", "0.2"]),
+                                                       ("phases.T", ["8", "12"])]
+    _open(browser, page, "#t=6")
+    assert browser.evaluate("document.querySelectorAll('input[data-key]').length") == 2
+    _slide(browser, "sphere.mu", 2)
+    state = _slide(browser, "phases.T", 0)
+    m = 2 * 2 + 0  # row-major: mu index 2, T index 0
+    assert state["member"] == m and state["values"] == {"sphere.mu": "0.2", "phases.T": "8"}
+    assert int(ds.family_frames_run.values[m, 0]) == 21  # 8 s every 0.4 s, both ends
+    k = int(np.argmin(np.abs(ds.time.values - 6.0)))
+    np.testing.assert_allclose(state["runs"]["en02"]["drawn"], ds.family_centre.values[m, 0, k],
+                               rtol=0, atol=1e-12)
+    # past that member's end (8 s) the sphere and the membrane hold its last frame
+    state = json.loads(browser.evaluate(
+        "(() => { const s = document.getElementById('time'); s.value = '10';"
+        "s.dispatchEvent(new Event('input'));"
+        "return document.getElementById('scene-state').textContent; })()"))
+    assert state["runs"]["en02"]["frame"] == 20
+    np.testing.assert_allclose(state["runs"]["en02"]["drawn"], ds.family_centre.values[m, 0, 20],
+                               rtol=0, atol=1e-12)
+    assert all(math.isfinite(p) for p in state["runs"]["en02"]["phases"])
+    browser.evaluate("(() => { const s = document.getElementById('chart-axis');"
+                     "s.value = '1'; s.dispatchEvent(new Event('change')); })()")
+    ticks = browser.evaluate("[...document.querySelectorAll('svg.chart')][0].textContent")
+    assert "phases.T" in ticks
+    _no_errors(browser)

@@ -634,9 +634,10 @@
           o.view.setFrame(rim(g.R0 + g.dR, g.A + 2 * s.scalar("sphere_radius", r)));
         }
         o.body.scale.setScalar(s.scalar("sphere_radius", r) / b0[r]);
-        if (o.trace) {
+        if (o.trace) {  // past the run's end (NaN frames) the path stays at its last point
+          const last = s.scalar("frames_run", r) - 1;
           for (let i = 0; i < n; i++) {
-            const x = s.frame("centre", r, i);
+            const x = s.frame("centre", r, Math.min(i, last));
             o.tracePos[3 * i] = x[0]; o.tracePos[3 * i + 1] = x[1];
             o.tracePos[3 * i + 2] = x[2] + 0.002;
           }
@@ -657,10 +658,14 @@
       if (F) out.values = F.values(src.member);
       const vals = {};
       objs.forEach((o, r) => {
-        // A refused member has no frames of its own: the membrane keeps the scene's phases.
+        // A refused member has no frames of its own: the membrane keeps the scene's phases;
+        // past the end of a member's shorter run it keeps its last ones.
         const ph_src = src.refused ? own : src;
+        const end = src.refused ? n - 1 : src.scalar("frames_run", r) - 1;
+        const pi = Number.isFinite(ph_src.frame("phase_a", r, i)[0]) ? i : Math.min(i, end);
+        const pj = Number.isFinite(ph_src.frame("phase_a", r, j)[0]) ? j : Math.min(j, end);
         const ph = ["phase_r", "phase_a", "inclination"].map(
-          (k) => lerp(ph_src.frame(k, r, i)[0], ph_src.frame(k, r, j)[0], w));
+          (k) => lerp(ph_src.frame(k, r, pi)[0], ph_src.frame(k, r, pj)[0], pi === pj ? 0 : w));
         if (o.membrane) o.membrane.update(ph[0], ph[1], ph[2]);
         out.runs[runs[r]] = { status: src.status[r], phases: ph };
         if (o.membrane) out.runs[runs[r]].surface = o.membrane.probe();
