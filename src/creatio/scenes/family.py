@@ -259,10 +259,9 @@ def _links(study: str) -> tuple[tuple[str, str | None, str], ...]:
     """(key, the key it copies or None for an expression, the expression's text) of every
     interpolation in a study's composed config (``study.duration: ${..phases.T}``)."""
     from creatio.pipeline.config import compose
-    from creatio.pipeline.sweep import _interpolations, _referenced
+    from creatio.pipeline.sweep import interpolations
 
-    cfg = compose(study)
-    return tuple((key, source, _referenced(cfg, key)) for key, source in _interpolations(cfg))
+    return tuple(interpolations(compose(study)))
 
 
 def plan_family(obj: Any) -> Family | None:
@@ -665,16 +664,30 @@ def attach(scene_ds: Any, family: Family, members: Any) -> Any:
         members = members.pad(frame=(0, frames - members.sizes["frame"]))
     scene_ds = scene_ds.assign_coords(time=("frame", np.arange(frames) * interval,
                                             scene_ds.time.attrs))
+    from creatio.pipeline import cf
+
     out = scene_ds.copy()
     for name, var in members.data_vars.items():
+        var = var.copy()
+        described = cf.VARIABLES.get(str(name), (str(name).replace("_", " "), None))
+        var.attrs["long_name"] = f"{var.attrs.get('long_name') or described[0]}, per member"
+        if var.dtype.kind in "fiu" and "units" not in var.attrs and described[1]:
+            var.attrs["units"] = described[1].replace(cf.L, "m")  # sphere scenes are in m
         out[f"family_{name}"] = var
+    out = out.assign_coords(member=("member", members.member.values, {
+        "long_name": "index of the member in the row-major product of the axes",
+        "units": "1"}))
     for a in family.axes:
         idx = [family.unravel(m)[family.axes.index(a)] for m in range(family.size)]
         values = [a.values[i] for i in idx]
-        numeric = all(isinstance(v, int | float) and not isinstance(v, bool) for v in values)
-        out[f"family_{a.dim}"] = ("member", np.array(values, float) if numeric else
-                                  np.array([str(v) for v in values], dtype=object).astype(str),
-                                  {"long_name": f"{a.key} of each member"})
+        units = cf.CONFIG_UNITS.get(a.key)
+        numeric = units is not None and all(
+            isinstance(v, int | float) and not isinstance(v, bool) for v in values)
+        # a value of a key whose unit is known is a number; any other is written as its label
+        out[f"family_{a.dim}"] = (
+            "member", np.array(values, float) if numeric else
+            np.array([a.labels[i] for i in idx], dtype=object).astype(str),
+            {"long_name": f"{a.key} of each member", **({"units": units} if numeric else {})})
     out.attrs.update({
         "family_axes": json.dumps(family.spec()),
         "family_base_member": family.base_member,
