@@ -204,6 +204,10 @@ class SceneRuns:
         """{study: dataset} a scene job reads instead of computing (its extra inputs)."""
         return self.get(root, scene).reuse(self.data_dir)
 
+    def reuse_args(self, root: str, scene: str) -> str:
+        """``--reuse STUDY=PATH ...`` for `creatio task scene dataset`."""
+        return " ".join(f"--reuse {s}={p}" for s, p in self.reuse(root, scene).items())
+
     @property
     def store(self) -> str:
         """Where computed family members are kept for reuse (shared by every output root)."""
@@ -219,10 +223,6 @@ class SceneRuns:
             return []
         family = family_of(plan.resolved)
         return family.batch_files(plan.entry.directory(root)) if family else []
-
-    def reuse_args(self, root: str, scene: str) -> str:
-        """``--reuse STUDY=PATH ...`` for `creatio task scene dataset`."""
-        return " ".join(f"--reuse {s}={p}" for s, p in self.reuse(root, scene).items())
 
 
 def scene_ids(scenes: Sequence[str] | None = None) -> str:

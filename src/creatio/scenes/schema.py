@@ -175,6 +175,10 @@ class SphereSceneConfig:
         s.playback.check("scene.playback")
         s.mesh.check("scene.mesh")
         s.media.check("scene.media")
+        if s.axes:  # the declared family: each axis, and whether its page fits
+            from creatio.scenes.family import plan_family
+
+            plan_family(self)
         interval = s.playback.interval
         for name in s.studies:
             base = self.bases[name]
@@ -185,10 +189,6 @@ class SphereSceneConfig:
                 require(steps_in(interval, base.solver.dt) is not None, "scene.playback",
                         f"speed / fps = {interval:g} s",
                         f"must be a multiple of bases.{name}.solver.dt = {base.solver.dt:g} s")
-        if s.axes:
-            from creatio.scenes.family import plan_family
-
-            plan_family(self)
 
 
 # ---------------------------------------------------------------------- kinematic scenes
