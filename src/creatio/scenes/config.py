@@ -118,6 +118,10 @@ def validate(cfg: DictConfig | dict) -> SceneResolved:
         msg = str(getattr(e, "msg", e)).splitlines()[0]
         raise ConfigError(key, getattr(e, "value", None), msg) from None
     obj.check()
+    if getattr(obj.scene, "axes", None):  # a declared family: its axes, and whether it fits
+        from creatio.scenes.family import plan_family
+
+        plan_family(obj)
     text = OmegaConf.to_yaml(OmegaConf.create(data), sort_keys=True)
     return SceneResolved(scene, obj, data, text, hashlib.sha256(text.encode()).hexdigest())
 

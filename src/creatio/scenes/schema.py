@@ -175,10 +175,6 @@ class SphereSceneConfig:
         s.playback.check("scene.playback")
         s.mesh.check("scene.mesh")
         s.media.check("scene.media")
-        if s.axes:  # the declared family: each axis, and whether its page fits
-            from creatio.scenes.family import plan_family
-
-            plan_family(self)
         interval = s.playback.interval
         for name in s.studies:
             base = self.bases[name]
