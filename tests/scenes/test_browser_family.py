@@ -65,11 +65,31 @@ def test_the_mu_slider_draws_that_members_sphere_at_the_pages_time(browser, scen
             drawn = state["runs"][str(run)]["drawn"]
             np.testing.assert_allclose(drawn, ds.family_centre.values[m, r, k], rtol=0,
                                        atol=1e-12)
+            _assert_members_surface(state["runs"][str(run)]["surface"], ds, m, r, k)
         # the readouts are that member's, and its chart is marked
         speed = browser.evaluate("document.querySelector('#readouts tr[data-readout=speed] "
                                  "td:nth-child(2)').textContent")
         assert float(speed) == pytest.approx(float(ds.family_speed.values[m, 0, k]), rel=1e-3)
     _no_errors(browser)
+
+
+def _assert_members_surface(probe: list[dict], ds, m: int, r: int, k: int) -> None:
+    """The drawn membrane is the model's surface at the member's own phases (stated in the
+    dataset's angle unit)."""
+    from creatio.model.laws import Law
+    from creatio.model.surface import Frame, Motion, Surface
+
+    geo = [float(ds[f"family_{n}"].values[m, r]) for n in ("R0", "dR", "A", "Kr", "Ka")]
+    ph = []
+    for n in ("phase_r", "phase_a", "inclination"):
+        var = ds[f"family_{n}"]
+        value = float(var.values[m, r, k])
+        ph.append(value if var.attrs.get("units") in ("rad", "radian") else math.radians(value))
+    motion = Motion(*(Law.constant(p) for p in ph))
+    surface = Surface(geo[0], geo[1], geo[2], int(geo[3]), int(geo[4]))
+    for v in probe:
+        expected = Frame(surface, motion, v["alpha"], v["R"], 0.0).position
+        np.testing.assert_allclose(v["xyz"], expected, rtol=0, atol=2e-6)  # float32 mesh
 
 
 def test_a_refused_value_shows_its_reason_not_a_number(browser, scenes):

@@ -139,11 +139,13 @@
       }
       return out;
     }
-    // A few drawn vertices with their (alpha, R): what tests compare with the model.
+    // A few drawn vertices with their (alpha, R): what tests compare with the model. Two of
+    // them off the radii where sin(2 pi Kr R / dR) vanishes, so that every phase shows.
     probe() {
       const out = [];
       for (const [i, j] of [[0, 0], [Math.floor(this.nA / 3), Math.floor(this.nR / 2)],
-                            [this.nA - 2, this.nR - 1]]) {
+                            [this.nA - 2, this.nR - 1], [Math.floor(this.nA / 5), 1],
+                            [Math.floor(this.nA / 7), Math.floor(this.nR / 3)]]) {
         const v = i * this.nR + j;
         out.push({ alpha: this.alpha(i), R: this.radius(j),
                    xyz: [this.pos[3 * v], this.pos[3 * v + 1], this.pos[3 * v + 2]] });
