@@ -30,7 +30,7 @@ from pathlib import Path
 from creatio.pipeline.io import write_dataset
 from creatio.pipeline.run import run_study
 from creatio.scenes import registry
-from creatio.scenes.config import resolve
+from creatio.scenes.config import resolve, route
 from creatio.scenes.plan import needs
 from creatio.scenes.run import scene_dataset
 from creatio.studies import registry as studies
@@ -57,7 +57,9 @@ def main(argv: list[str] | None = None) -> int:
     full: dict[str, dict] = {}  # study config sha -> its full run's figures
     rows = []
     for scene in registry.SCENES:
-        r = resolve(scene)
+        # the scene's own frames, without its family (scripts/bench_scene_family.py times it)
+        r = resolve(scene, route(scene, ["scene.axes.sphere=null"])[0]
+                    if "axes" in resolve(scene).data.get("scene", {}) else [])
         runs = needs(r)
         if not runs:
             t, ds = best(lambda r=r: scene_dataset(r), args.repeats)

@@ -28,8 +28,8 @@ def library(tmp_path_factory) -> Path:
 
 @pytest.fixture(scope="session")
 def scenes(tmp_path_factory, library) -> dict[str, Path]:
-    """Every registered scene's scene.nc and index.html, default configs, computed here
-    (no reuse: the scene's own minimal runs)."""
+    """Every registered scene's scene.nc and index.html, default configs (the explorable
+    ones with their default families), computed here (no study dataset reused)."""
     from creatio.scenes import registry
     from creatio.scenes.config import resolve
     from creatio.scenes.run import write_page, write_scene_dataset
@@ -38,7 +38,7 @@ def scenes(tmp_path_factory, library) -> dict[str, Path]:
     out = {}
     for scene in registry.SCENES:
         d = root / scene
-        write_scene_dataset(resolve(scene), d / "scene.nc")
+        write_scene_dataset(resolve(scene), d / "scene.nc", store=root / "members")
         write_page(d / "scene.nc", d / "index.html", library)
         out[scene] = d
     return out

@@ -40,8 +40,8 @@ def _canvas_statistics(browser: Browser) -> list[tuple[float, float]]:
     from PIL import Image
 
     img = np.asarray(Image.open(io.BytesIO(browser.screenshot())).convert("L"), float)
-    rects = browser.evaluate("[...document.querySelectorAll('canvas')].map(c => {"
-                             "const r = c.getBoundingClientRect();"
+    rects = browser.evaluate("[...document.querySelectorAll('.view > canvas:not(.triad)')]"
+                             ".map(c => { const r = c.getBoundingClientRect();"
                              "return [r.left, r.top, r.width, r.height]; })")
     out = []
     for x, y, w, h in rects:
@@ -183,3 +183,20 @@ def test_the_snakemake_report_opens_without_errors(browser):
 
     img = np.asarray(Image.open(io.BytesIO(browser.screenshot())).convert("L"), float)
     assert img.std() > 10, "the report renders blank"
+
+
+def test_the_report_links_the_scene_pages_instead_of_embedding_them():
+    """Each scene's poster caption links its page and animation, files that exist relative
+    to the report; no page (its own three.js) is embedded."""
+    import re
+
+    path = report_path()
+    if path is None:
+        pytest.skip("no report: snakemake --report data/report.html (or set CREATIO_REPORT)")
+    text = path.read_text()
+    links = set(re.findall(r'href=\\"([^"\\]*/(?:index\.html|animation\.webp))\\"', text))
+    pages = {x for x in links if x.endswith("index.html")}
+    assert pages and len(links) == 2 * len(pages), links
+    for link in links:
+        assert (path.parent / link).is_file(), link
+    assert "data:text/html" not in text

@@ -13,7 +13,8 @@ from creatio.model.surface import Frame, Motion
 from creatio.scenes.config import resolve
 from creatio.scenes.run import scene_dataset
 
-SHORT = ["bases.en02.phases.T=12"]  # a 12 s cycle (duration follows T): 6,000 RK4 steps
+SHORT = ["bases.en02.phases.T=12",  # a 12 s cycle (duration follows T): 6,000 RK4 steps
+         "~scene.axes.sphere"]     # the scene alone (its family: test_scene_family.py)
 
 
 @pytest.fixture(scope="module")
@@ -75,7 +76,8 @@ def test_a_dataset_of_another_config_is_not_reused(short_en02, tmp_path):
 
 
 def test_compare_draws_no_orientation():
-    ds = scene_dataset(resolve("compare", ["bases.en02.phases.T=12", "bases.en02r.phases.T=12"]))
+    ds = scene_dataset(resolve("compare", ["bases.en02.phases.T=12", "bases.en02r.phases.T=12",
+                                           "~scene.axes.sphere"]))
     assert list(ds.run.values) == ["en02", "en02r"]
     assert "quaternion" not in ds
     assert "clockwise" in str(ds.direction.values[0])

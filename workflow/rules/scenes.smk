@@ -6,7 +6,9 @@
 #
 # Each scene writes scene.nc (exactly what it draws, with provenance), index.html (one offline
 # file), animation.webp and poster.png. A sphere scene reads a study dataset of the same
-# resolved config when one exists (its extra input), else computes its frames alone.
+# resolved config when one exists (its extra input), else computes its frames alone. An
+# explorable scene (scene.axes) also has a family: batch jobs compute its members (each kept
+# in data/scenes/members/ and reused by key), its dataset job gathers them.
 from creatio.scenes.assets import library_inputs
 from creatio.scenes.plan import SceneRuns, scene_ids
 
@@ -47,10 +49,37 @@ rule scene_config:
         SCENES.write(wildcards.root, wildcards.scene, output[0], log[0])
 
 
+rule scene_family_batch:
+    input:
+        config="{root}/scenes/{scene}/config.yaml",
+    output:
+        "{root}/scenes/{scene}/family/b{size}-{batch}.nc",
+    wildcard_constraints:
+        scene=scene_ids(),
+        size=r"\d+",
+        batch=r"\d{5}",
+    params:
+        creatio=CREATIO,
+        code=code_version("datasets") + code_version("scenes"),
+        store=SCENES.store,
+    threads: 1
+    conda:
+        "../envs/creatio.yaml"
+    benchmark:
+        "{root}/logs/scenes/{scene}_family_b{size}-{batch}.tsv"
+    log:
+        "{root}/logs/scenes/{scene}_family_b{size}-{batch}.log",
+    shell:
+        "{params.creatio} task scene family-batch {wildcards.scene} {output} "
+        "--config-file {input.config} --batch {wildcards.batch} --batch-size {wildcards.size} "
+        "--store {params.store} 2> {log}"
+
+
 rule scene_dataset:
     input:
         lambda wc: list(SCENES.reuse(wc.root, wc.scene).values()),
         config="{root}/scenes/{scene}/config.yaml",
+        family=lambda wc: SCENES.family(wc.root, wc.scene),
     output:
         "{root}/scenes/{scene}/scene.nc",
     wildcard_constraints:
@@ -59,6 +88,7 @@ rule scene_dataset:
         creatio=CREATIO,
         code=code_version("datasets") + code_version("scenes"),
         reuse=lambda wc: SCENES.reuse_args(wc.root, wc.scene),
+        store=SCENES.store,
     conda:
         "../envs/creatio.yaml"
     benchmark:
@@ -67,7 +97,8 @@ rule scene_dataset:
         "{root}/logs/scenes/{scene}_dataset.log",
     shell:
         "{params.creatio} task scene dataset {wildcards.scene} {output} "
-        "--config-file {input.config} {params.reuse} 2> {log}"
+        "--config-file {input.config} {params.reuse} --family {input.family} "
+        "--store {params.store} 2> {log}"
 
 
 rule scene_page:
@@ -75,7 +106,7 @@ rule scene_page:
         nc="{root}/scenes/{scene}/scene.nc",
         library=SCENE_LIBRARY,
     output:
-        reported_scene("{root}/scenes/{scene}/index.html"),
+        "{root}/scenes/{scene}/index.html",
     wildcard_constraints:
         scene=scene_ids(),
     params:
@@ -95,7 +126,7 @@ rule scene_media:
     input:
         "{root}/scenes/{scene}/scene.nc",
     output:
-        animation=reported_scene("{root}/scenes/{scene}/animation.webp"),
+        animation="{root}/scenes/{scene}/animation.webp",
         poster=reported_scene("{root}/scenes/{scene}/poster.png"),
     wildcard_constraints:
         scene=scene_ids(),

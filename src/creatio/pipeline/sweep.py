@@ -39,6 +39,7 @@ __all__ = [
     "MAX_POINTS",
     "SweepPlan",
     "aggregate",
+    "interpolations",
     "parse_axes",
     "plan_sweep",
     "run_batch",
@@ -351,6 +352,13 @@ def _referenced(cfg: Any, key: str) -> str:
     for part in path:
         node = node._get_node(part)
     return str(node._get_node(name)._value())
+
+
+def interpolations(cfg: Any) -> list[tuple[str, str | None, str]]:
+    """(key, the key it copies or None for another expression, its text) of every
+    interpolation in a composed config: the keys that follow a key a sweep or a scene
+    family varies (creatio.scenes.family)."""
+    return [(key, source, _referenced(cfg, key)) for key, source in _interpolations(cfg)]
 
 
 def _point_key(obj: Any) -> str:

@@ -3,6 +3,9 @@
     creatio task scene library OUT.js                       bundle three.js (npm ci + esbuild)
     creatio task scene dataset SCENE OUT.nc [--config-file F | --config-yaml Y | --override K=V]
                                             [--reuse STUDY=DATASET.nc ...]
+                                            [--family BATCH.nc ...] [--store DIR]
+    creatio task scene family-batch SCENE OUT.nc --batch K [--batch-size N] [--store DIR]
+                                            [--config-file F | --config-yaml Y | --override K=V]
     creatio task scene page SCENE.nc LIBRARY.js OUT.html
     creatio task scene media SCENE.nc ANIMATION.webp POSTER.png
 """
@@ -37,6 +40,24 @@ def main(argv: Sequence[str]) -> int:
                    help="a Hydra override, routed to the scene (sphere.mu reaches its bases)")
     d.add_argument("--reuse", action="append", default=[], metavar="STUDY=DATASET",
                    help="read a study's frames from its own dataset instead of computing")
+    d.add_argument("--family", nargs="*", default=[], type=Path, metavar="BATCH",
+                   help="the family's batch files (else the family is computed here)")
+    d.add_argument("--store", type=Path, default=None,
+                   help="where computed family members are kept and looked up")
+    f = sub.add_parser("family-batch", help="compute one batch of an explorable scene's family")
+    f.add_argument("scene", choices=list(registry.SCENES))
+    f.add_argument("out", type=Path)
+    f.add_argument("--batch", type=int, required=True, help="the batch's number, from 0")
+    f.add_argument("--batch-size", type=int, default=None,
+                   help="members per batch (the family's own batching by default)")
+    f.add_argument("--store", type=Path, default=None,
+                   help="where computed family members are kept and looked up")
+    for q in (f,):
+        q.add_argument("--config-yaml", default=None, help="the resolved scene config (YAML)")
+        q.add_argument("--config-file", type=Path, default=None,
+                       help="a file holding the resolved scene config (the workflow's)")
+        q.add_argument("--override", action="append", default=[], metavar="KEY=VALUE",
+                       help="a Hydra override, routed to the scene")
     p = sub.add_parser("page", help="write index.html from scene.nc")
     p.add_argument("dataset", type=Path)
     p.add_argument("library", type=Path)
@@ -54,7 +75,10 @@ def main(argv: Sequence[str]) -> int:
         elif args.step == "dataset":
             from creatio.scenes.run import write_scene_dataset
 
-            write_scene_dataset(_config(args), args.out, dict(_pair(r) for r in args.reuse))
+            write_scene_dataset(_config(args), args.out, dict(_pair(r) for r in args.reuse),
+                                args.family, args.store)
+        elif args.step == "family-batch":
+            _family_batch(args)
         elif args.step == "page":
             from creatio.scenes.run import write_page
 
@@ -70,6 +94,24 @@ def main(argv: Sequence[str]) -> int:
         print(f"creatio task scene: {e}", file=sys.stderr)
         return 1
     return 0
+
+
+def _family_batch(args: argparse.Namespace) -> None:
+    """One batch of a family, named as the workflow names it (its size is the plan's)."""
+    from creatio.scenes.family import family_of, run_batch
+
+    resolved = _config(args)
+    family = family_of(resolved) if resolved.entry.kind.name == "sphere" else None
+    if family is None:
+        raise ConfigError("scene.axes", {}, f"scene {resolved.scene} declares no axis: it "
+                          "has no family to compute")
+    if args.batch_size is not None and args.batch_size != family.batch_size:
+        raise ConfigError("--batch-size", args.batch_size, f"the family of {family.size} "
+                          f"members is cut into batches of {family.batch_size}")
+    if not 0 <= args.batch < family.n_batches:
+        raise ConfigError("--batch", args.batch, f"must lie in [0, {family.n_batches - 1}]")
+    run_batch(resolved, family, args.batch, args.out, args.store,
+              progress=lambda text: print(text, file=sys.stderr))
 
 
 def _pair(text: str) -> tuple[str, str]:

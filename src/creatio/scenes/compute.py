@@ -100,11 +100,14 @@ def _frames_of(ds: xr.Dataset, times: np.ndarray) -> xr.Dataset:
     return ds.isel(time=idx)
 
 
-def sphere_scene(resolved: Any, reuse: Mapping[str, str | Path] | None = None) -> xr.Dataset:
+def sphere_scene(resolved: Any, reuse: Mapping[str, str | Path] | None = None,
+                 computed: Mapping[str, tuple[xr.Dataset, dict[str, Any]]] | None = None
+                 ) -> xr.Dataset:
     """The dataset of a sphere scene: per run (study) and frame, what the scene draws.
 
     ``reuse`` maps a study to its own dataset, read instead of computing when its config hash
-    is the scene's base's (else the run is computed and the mismatch logged).
+    is the scene's base's (else the run is computed and the mismatch logged); ``computed``
+    maps a study to the :func:`run_need` result already in hand (a family member's).
     """
     from creatio.pipeline.io import read_dataset
 
@@ -130,7 +133,7 @@ def sphere_scene(resolved: Any, reuse: Mapping[str, str | Path] | None = None) -
                 sources.append(f"reused {reuse[need.study]}")
                 info = {"outputs": "read from the study dataset", "seconds": 0.0}
         if study_ds is None:
-            study_ds, info = run_need(base.obj, need)
+            study_ds, info = (computed or {}).get(need.study) or run_need(base.obj, need)
             sources.append(
                 f"computed: {base.obj.solver.method} at dt = {need.dt:g} s, outputs "
                 f"{'+'.join(need.outputs)}, {info['rows']} frames every {interval:g} s, "

@@ -127,6 +127,10 @@ def validate(cfg: DictConfig | dict) -> SceneResolved:
         msg = str(getattr(e, "msg", e)).splitlines()[0]
         raise ConfigError(key, getattr(e, "value", None), msg) from None
     obj.check()
+    if getattr(obj.scene, "axes", None):  # a declared family: its axes, and whether it fits
+        from creatio.scenes.family import plan_family
+
+        plan_family(obj)
     text = OmegaConf.to_yaml(OmegaConf.create(data), sort_keys=True)
     return SceneResolved(scene, obj, data, text, hashlib.sha256(text.encode()).hexdigest())
 
@@ -151,6 +155,19 @@ def route(scene: str, overrides: Sequence[str]) -> tuple[list[str], list[str]]:
         key, sep, value = ov.partition("=")
         prefix = key[: len(key) - len(key.lstrip("+~"))]
         key = key.lstrip("+~")
+        axes = OmegaConf.select(base, "scene.axes", default=missing, throw_on_missing=False)
+        if key == "scene.axes" and axes is not missing and sep and not prefix:
+            routed += _replace_axes(axes, value)  # the whole set: {} or null for none
+            used.append(ov)
+            continue
+        if key.startswith("scene.axes.") and axes is not missing:
+            # an axis is the scene's own key (a new one is added); its value is sweep grammar
+            if not prefix and OmegaConf.select(base, key, default=missing,
+                                               throw_on_missing=False) is missing:
+                prefix = "+"
+            routed.append(f"{prefix}{key}{sep}{_axis_value(value) if sep else ''}")
+            used.append(ov)
+            continue
         if OmegaConf.select(base, key, default=missing, throw_on_missing=False) is not missing:
             routed.append(ov)
             used.append(ov)
@@ -169,6 +186,45 @@ def route(scene: str, overrides: Sequence[str]) -> tuple[list[str], list[str]]:
         if hit:
             used.append(ov)
     return routed, used
+
+
+def _replace_axes(current: Any, value: str) -> list[str]:
+    """``scene.axes=<mapping>`` as overrides Hydra applies: every declared axis removed, each
+    one of the mapping added (a structured config's mapping is merged, not replaced)."""
+    from hydra.core.override_parser.overrides_parser import OverridesParser
+
+    from creatio.scenes.family import flatten_axes, listed_value
+
+    try:
+        new = OverridesParser.create().parse_override(f"scene.axes={value}").value()
+    except Exception as e:  # noqa: BLE001 - Hydra's grammar error, re-worded
+        raise ConfigError("scene.axes", value, "must be a mapping of axes, e.g. "
+                          f"{{sphere.mu:'0,0.1'}} ({str(e).splitlines()[0]})") from None
+    if new is None or new == "":
+        new = {}
+    if not isinstance(new, dict):
+        raise ConfigError("scene.axes", value, "must be a mapping of axes, e.g. "
+                          "{sphere.mu:'0,0.1'}, or {} for none")
+    out = [f"~scene.axes.{name}" for name in current]
+    for key, spec in flatten_axes(new):
+        text = (f"[{','.join(listed_value(v) for v in spec)}]" if isinstance(spec, list)
+                else _axis_value(str(spec)))
+        out.append(f"+scene.axes.{key}={text}")
+    return out
+
+
+def _axis_value(value: str) -> str:
+    """An axis value as Hydra must read it: the sweep grammar (``range(0,0.4,0.1)``,
+    ``0,0.1``) quoted, so that composing keeps it as text; lists, null and quoted text as
+    given."""
+    text = value.strip()
+    if not text or text[0] in "[{" or text in ("null", "None"):
+        return value
+    if len(text) > 1 and text[0] == text[-1] and text[0] in "'\"" and text[0] not in text[1:-1]:
+        return value  # one quoted string already
+    if "'" not in text:
+        return f"'{text}'"
+    return f'"{text}"' if '"' not in text else value
 
 
 def resolve(scene: str, overrides: Sequence[str] = ()) -> SceneResolved:

@@ -22,7 +22,13 @@ from creatio.model.surface import Frame, Motion, Surface
 from creatio.pipeline.io import atomic_save
 from creatio.reports.common import plt
 
-__all__ = ["sphere_media", "surface_family_media", "velocity_normal_media"]
+__all__ = ["plain", "sphere_media", "surface_family_media", "velocity_normal_media"]
+
+
+def plain(text: object) -> str:
+    """Text matplotlib draws as written: a pair of ``$`` would start mathtext (a title like
+    ``$\\frac$`` fails the whole animation), so each is escaped."""
+    return str(text).replace("$", r"\$")
 
 
 def _surface(ds: xr.Dataset, run: int | None = None) -> Surface:
@@ -66,7 +72,7 @@ def _frame_axes(fig, where: tuple[int, int], extent: float, title: str = ""):
     # puts a sphere resting in a cavity behind the membrane around it.
     ax.computed_zorder = False
     if title:
-        ax.set_title(title, fontsize=8.5, y=0.93)
+        ax.set_title(plain(title), fontsize=8.5, y=0.93)
     return ax
 
 
@@ -128,7 +134,7 @@ def sphere_media(ds: xr.Dataset, cfg: Any, animation: Path, poster: Path) -> Non
 
     def draw(fig, i: int) -> None:
         t = float(times[i])
-        fig.suptitle(f"{ds.attrs.get('title', '')}   t = {t:5.1f} s", fontsize=10)
+        fig.suptitle(f"{plain(ds.attrs.get('title', ''))}   t = {t:5.1f} s", fontsize=10)
         for r, name in enumerate(runs):
             surf = surfaces[r]
             direction = str(ds.direction.values[r]).replace(", ", "\n")
@@ -179,7 +185,7 @@ def surface_family_media(ds: xr.Dataset, cfg: Any, animation: Path, poster: Path
         ax.set_zlim(-0.2 * surf.R1, 0.8 * surf.R1)
         pos, w = surface_mesh(surf, pr, pa, math.radians(float(incl[k])), n_alpha, n_R)
         _draw_surface(ax, pos, w)
-        fig.suptitle(f"{ds.attrs.get('title', '')}\ngamma = {incl[k]:.0f} deg: "
+        fig.suptitle(f"{plain(ds.attrs.get('title', ''))}\ngamma = {incl[k]:.0f} deg: "
                      f"{ds.surface_class.values[k]}", fontsize=10)
 
     indices = list(range(0, incl.size, s.media.every))
@@ -197,7 +203,7 @@ def velocity_normal_media(ds: xr.Dataset, cfg: Any, animation: Path, poster: Pat
     scale = s.velocity_scale * s.magnification
 
     def draw(fig, i: int) -> None:
-        fig.suptitle(f"{ds.attrs.get('title', '')}   t = {times[i]:4.2f} s   "
+        fig.suptitle(f"{plain(ds.attrs.get('title', ''))}   t = {times[i]:4.2f} s   "
                      f"(normal {s.normal_length} u; velocity x{s.magnification:g})", fontsize=10)
         for m, mode in enumerate(modes):
             ax = _frame_axes(fig, (m, len(modes)), surf.R1 * 0.8,

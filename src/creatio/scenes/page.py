@@ -11,6 +11,7 @@ from __future__ import annotations
 import base64
 import html
 import json
+import math
 import re
 from pathlib import Path
 from typing import Any
@@ -22,7 +23,7 @@ import creatio
 from creatio.pipeline.io import atomic_save
 from creatio.scenes.assets import web_file
 
-__all__ = ["MAX_BYTES", "page_data", "write_page"]
+__all__ = ["MAX_BYTES", "family_data", "fill", "page_data", "write_page"]
 
 #: The largest page the project ships (the issue's limit).
 MAX_BYTES = 5 * 1024 * 1024
@@ -50,17 +51,30 @@ def _attr(value: Any) -> Any:
     return value
 
 
+def _array(values: Any) -> dict[str, Any]:
+    """A numeric array as the viewer decodes it: shape and base64 little-endian float64."""
+    values = np.ascontiguousarray(values, dtype="<f8")
+    return {"shape": list(values.shape),
+            "b64": base64.b64encode(values.tobytes()).decode("ascii")}
+
+
+def _finite(values: Any) -> Any:
+    """Nested lists with NaN as None (JSON has no NaN)."""
+    return [_finite(v) for v in values] if isinstance(values, list) else (
+        values if isinstance(values, str) or math.isfinite(values) else None)
+
+
 def page_data(ds: xr.Dataset) -> dict[str, Any]:
-    """The JSON the viewer reads: kind, attributes, coordinates, arrays, labels and units."""
+    """The JSON the viewer reads: kind, attributes, coordinates, arrays, labels and units,
+    and the family of an explorable scene (:func:`family_data`)."""
     arrays, strings, labels, units = {}, {}, {}, {}
     for name, var in {**ds.coords, **ds.data_vars}.items():
+        if str(name).startswith("family_"):
+            continue
         radians = (name in PAGE_RADIANS and name in ds.data_vars
                    and var.attrs.get("units") in ("degree", "deg"))
         if var.dtype.kind in "fiub":
-            values = np.ascontiguousarray(np.radians(var.values) if radians else var.values,
-                                          dtype="<f8")
-            arrays[name] = {"shape": list(values.shape),
-                            "b64": base64.b64encode(values.tobytes()).decode("ascii")}
+            arrays[name] = _array(np.radians(var.values) if radians else var.values)
         else:
             strings[name] = [str(v) for v in np.atleast_1d(var.values)]
         if "long_name" in var.attrs:
@@ -69,8 +83,43 @@ def page_data(ds: xr.Dataset) -> dict[str, Any]:
             units[name] = "rad" if radians else str(var.attrs["units"]).replace("degree", "deg")
     attrs = {k: _attr(ds.attrs[k]) for k in PAGE_ATTRS if k in ds.attrs}
     coords = {name: strings[name] for name in ("run", "mode") if name in strings}
-    return {"kind": attrs["kind"], "attrs": attrs, "coords": coords, "arrays": arrays,
-            "strings": strings, "labels": labels, "units": units}
+    out = {"kind": attrs["kind"], "attrs": attrs, "coords": coords, "arrays": arrays,
+           "strings": strings, "labels": labels, "units": units}
+    if "family_axes" in ds.attrs:
+        out["family"] = family_data(ds)
+    return out
+
+
+def family_data(ds: xr.Dataset) -> dict[str, Any]:
+    """The family of an explorable scene as the viewer reads it: the axes, per member its
+    status, reason refused and headline figures, and the frames of the members that ran
+    (packed: ``rows`` maps a member to its row, -1 for a refused one)."""
+    status = ds["family_status"].values
+    ran = ~np.all(status == "refused", axis=1)
+    rows = np.cumsum(ran) - 1
+    figures = json.loads(str(ds.attrs["family_figures"]))
+    per_run = {"frames_run", "sphere_radius", "R0", "dR", "A", "Kr", "Ka"}
+    arrays = {}
+    for name, var in ds.data_vars.items():
+        short = str(name).removeprefix("family_")
+        if str(name).startswith("family_") and ("frame" in var.dims or short in per_run):
+            values = var.values[ran]
+            if short in PAGE_RADIANS and var.attrs.get("units") in ("degree", "deg"):
+                values = np.radians(values)  # as the scene's own phases (PAGE_RADIANS)
+            arrays[short] = _array(values)
+    return {
+        "axes": json.loads(str(ds.attrs["family_axes"])),
+        "base": int(ds.attrs["family_base_member"]),
+        "size": int(ds.sizes["member"]),
+        "rows": [int(r) if ok else -1 for r, ok in zip(rows, ran, strict=True)],
+        "status": status.tolist(),
+        "message": [str(m) for m in ds["family_message"].values],
+        "direction": [[str(d) for d in row] for row in ds["family_direction"].values],
+        "figures": {name: {"label": label, "unit": unit, "meaning": meaning,
+                           "values": _finite(ds[f"family_{name}"].values.tolist())}
+                    for name, (label, unit, meaning) in figures.items()},
+        "arrays": arrays,
+    }
 
 
 def _provenance(ds: xr.Dataset, library_sha: str) -> str:
@@ -81,6 +130,17 @@ def _provenance(ds: xr.Dataset, library_sha: str) -> str:
         f"creatio {a.get('creatio_version')} · commit {str(a.get('git_commit', ''))[:10]}"
         f"{dirty} · created {a.get('date_created')} · three.js bundle sha256 "
         f"{library_sha[:12]}")
+
+
+def fill(template: str, slots: dict[str, str]) -> str:
+    """The template with each ``{{NAME}}`` replaced by its slot, in one pass over the
+    template only: text put into a slot (a title, the data, the bundle) is never read for
+    slots again, so a title holding ``{{THREE}}`` stays that text. An unknown slot name is
+    an error of the template."""
+    def slot(m: re.Match) -> str:
+        return slots[m.group(1)]
+
+    return re.sub(r"\{\{([A-Z_]+)\}\}", slot, template)
 
 
 def write_page(ds: xr.Dataset, out: str | Path, library: str | Path) -> Path:
@@ -97,17 +157,16 @@ def write_page(ds: xr.Dataset, out: str | Path, library: str | Path) -> Path:
     data = json.dumps(page_data(ds), separators=(",", ":"), allow_nan=False
                       ).replace("</", "<\\/")
     subtitle = ds.attrs.get("subtitle", "")
-    text = web_file("page.html")
-    for key, value in (("{{CSS}}", web_file("viewer.css")),
-                       ("{{VIEWER}}", web_file("viewer.js")),
-                       ("{{TITLE}}", html.escape(str(ds.attrs.get("title", "")))),
-                       ("{{SUBTITLE}}", html.escape(str(subtitle))),
-                       ("{{VERSION}}", creatio.__version__),
-                       ("{{PROVENANCE}}", _provenance(ds, digest(library))),
-                       ("{{THREE_REVISION}}", rev),
-                       ("{{DATA}}", data),
-                       ("{{THREE}}", lib_text.replace("</script", "<\\/script"))):
-        text = text.replace(key, value)
+    slots = {"CSS": web_file("viewer.css"),
+             "VIEWER": web_file("viewer.js"),
+             "TITLE": html.escape(str(ds.attrs.get("title", ""))),
+             "SUBTITLE": html.escape(str(subtitle)),
+             "VERSION": html.escape(creatio.__version__),
+             "PROVENANCE": _provenance(ds, digest(library)),
+             "THREE_REVISION": rev,
+             "DATA": data,
+             "THREE": lib_text.replace("</script", "<\\/script")}
+    text = fill(web_file("page.html"), slots)
     size = len(text.encode("utf-8"))
     if size > MAX_BYTES:
         raise ValueError(f"{out}: the page would be {size / 1e6:.1f} MB, above the "

@@ -216,6 +216,22 @@ class SceneRuns:
         """``--reuse STUDY=PATH ...`` for `creatio task scene dataset`."""
         return " ".join(f"--reuse {s}={p}" for s, p in self.reuse(root, scene).items())
 
+    @property
+    def store(self) -> str:
+        """Where computed family members are kept for reuse (shared by every output root)."""
+        return f"{self.data_dir}/scenes/members"
+
+    def family(self, root: str, scene: str) -> list[str]:
+        """The family batch files of an explorable scene (its extra inputs; none without
+        axes)."""
+        from creatio.scenes.family import family_of
+
+        plan = self.get(root, scene)
+        if plan.entry.kind is not registry.SPHERE:
+            return []
+        family = family_of(plan.resolved)
+        return family.batch_files(plan.entry.directory(root)) if family else []
+
 
 def scene_ids(scenes: Sequence[str] | None = None) -> str:
     """A regex of the registered scene ids, for Snakemake wildcard constraints."""

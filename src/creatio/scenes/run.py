@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import logging
 import time
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -21,12 +21,22 @@ __all__ = ["build_scene", "scene_dataset", "write_media", "write_page", "write_s
 log = logging.getLogger("creatio")
 
 
-def scene_dataset(resolved: SceneResolved, reuse: Mapping[str, str | Path] | None = None
-                  ) -> Any:
-    """The scene's dataset with provenance attached."""
+def scene_dataset(resolved: SceneResolved, reuse: Mapping[str, str | Path] | None = None,
+                  family: Sequence[str | Path] = (), store: str | Path | None = None) -> Any:
+    """The scene's dataset with provenance attached, and its family when it declares axes:
+    read from the ``family`` batch files (the workflow's), else computed here, each member
+    taken from or kept in ``store`` (creatio.scenes.family)."""
     from creatio.pipeline.io import provenance
+    from creatio.scenes.family import attach, compute_family, family_of
 
     ds = resolved.entry.compute_function()(resolved, reuse or {})
+    fam = family_of(resolved) if resolved.entry.kind.name == "sphere" else None
+    if fam is not None:
+        members = compute_family(resolved, fam, family, store)
+        ds = attach(ds, fam, members)
+        log.info("scene %s: family of %d members (%d computed, %d reused, %d refused)",
+                 resolved.scene, fam.size, members.attrs["computed"], members.attrs["reused"],
+                 members.attrs["refused"])
     title = getattr(resolved.obj.scene, "title", "") or resolved.scene
     attrs = provenance(resolved.scene, resolved.yaml, resolved.sha256, title)
     attrs["references"] = f"CREATIO technical notebook, scene {resolved.scene}"
@@ -38,12 +48,14 @@ def scene_dataset(resolved: SceneResolved, reuse: Mapping[str, str | Path] | Non
 
 
 def write_scene_dataset(resolved: SceneResolved, out: str | Path,
-                        reuse: Mapping[str, str | Path] | None = None) -> Path:
+                        reuse: Mapping[str, str | Path] | None = None,
+                        family: Sequence[str | Path] = (),
+                        store: str | Path | None = None) -> Path:
     """Compute (or read) the scene's data and write ``scene.nc`` atomically."""
     from creatio.pipeline.io import write_dataset
 
     t0 = time.perf_counter()
-    ds = scene_dataset(resolved, reuse)
+    ds = scene_dataset(resolved, reuse, family, store)
     write_dataset(ds, out)
     log.info("scene %s: wrote %s in %.2f s", resolved.scene, out, time.perf_counter() - t0)
     return Path(out)
@@ -79,12 +91,14 @@ def write_media(dataset: str | Path, animation: str | Path, poster: str | Path) 
 
 
 def build_scene(resolved: SceneResolved, outdir: str | Path, library: str | Path,
-                reuse: Mapping[str, str | Path] | None = None) -> dict[str, Path]:
-    """Every file of one scene into ``outdir`` (what the scene rules do, in one process)."""
+                reuse: Mapping[str, str | Path] | None = None,
+                store: str | Path | None = None) -> dict[str, Path]:
+    """Every file of one scene into ``outdir`` (what the scene rules do, in one process;
+    a family's members taken from or kept in ``store``)."""
     outdir = Path(outdir)
     paths = {name: outdir / name for name in ("scene.nc", "index.html", "animation.webp",
                                               "poster.png")}
-    write_scene_dataset(resolved, paths["scene.nc"], reuse)
+    write_scene_dataset(resolved, paths["scene.nc"], reuse, store=store)
     write_page(paths["scene.nc"], paths["index.html"], library)
     write_media(paths["scene.nc"], paths["animation.webp"], paths["poster.png"])
     return paths

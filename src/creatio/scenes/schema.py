@@ -13,6 +13,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 from enum import StrEnum
+from typing import Any
 
 from creatio.errors import ConfigError
 from creatio.model.numerics import steps_in
@@ -146,6 +147,7 @@ class SphereSceneSettings:
     playback: PlaybackConfig = field(default_factory=lambda: PlaybackConfig(speed=8.0))
     mesh: MeshConfig = field(default_factory=MeshConfig)
     media: MediaConfig = field(default_factory=MediaConfig)
+    axes: dict[str, Any] = field(default_factory=dict)
 
     @property
     def rotation(self) -> bool:
