@@ -14,6 +14,7 @@ from pathlib import Path
 import pytest
 
 from creatio.dynamics import SphereProblem
+from creatio.model.laws import Law
 
 REPO = Path(__file__).resolve().parents[1]
 
@@ -32,9 +33,9 @@ def en02_problem() -> SphereProblem:
     RK4 at dt = 0.002 s for 120 s."""
     return SphereProblem(
         R0=0.68, dR=1.72, A=0.18, Kr=1, Ka=6,
-        law_r=(0.0, 0.0, 0.0, 120.0, 0.0, 0.0),
-        law_a=(0.0, 0.0, 12.0 * math.pi, 120.0, 0.0, 0.0),
-        law_gamma=(0.0, 0.0, 0.0, 1.0, 0.0, 0.0),
+        law_r=Law.constant(0.0),
+        law_a=Law.quintic(0.0, 12.0 * math.pi, 120.0),
+        law_gamma=Law.constant(0.0),
         m=1.0, b=0.12, g=9.81, mu=0.15, eps=0.01,
         R_init=0.43, alpha_init=math.pi / 6,
     )  # fmt: skip
@@ -45,8 +46,8 @@ def en02r_problem(en02_problem: SphereProblem) -> SphereProblem:
     """EN-02R: phi_a = -12 pi s, phi_r = -pi s; the cavity follows R_c = 0.43 + 0.86 s."""
     return dataclasses.replace(
         en02_problem,
-        law_a=(0.0, 0.0, -12.0 * math.pi, 120.0, 0.0, 0.0),
-        law_r=(0.0, 0.0, -math.pi, 120.0, 0.0, 0.0),
+        law_a=Law.quintic(0.0, -12.0 * math.pi, 120.0),
+        law_r=Law.quintic(0.0, -math.pi, 120.0),
     )
 
 

@@ -20,13 +20,14 @@ from creatio.dynamics import SphereProblem, simulate
 from creatio.dynamics.kinematics import centre_kinematics
 from creatio.model.cavity import cavity_cell_offsets, in_cavity_cell
 from creatio.model.equilibrium import equilibrium_limit, height_derivatives, static_equilibrium
+from creatio.model.laws import Law
 from creatio.pipeline.config import resolve
 
 K = 2.0 * math.pi / 1.72  # notebook geometry: Kr = 1, dR = 1.72
 
 
 def _inclined(p: SphereProblem, gamma_deg: float) -> SphereProblem:
-    law = (math.radians(gamma_deg), 0.0, 0.0, 120.0, 0.0, 0.0)
+    law = Law.constant(math.radians(gamma_deg))
     return dataclasses.replace(p, law_gamma=law, equilibrium_start=True)
 
 
@@ -131,7 +132,7 @@ def test_a_short_cycle_leaves_its_cavity_yet_ends_ok(en02_problem) -> None:
     point crossed the cell's outer edge (the zero line of W past the radial wall) at
     t = 4.272 s, for about 0.15 s, before falling back; EN-02 itself is carried."""
     assert simulate(en02_problem).carried
-    fast = dataclasses.replace(en02_problem, law_a=(0.0, 0.0, 12 * math.pi, 6.9, 0.0, 0.0),
+    fast = dataclasses.replace(en02_problem, law_a=Law(0.0, 0.0, 12 * math.pi, 6.9, 0.0, 0.0),
                                t_end=6.9)
     res = simulate(fast)
     assert res.status == "ok" and not res.carried

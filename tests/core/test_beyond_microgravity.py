@@ -16,6 +16,7 @@ import numpy as np
 import pytest
 
 from creatio.dynamics import SphereProblem, simulate, stability_limit
+from creatio.model.laws import Law
 from creatio.pipeline.config import resolve
 from creatio.studies.en03m import probe, round_up, search
 from creatio.studies.schema import Confinement
@@ -24,7 +25,7 @@ from creatio.studies.schema import Confinement
 def _micro(p: SphereProblem, kind: str, P: float, T: float, I_s: float = 10.0
            ) -> SphereProblem:
     return dataclasses.replace(p, g=0.0, structure_inertia=I_s, confinement=kind,
-                               confining_force=P, law_a=(0.0, 0.0, 12 * math.pi, T, 0.0, 0.0),
+                               confining_force=P, law_a=Law(0.0, 0.0, 12 * math.pi, T, 0.0, 0.0),
                                t_end=T)
 
 

@@ -20,6 +20,7 @@ from creatio.dynamics import SphereProblem, simulate, stability_limit
 from creatio.dynamics import sphere as core
 from creatio.dynamics.kinematics import centre_kinematics
 from creatio.dynamics.solvers.tableaus import RK4_REAL_STABILITY
+from creatio.model.laws import Law
 from creatio.model.structure import free_structure_solve, point_mass_rotation
 from creatio.pipeline.config import resolve
 
@@ -85,8 +86,8 @@ def test_equations_of_motion_against_high_order_differences(en02_problem) -> Non
     h = 2.5e-4
     p = dataclasses.replace(
         en02_problem, structure_inertia=I_s, confinement="normal", confining_force=P, mu=0.3,
-        law_r=(0.1, 0.02, 0.1, 2.0, 0.02, 1.3), law_a=(0.0, 0.05, 0.1, 1.5, 0.02, 0.9),
-        law_gamma=(0.2, 0.0, 0.05, 2.0, 0.02, 1.7), R_init=0.45, alpha_init=0.5,
+        law_r=Law(0.1, 0.02, 0.1, 2.0, 0.02, 1.3), law_a=Law(0.0, 0.05, 0.1, 1.5, 0.02, 0.9),
+        law_gamma=Law(0.2, 0.0, 0.05, 2.0, 0.02, 1.7), R_init=0.45, alpha_init=0.5,
         Rdot_init=0.02, alphadot_init=0.03, omega_init=(0.5, -1.0, 0.5), t_end=2.0, dt=h,
         output_interval=h)
     res = simulate(p)

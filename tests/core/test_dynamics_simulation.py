@@ -12,6 +12,7 @@ from creatio.dynamics import SphereProblem, UnstableStepError, simulate, stabili
 from creatio.dynamics import sphere as core
 from creatio.dynamics.kinematics import centre_kinematics
 from creatio.dynamics.solvers.tableaus import RK4_REAL_STABILITY
+from creatio.model.laws import Law
 
 
 @pytest.fixture(scope="module")
@@ -19,9 +20,9 @@ def lively(en02_problem: SphereProblem) -> SphereProblem:
     """A lively case: every law active, time-varying inclination, initial slip and spin."""
     return dataclasses.replace(
         en02_problem,
-        law_r=(0.1, 0.02, 0.1, 2.0, 0.02, 1.3),
-        law_a=(0.0, 0.05, 0.1, 1.5, 0.02, 0.9),
-        law_gamma=(0.2, 0.0, 0.05, 2.0, 0.02, 1.7),
+        law_r=Law(0.1, 0.02, 0.1, 2.0, 0.02, 1.3),
+        law_a=Law(0.0, 0.05, 0.1, 1.5, 0.02, 0.9),
+        law_gamma=Law(0.2, 0.0, 0.05, 2.0, 0.02, 1.7),
         mu=0.3, R_init=0.45, alpha_init=0.5, Rdot_init=0.02, alphadot_init=0.03,
         omega_init=(0.5, -1.0, 0.5), t_end=2.0, dt=1e-3, output_interval=1e-3,
     )  # fmt: skip
@@ -253,8 +254,8 @@ def _assert_stopped(res, status: str) -> None:
 
 
 def test_stop_contact_lost_on_a_fast_cycle(en02_problem: SphereProblem) -> None:
-    res = simulate(dataclasses.replace(en02_problem, law_a=(0.0, 0.0, 12 * math.pi, 1.0, 0.0, 0.0),
-                                       t_end=1.0))  # fmt: skip
+    fast = Law.quintic(0.0, 12 * math.pi, 1.0)
+    res = simulate(dataclasses.replace(en02_problem, law_a=fast, t_end=1.0))
     _assert_stopped(res, "contact_lost")
     assert 0.0 < res.stop_time < 1.0 and res.N[-1] <= 0.0 and np.all(res.N[:-1] > 0.0)
     assert res.min_N <= 0.0
@@ -263,7 +264,7 @@ def test_stop_contact_lost_on_a_fast_cycle(en02_problem: SphereProblem) -> None:
 def test_stop_offset_singular_when_cavity_too_tight(en02_problem: SphereProblem) -> None:
     # the cavity moves inward (R_c = 0.43 -> 0), where its angular curvature A Ka^2 / rho^2
     # grows until b kappa reaches 1
-    res = simulate(dataclasses.replace(en02_problem, law_r=(0.0, 0.0, math.pi, 10.0, 0.0, 0.0),
+    res = simulate(dataclasses.replace(en02_problem, law_r=Law(0.0, 0.0, math.pi, 10.0, 0.0, 0.0),
                                        t_end=10.0))  # fmt: skip
     _assert_stopped(res, "offset_singular")
     assert 1.0 < res.stop_time < 10.0 and 1.0 <= res.max_b_kappa < 1.01

@@ -17,10 +17,11 @@ import numpy as np
 import pytest
 
 from creatio.dynamics import SphereProblem, simulate
-from creatio.dynamics.solvers.hybrid import EV_HEIGHT, EV_IMPACT, EV_KIND, EV_LOSS, EV_T
+from creatio.dynamics.layout import EV_HEIGHT, EV_IMPACT, EV_KIND, EV_LOSS, EV_T
 from creatio.model.flight import _foot_terms, foot_point
+from creatio.model.laws import Law
 
-FLAT = (0.0, 0.0, 0.0, 1.0, 0.0, 0.0)
+FLAT = Law.constant(0.0)
 
 
 def drop(e: float, h: float = 0.1, mu: float = 0.0, **kw) -> SphereProblem:
@@ -93,7 +94,7 @@ def fling(en02_problem: SphereProblem) -> SphereProblem:
     """EN-02 with a 4 s cycle: the sphere separates (the boundary is near 6.9 s); dt = 1 ms
     keeps RK4 inside the friction stability limit at the normal reactions after impacts."""
     return dataclasses.replace(
-        en02_problem, law_a=(0.0, 0.0, 12.0 * math.pi, 4.0, 0.0, 0.0), t_end=1.7,
+        en02_problem, law_a=Law(0.0, 0.0, 12.0 * math.pi, 4.0, 0.0, 0.0), t_end=1.7,
         output_interval=0.1, dt=0.001)
 
 

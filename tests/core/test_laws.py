@@ -7,7 +7,20 @@ import pytest
 from numpy.polynomial import Polynomial
 
 from creatio.model.cavity import pattern_angle
-from creatio.model.laws import Law, LawKind, quintic_step
+from creatio.model.laws import (
+    KIND_CODES,
+    L_AMPLITUDE,
+    L_DELTA,
+    L_KIND,
+    L_OMEGA,
+    L_PHI0,
+    L_RATE,
+    L_T,
+    NLAW,
+    Law,
+    LawKind,
+    quintic_step,
+)
 from creatio.model.surface import Motion, Surface
 
 # Quintic smooth step s(tau) = 10 tau^3 - 15 tau^4 + 6 tau^5, built as a polynomial object so
@@ -129,7 +142,8 @@ def test_quintic_law_is_c2_across_cycle_ends(edge: float) -> None:
 
 
 def test_constructors_set_kind_and_coefficients() -> None:
-    """coefficients() returns (phi0, rate, delta, T, amplitude, omega) for each constructor."""
+    """coefficients() lays out (phi0, rate, delta, T, amplitude, omega) and the kind's code
+    at the named positions, for each constructor."""
     cases = [
         (Law.constant(0.7), LawKind.constant, [0.7, 0, 0, 1, 0, 0]),
         (Law.linear(0.23, 0.31), LawKind.linear, [0.23, 0.31, 0, 1, 0, 0]),
@@ -138,8 +152,11 @@ def test_constructors_set_kind_and_coefficients() -> None:
     ]
     for law, kind, coeffs in cases:
         assert law.kind is kind
-        np.testing.assert_array_equal(law.coefficients(), coeffs)
-        assert law.coefficients().dtype == np.float64
+        c = law.coefficients()
+        assert c.dtype == np.float64 and c.shape == (NLAW,)
+        named = [c[i] for i in (L_PHI0, L_RATE, L_DELTA, L_T, L_AMPLITUDE, L_OMEGA)]
+        np.testing.assert_array_equal(named, coeffs)
+        assert c[L_KIND] == KIND_CODES[kind]
 
 
 @pytest.mark.parametrize("T", [0.0, -1.0])

@@ -17,10 +17,39 @@ import numpy as np
 from numpy.typing import NDArray
 
 from creatio.dynamics import solvers
+from creatio.dynamics.layout import (
+    NCOL,
+    NEV,
+    NPAR,
+    P_A,
+    P_B,
+    P_DR,
+    P_EPS,
+    P_G,
+    P_I,
+    P_INV_IS,
+    P_IS,
+    P_K,
+    P_KA,
+    P_M,
+    P_MCAV,
+    P_MU,
+    P_NCAV,
+    P_PRELOAD,
+    P_R0,
+    P_STOP_LEAVE,
+    Y_ALPHA,
+    Y_ALPHADOT,
+    Y_OMEGA,
+    Y_Q,
+    Y_R,
+    Y_RDOT,
+    state_size,
+)
 from creatio.model import sphere as contact
 from creatio.model.cavity import cavity_angle_branch, cavity_branch
 from creatio.model.equilibrium import Equilibrium, static_equilibrium
-from creatio.model.laws import law_eval
+from creatio.model.laws import Law
 from creatio.model.numerics import steps_in
 from creatio.model.offset import offset_jets
 from creatio.model.structure import CONFINEMENTS, inverse_inertia
@@ -29,8 +58,6 @@ from creatio.model.surface import wavenumber
 __all__ = [
     "MAX_IMPACT_CAP",
     "MAX_STEPS",
-    "NCOL",
-    "NPAR",
     "SimulationResult",
     "SphereProblem",
     "UnstableStepError",
@@ -43,64 +70,15 @@ MAX_STEPS = 20_000_000
 #: Largest cap on impacts per second: the event table is sized 3 x cap x t_end rows.
 MAX_IMPACT_CAP = 10_000.0
 
-# Parameter vector layout of the compiled core (creatio.dynamics.sphere unpacks it): the
-# surface and sphere, the cavity (n, m) the run starts in, the structure's inertia I_s (inf:
-# fixed) and its inverse, the normal preload P, and whether leaving the cavity stops the run.
-(P_R0, P_DR, P_K, P_A, P_KA, P_M, P_B, P_G, P_MU, P_EPS, P_I, P_NCAV, P_MCAV, P_IS, P_INV_IS,
- P_PRELOAD, P_STOP_LEAVE) = range(17)
-NPAR = 17
-
-# Columns of the history table written by the compiled loop (world frame unless noted).
-COL_T = 0
-COL_X = 1
-COL_R = 4
-COL_ALPHA = 5
-COL_V = 6
-COL_SPEED = 9
-COL_N = 10
-COL_F = 11
-COL_SLIP = 14
-COL_OMEGA = 15
-COL_SPIN_RATE = 18
-COL_SPIN = 19
-COL_Q = 20
-COL_MARKER = 24
-COL_AZIMUTH = 27
-COL_KINETIC = 28
-COL_POTENTIAL = 29
-COL_ENERGY = 30
-COL_WORK = 31
-COL_DISSIPATION = 32
-COL_RESIDUAL = 33
-COL_CAVITY_R = 34
-COL_CELL_U = 35         # phase offsets from the starting cavity's bottom (docs/model.md s.8.2)
-COL_CELL_V = 36
-COL_THETA = 37          # structure yaw and its rate (free structure only, else NaN)
-COL_THETA_RATE = 38
-COL_HZ_STRUCTURE = 39   # H_z parts: I_s Theta, m [X x V_abs] . z^, I omega_z (free only)
-COL_HZ_ORBITAL = 40
-COL_HZ_SPIN = 41
-COL_CONFINE = 42        # W_confine, the normal preload's work (free path only)
-COL_WORLD_AZIMUTH = 43  # centre azimuth in the world frame: relative azimuth + theta
-NCOL = 44
-
-#: Columns of the event table of a run with flight (creatio.dynamics.solvers.hybrid).
-NEV = 11
-
-
 class UnstableStepError(ValueError):
     """dt lies beyond the RK4 stability limit of the regularised friction (docs/model.md s.6)."""
 
 
-def _law_tuple(name: str, law: tuple[float, ...]) -> tuple[float, ...]:
-    coeffs = tuple(float(c) for c in law)
-    if len(coeffs) != 6:
-        raise ValueError(f"{name} needs 6 coefficients (phi0, rate, delta, T, amplitude, omega)")
-    if not coeffs[3] > 0.0:
-        raise ValueError(f"{name}: cycle length T must be > 0, got {coeffs[3]}")
-    if not all(math.isfinite(c) for c in coeffs):
-        raise ValueError(f"{name} has non-finite coefficients: {coeffs}")
-    return coeffs
+def _check_law(name: str, law: Law) -> None:
+    if not isinstance(law, Law):
+        raise ValueError(f"{name} must be a creatio.model.laws.Law, got {law!r}")
+    if not all(math.isfinite(c) for c in law.coefficients()):
+        raise ValueError(f"{name} has non-finite coefficients: {law}")
 
 
 def _multiple(name: str, value: float, dt: float) -> int:
@@ -115,8 +93,7 @@ def _multiple(name: str, value: float, dt: float) -> int:
 class SphereProblem:
     """One sphere on the moving corrugated surface: geometry, laws, sphere, initial state, solver.
 
-    Laws are the 6-coefficient vectors (phi0, rate, delta, T, amplitude, omega) of
-    creatio.model.laws; angles in radians, SI units; gravity is (0, 0, -g).
+    Laws are creatio.model.laws.Law; angles in radians, SI units; gravity is (0, 0, -g).
 
     method: "rk4" (fixed step dt) or one of the adaptive methods "dopri5", "dop853",
     "radau5", which control the local error to rtol/atol (dt is then the first step; with
@@ -147,9 +124,9 @@ class SphereProblem:
     A: float
     Kr: int
     Ka: int
-    law_r: tuple[float, ...]
-    law_a: tuple[float, ...]
-    law_gamma: tuple[float, ...]
+    law_r: Law
+    law_a: Law
+    law_gamma: Law
     m: float
     b: float
     g: float
@@ -200,9 +177,8 @@ class SphereProblem:
             value = getattr(self, name)
             if int(value) != value or value < 1:
                 raise ValueError(f"{name} must be a positive integer, got {value}")
-        object.__setattr__(self, "law_r", _law_tuple("law_r", self.law_r))
-        object.__setattr__(self, "law_a", _law_tuple("law_a", self.law_a))
-        object.__setattr__(self, "law_gamma", _law_tuple("law_gamma", self.law_gamma))
+        for name in ("law_r", "law_a", "law_gamma"):
+            _check_law(name, getattr(self, name))
         omega = tuple(float(w) for w in self.omega_init)
         if len(omega) != 3:
             raise ValueError(f"omega_init needs 3 components, got {self.omega_init}")
@@ -291,8 +267,8 @@ class SphereProblem:
             return None
         n, m = self.cavity_cell()
         return static_equilibrium(self.R0, self.k, self.A, float(self.Ka), self.b,
-                                  law_eval(*self.law_r, 0.0)[0], law_eval(*self.law_a, 0.0)[0],
-                                  law_eval(*self.law_gamma, 0.0)[0], n, m)
+                                  self.law_r.scalar(0.0)[0], self.law_a.scalar(0.0)[0],
+                                  self.law_gamma.scalar(0.0)[0], n, m)
 
     @property
     def start(self) -> tuple[float, float]:
@@ -322,13 +298,13 @@ class SphereProblem:
 
     def cavity_branch(self) -> int:
         """Branch n of the cavity R_c = (pi/2 - phi_r + 2 pi n) / k nearest R_init at t = 0."""
-        return cavity_branch(self.R_init, law_eval(*self.law_r, 0.0)[0], self.k)
+        return cavity_branch(self.R_init, self.law_r.scalar(0.0)[0], self.k)
 
     def cavity_cell(self) -> tuple[int, int]:
         """The cavity (n, m) nearest (R_init, alpha_init) at t = 0: the one whose cell the
         "carried" check follows (docs/model.md s.8.2) and whose bottom an equilibrium
         start begins from."""
-        m = cavity_angle_branch(self.alpha_init, law_eval(*self.law_a, 0.0)[0], float(self.Ka))
+        m = cavity_angle_branch(self.alpha_init, self.law_a.scalar(0.0)[0], float(self.Ka))
         return self.cavity_branch(), m
 
     def parameter_vector(self) -> NDArray[np.float64]:
@@ -355,8 +331,9 @@ class SphereProblem:
         return p
 
     def law_matrix(self) -> NDArray[np.float64]:
-        """The three laws (r, alpha, gamma) as a (3, 6) coefficient array."""
-        return np.array([self.law_r, self.law_a, self.law_gamma], dtype=float)
+        """The three laws (r, alpha, gamma) as a (3, NLAW) coefficient array (rows LAW_R,
+        LAW_A, LAW_GAMMA of creatio.dynamics.layout)."""
+        return np.array([law.coefficients() for law in (self.law_r, self.law_a, self.law_gamma)])
 
     def driver_arguments(self) -> tuple[tuple, dict]:
         """(positional, keyword) arguments of creatio.dynamics.solvers.driver.run: the method,
@@ -400,21 +377,18 @@ class SphereProblem:
         return lambda: run(*args, **kwargs)
 
     def initial_state(self, rotation: bool, energy: bool) -> NDArray[np.float64]:
-        """Initial state vector for the given specialisation (identity orientation, zero sums).
-
-        Layout (docs/model.md s.4.7): [R, alpha, Rdot, alphadot] + rotation [omega (3), Q (4),
-        cumulative spin] + energy [surface work, friction dissipation] and, on the structure
-        path, + [confinement work] in the energy block and [theta, Theta] last.
-        """
+        """Initial state vector for the given specialisation (identity orientation, zero sums),
+        laid out by creatio.dynamics.layout (docs/model.md s.4.7)."""
         R, alpha = self.start
-        y = [R, alpha, self.Rdot_init, self.alphadot_init]
+        y = np.zeros(state_size(rotation, energy, self.structure_free))
+        y[Y_R] = R
+        y[Y_ALPHA] = alpha
+        y[Y_RDOT] = self.Rdot_init
+        y[Y_ALPHADOT] = self.alphadot_init
         if rotation:
-            y += [*self.omega_init, 1.0, 0.0, 0.0, 0.0, 0.0]
-        if energy:
-            y += [0.0, 0.0, 0.0] if self.structure_free else [0.0, 0.0]
-        if self.structure_free:
-            y += [0.0, 0.0]
-        return np.array(y, dtype=float)
+            y[Y_OMEGA:Y_OMEGA + 3] = self.omega_init
+            y[Y_Q] = 1.0
+        return y
 
 
 @dataclass(frozen=True)
@@ -495,9 +469,9 @@ class SimulationResult:
 
 def _start_jets(problem: SphereProblem) -> tuple:
     """The offset jets at the start point and t = 0."""
-    pr, pr1, pr2 = law_eval(*problem.law_r, 0.0)
-    pa, pa1, pa2 = law_eval(*problem.law_a, 0.0)
-    gm, g1, g2 = law_eval(*problem.law_gamma, 0.0)
+    pr, pr1, pr2 = problem.law_r.scalar(0.0)
+    pa, pa1, pa2 = problem.law_a.scalar(0.0)
+    gm, g1, g2 = problem.law_gamma.scalar(0.0)
     R, alpha = problem.start
     return offset_jets(R, alpha, problem.R0, problem.k, problem.A, float(problem.Ka),
                        problem.b, pr, pr1, pr2, pa, pa1, pa2, gm, g1, g2)

@@ -12,7 +12,7 @@ import numpy as np
 
 from creatio.dynamics import solvers
 from creatio.dynamics import status as st
-from creatio.dynamics.problem import (
+from creatio.dynamics.layout import (
     COL_ALPHA,
     COL_AZIMUTH,
     COL_CAVITY_R,
@@ -44,7 +44,16 @@ from creatio.dynamics.problem import (
     COL_WORK,
     COL_WORLD_AZIMUTH,
     COL_X,
+    E_E0,
+    E_LEFT,
+    E_MAX_HZ_DRIFT,
+    E_MAX_IS_THETA,
+    E_MAX_RHO,
+    E_MAX_THETA_RATE,
     NEV,
+    X_MAX_GAP,
+)
+from creatio.dynamics.problem import (
     SimulationResult,
     SphereProblem,
     UnstableStepError,
@@ -53,15 +62,7 @@ from creatio.dynamics.problem import (
     stability_limit,
 )
 from creatio.dynamics.solvers.driver import run
-from creatio.dynamics.solvers.hybrid import FLIGHT, X_MAX_GAP, run_flight
-from creatio.dynamics.sphere import (
-    E_E0,
-    E_LEFT,
-    E_MAX_HZ_DRIFT,
-    E_MAX_IS_THETA,
-    E_MAX_RHO,
-    E_MAX_THETA_RATE,
-)
+from creatio.dynamics.solvers.hybrid import FLIGHT, run_flight
 from creatio.model import sphere as contact
 
 __all__ = ["simulate"]

@@ -18,7 +18,7 @@ import numpy as np
 import xarray as xr
 
 from creatio.dynamics import SimulationResult, SphereProblem, simulate
-from creatio.dynamics.solvers.hybrid import (
+from creatio.dynamics.layout import (
     EV_ALPHA,
     EV_HEIGHT,
     EV_IMPACT,
@@ -133,7 +133,7 @@ def cycle_boundary(cfg: En02fConfig, dt: float, restitution: float, flight: bool
     base = dataclasses.replace(base, flight=flight)
 
     def at(T: float) -> SphereProblem:
-        laws = {n: (*getattr(base, n)[:3], T, *getattr(base, n)[4:])
+        laws = {n: dataclasses.replace(getattr(base, n), T=T)
                 for n in ("law_r", "law_a", "law_gamma")}
         return dataclasses.replace(base, **laws, t_end=T)
 

@@ -668,7 +668,7 @@ class DynamicConfig:
     def sphere_problem(self, dt: float | None = None) -> SphereProblem:
         """The numeric-core problem of this config (at timestep dt, default solver.dt)."""
         g, ph, sp, sv, st = self.geometry, self.phases, self.sphere, self.solver, self.study
-        law_r, law_a, law_g = (tuple(law.coefficients()) for law in ph.laws())
+        law_r, law_a, law_g = ph.laws()
         dt = sv.dt if dt is None else dt
         rtol, atol = sv.tolerances(dt)
         return SphereProblem(
@@ -832,11 +832,12 @@ class En02gConfig(DynamicConfig):
         osc = self.study.oscillation
         out = []
         for g in self.study.inclinations_deg:
-            law = (math.radians(g), 0.0, 0.0, T, 0.0, 0.0)
+            law = Law(phi0=math.radians(g), T=T, kind=LawKind.constant)
             out.append(("constant", float(g), dataclasses.replace(
                 base, law_gamma=law, equilibrium_start=True)))
         for g0 in osc.gamma0_deg:
-            law = (math.radians(g0), 0.0, 0.0, T, math.radians(osc.amplitude_deg), osc.omega)
+            law = Law(phi0=math.radians(g0), T=T, amplitude=math.radians(osc.amplitude_deg),
+                      omega=osc.omega, kind=LawKind.sinusoid)
             out.append(("oscillating", float(g0), dataclasses.replace(
                 base, law_gamma=law, equilibrium_start=True)))
         return out
@@ -966,7 +967,7 @@ class En02fConfig(DynamicConfig):
         base = dataclasses.replace(self.sphere_problem(dt), **self.flight.problem_fields())
         out = []
         for T in self.study.cycles_s:
-            laws = {name: (*getattr(base, name)[:3], float(T), *getattr(base, name)[4:])
+            laws = {name: dataclasses.replace(getattr(base, name), T=float(T))
                     for name in ("law_r", "law_a", "law_gamma")}
             for e in self.study.restitutions:
                 out.append((float(T), float(e), dataclasses.replace(
@@ -976,7 +977,7 @@ class En02fConfig(DynamicConfig):
     def drop_problem(self) -> SphereProblem:
         """The drop test: A = 0 and still phases, dropped from study.drop.height, flight on."""
         d = self.study.drop
-        still = (0.0, 0.0, 0.0, 1.0, 0.0, 0.0)
+        still = Law.constant(0.0)
         return dataclasses.replace(
             self.sphere_problem(d.dt), A=0.0, law_r=still, law_a=still, law_gamma=still,
             t_end=d.duration, output_interval=d.output_interval(),

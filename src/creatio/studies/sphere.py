@@ -13,7 +13,6 @@ import xarray as xr
 
 from creatio.dynamics import SimulationResult, SphereProblem, simulate
 from creatio.model.cavity import pattern_angle
-from creatio.model.laws import Law
 from creatio.model.surface import Motion, Surface
 from creatio.studies.schema import DynamicConfig
 
@@ -26,7 +25,7 @@ def pattern(prob: SphereProblem, t: np.ndarray) -> np.ndarray:
     """Pattern angle (rad) of a problem's phases at times t, measured from the initial
     contact angle alpha_init (docs/model.md s.3.1)."""
     surface = Surface(prob.R0, prob.dR, prob.A, prob.Kr, prob.Ka)
-    laws = (Law(*prob.law_r[:6]), Law(*prob.law_a[:6]), Law(*prob.law_gamma[:6]))
+    laws = (prob.law_r, prob.law_a, prob.law_gamma)
     return pattern_angle(surface, Motion(*laws), t, prob.alpha_init)[0]
 
 

@@ -48,7 +48,7 @@ __all__ = ["SPECIALISATIONS", "run"]
 
 
 def _implicit_step(stepper, t, t_next, h, y, f, ynew, fnew, dbuf, ws, tol, fixed, rejected, pp,
-                   lc, rot, en, free, px):
+                   lc, rot, en, free):
     """One try at one implicit step (compiled code only; resolved at compile time)."""
     raise NotImplementedError("called only from compiled code")
 
@@ -66,7 +66,7 @@ def _implicit_dense(stepper, ws, t, yout):
 
 @overload(_implicit_step, prefer_literal=True, inline="always")
 def _implicit_step_of(stepper, t, t_next, h, y, f, ynew, fnew, dbuf, ws, tol, fixed, rejected,
-                      pp, lc, rot, en, free, px):
+                      pp, lc, rot, en, free):
     """Radau's or RODAS4's step for their kinds; for the explicit kind a stand-in that is
     never run, so an explicit run never types or compiles an implicit stepper."""
     if not isinstance(stepper, types.IntegerLiteral):
@@ -77,7 +77,7 @@ def _implicit_step_of(stepper, t, t_next, h, y, f, ynew, fnew, dbuf, ws, tol, fi
         return rosenbrock.step.py_func
     else:
         def impl(stepper, t, t_next, h, y, f, ynew, fnew, dbuf, ws, tol, fixed, rejected, pp,
-                 lc, rot, en, free, px):
+                 lc, rot, en, free):
             return ERROR_REJECTED, 1.0, 0, 0, 0, False
     return impl
 
@@ -133,7 +133,7 @@ def _drive(stepper, p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, ato
     extrema, rejected, jacobians, lu_factorisations, stop_time); STEP_FAILED when the step
     underflows, Newton fails at a fixed step, or max_steps accepted steps did not reach t_end.
     """
-    pp, lc, px = pack(p, lawc)
+    pp, lc = pack(p, lawc)
     (c, a_ptr, a_idx, a_val, b_idx, b_val, b_divisor, e, e3, estimator, error_order, c_extra,
      a_extra, dense_p) = tab
     n = y0.size
@@ -180,9 +180,9 @@ def _drive(stepper, p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, ato
         if have_f:
             d = load(dbuf)
         else:
-            d = rhs_of(free, t, y, f, pp, lc, rot, en, True, px)
+            d = rhs_of(free, t, y, f, pp, lc, rot, en, True)
             evals += 1
-        status, wrote = observe(steps == 0, t, y, d, p, ext, out, rows, final, sample, rot, en,
+        status, wrote = observe(steps == 0, t, y, d, pp, ext, out, rows, final, sample, rot, en,
                                 free)
         rows += wrote
         if status != st.OK or final:
@@ -248,7 +248,7 @@ def _drive(stepper, p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, ato
                         for j in range(n):
                             work[j] = y[j] + h_use * work[j]
                     ts = t_next if c[stg] == 1.0 else t + c[stg] * h_use
-                    rhs_of(free, ts, work, kst, pp, lc, rot, en, False, px)
+                    rhs_of(free, ts, work, kst, pp, lc, rot, en, False)
                     for j in range(n):
                         K[stg, j] = kst[j]
                 # y_new = y + (h / divisor) sum b_q K[q], in the tableau's summation order
@@ -276,7 +276,7 @@ def _drive(stepper, p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, ato
                 else:
                     # the error estimate (FSAL) or the dense output needs the end-of-step
                     # derivative now: with its diagnostics, the next step's first stage
-                    store(rhs_of(free, t_next, ynew, fnew, pp, lc, rot, en, True, px), dbuf)
+                    store(rhs_of(free, t_next, ynew, fnew, pp, lc, rot, en, True), dbuf)
                     for j in range(n):
                         K[s, j] = fnew[j]
                     ev = s
@@ -292,7 +292,7 @@ def _drive(stepper, p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, ato
             else:
                 outcome, factor, ev, nj, nl, have_f = _implicit_step(
                     stepper, t, t_next, h_use, y, f, ynew, fnew, dbuf, iws, tol, fixed,
-                    rejected, pp, lc, rot, en, free, px)
+                    rejected, pp, lc, rot, en, free)
             evals += ev
             n_jac += nj
             n_lu += nl
@@ -330,7 +330,7 @@ def _drive(stepper, p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, ato
                             for j in range(n):
                                 work[j] = y[j] + h_use * work[j]
                             rhs_of(free, t + c_extra[i] * h_use, work, kst, pp, lc, rot, en,
-                                   False, px)
+                                   False)
                             for j in range(n):
                                 K[row, j] = kst[j]
                         evals += n_extra
@@ -350,9 +350,9 @@ def _drive(stepper, p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, ato
                         yout[j] = y[j] + h_use * acc
                 else:
                     _implicit_dense(stepper, iws, tg, yout)
-                d = rhs_of(free, tg, yout, kst, pp, lc, rot, en, True, px)
+                d = rhs_of(free, tg, yout, kst, pp, lc, rot, en, True)
                 evals += 1
-                status, wrote = observe(no, tg, yout, d, p, ext, out, rows, no, yes, rot, en,
+                status, wrote = observe(no, tg, yout, d, pp, ext, out, rows, no, yes, rot, en,
                                         free)
                 rows += wrote
                 jn += 1
@@ -383,9 +383,9 @@ def _drive(stepper, p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, ato
             sample = hit
     if status == st.STEP_FAILED:
         # record the state where the integrator gave up, so the stop is visible in histories
-        d = rhs_of(free, t, y, f, pp, lc, rot, en, True, px)
+        d = rhs_of(free, t, y, f, pp, lc, rot, en, True)
         evals += 1
-        _, wrote = observe(steps == 0, t, y, d, p, ext, out, rows, yes, yes, rot, en, free)
+        _, wrote = observe(steps == 0, t, y, d, pp, ext, out, rows, yes, yes, rot, en, free)
         rows += wrote
     return status, steps, rows, evals, ext, n_rej, n_jac, n_lu, t
 

@@ -68,7 +68,7 @@ def workspace(n):
 
 @njit(cache=True)
 def step(stepper, t, t_next, h, y, f, ynew, fnew, dbuf, ws, tol, fixed, rejected, pp, lc, rot,
-         en, free, px):
+         en, free):
     """One try at the step t -> t_next = t + h (the driver's implicit-kind stepper; same
     contract as creatio.dynamics.solvers.radau.step): (outcome, factor, rhs evaluations,
     jacobians, LU factorisations, whether fnew and dbuf hold the end-of-step evaluation)."""
@@ -80,9 +80,9 @@ def step(stepper, t, t_next, h, y, f, ynew, fnew, dbuf, ws, tol, fixed, rejected
     n_lu = 0
     if rs[RS_JAC_T] != t:
         # J and df/dt at the step's start (kept for a retry from the same point)
-        evals += jacobian(t, y, f, jac, work, tmp, pp, lc, rot, en, free, px)
+        evals += jacobian(t, y, f, jac, work, tmp, pp, lc, rot, en, free)
         dt_ = 1.4901161193847656e-08 * max(1e-5, abs(t))
-        rhs_of(free, t + dt_, y, tmp, pp, lc, rot, en, False, px)
+        rhs_of(free, t + dt_, y, tmp, pp, lc, rot, en, False)
         evals += 1
         for j in range(n):
             dfdt[j] = (tmp[j] - f[j]) / dt_
@@ -111,7 +111,7 @@ def step(stepper, t, t_next, h, y, f, ynew, fnew, dbuf, ws, tol, fixed, rejected
                 for q in range(i):
                     acc += _A[i, q] * U[q, j]
                 work[j] = acc
-            rhs_of(free, t + _ALPHA[i] * h, work, tmp, pp, lc, rot, en, False, px)
+            rhs_of(free, t + _ALPHA[i] * h, work, tmp, pp, lc, rot, en, False)
             evals += 1
         hg = h * _GAMMAS[i]
         for j in range(n):
@@ -144,7 +144,7 @@ def step(stepper, t, t_next, h, y, f, ynew, fnew, dbuf, ws, tol, fixed, rejected
         factor = 1.0
     elif not ok:
         return ERROR_REJECTED, factor, evals, n_jac, n_lu, False
-    store(rhs_of(free, t_next, ynew, fnew, pp, lc, rot, en, True, px), dbuf)
+    store(rhs_of(free, t_next, ynew, fnew, pp, lc, rot, en, True), dbuf)
     evals += 1
     for j in range(n):
         hermite[0, j] = y[j]
