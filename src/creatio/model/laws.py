@@ -6,13 +6,15 @@ Every law is one case of the general form (angles in radians, t in seconds)
 
 where s is the step of the law's kind, travelled over one cycle of length T: the quintic
 smooth step s(tau) = 10 tau^3 - 15 tau^4 + 6 tau^5 (s(0) = 0, s(1) = 1, s' and s'' vanish at
-both ends, so clamping keeps the law C2). The kinds of docs/model.md s.2 are the special
-cases:
+both ends, so clamping keeps the law C2), or for the cosine ramp s(tau) = (1 - cos(pi tau)) / 2
+(s' vanishes at both ends, s'' does not: the clamped law is C1). The kinds of docs/model.md
+s.2 are the special cases:
 
-* constant:  phi0
-* linear:    phi0 + rate t
-* quintic:   phi0 + delta s(t / T)           (starts and stops at zero speed)
-* sinusoid:  phi0 + amplitude sin(omega t)   (the inclination law gamma0 + G sin(Omega t))
+* constant:     phi0
+* linear:       phi0 + rate t
+* quintic:      phi0 + delta s(t / T)          (starts and stops at zero speed)
+* cosine_ramp:  phi0 + delta (1 - cos(pi t / T)) / 2 on [0, T], held after
+* sinusoid:     phi0 + amplitude sin(omega t)  (the inclination law gamma0 + G sin(Omega t))
 
 A law's plain-number form is its coefficient vector (:meth:`Law.coefficients`, laid out by
 the L_* indices below): the six coefficients of the general form and the kind's code, which
@@ -44,6 +46,7 @@ __all__ = [
     "Law",
     "LawKind",
     "LawValue",
+    "cosine_step",
     "law_eval",
     "quintic_step",
 ]
@@ -56,6 +59,7 @@ class LawKind(StrEnum):
     linear = "linear"
     quintic = "quintic"
     sinusoid = "sinusoid"
+    cosine_ramp = "cosine_ramp"
 
 
 #: The coefficient vector of a law: the terms of the general form, then the kind's code.
@@ -64,6 +68,8 @@ NLAW = 7
 
 #: The code of each kind in the coefficient vector (its position in LawKind).
 KIND_CODES: dict[LawKind, int] = {kind: code for code, kind in enumerate(LawKind)}
+#: The cosine ramp's code: delta travels the cosine step instead of the quintic one.
+COSINE_RAMP = KIND_CODES[LawKind.cosine_ramp]
 
 
 @dataclass(frozen=True)
@@ -83,6 +89,19 @@ def quintic_step(tau: ArrayLike) -> tuple[NDArray, NDArray, NDArray]:
     s = x * x * x * (10.0 - 15.0 * x + 6.0 * x * x)
     ds = np.where(inside, 30.0 * x * x * (1.0 - x) ** 2, 0.0)
     dds = np.where(inside, 60.0 * x * (1.0 - x) * (1.0 - 2.0 * x), 0.0)
+    return s, ds, dds
+
+
+def cosine_step(tau: ArrayLike) -> tuple[NDArray, NDArray, NDArray]:
+    """Return s, ds/dtau, d2s/dtau2 of the cosine step (1 - cos(pi tau)) / 2 on the closed
+    interval [0, 1], held outside it. Its second derivative jumps by pi^2 / 2 at both ends;
+    there the ramp's own one-sided value is taken (docs/model.md s.2)."""
+    tau = np.asarray(tau, dtype=float)
+    inside = (tau >= 0.0) & (tau <= 1.0)
+    x = np.pi * np.clip(tau, 0.0, 1.0)
+    s = 0.5 - 0.5 * np.cos(x)
+    ds = np.where(inside, 0.5 * np.pi * np.sin(x), 0.0)
+    dds = np.where(inside, 0.5 * np.pi * np.pi * np.cos(x), 0.0)
     return s, ds, dds
 
 
@@ -118,6 +137,11 @@ class Law:
         return cls(phi0=phi0, delta=delta, T=T, kind=LawKind.quintic)
 
     @classmethod
+    def cosine_ramp(cls, phi0: float, delta: float, T: float) -> Law:
+        """phi(t) = phi0 + delta (1 - cos(pi t / T)) / 2 over one cycle of length T."""
+        return cls(phi0=phi0, delta=delta, T=T, kind=LawKind.cosine_ramp)
+
+    @classmethod
     def sinusoid(cls, phi0: float, amplitude: float, omega: float) -> Law:
         """phi(t) = phi0 + amplitude sin(omega t)."""
         return cls(phi0=phi0, amplitude=amplitude, omega=omega, kind=LawKind.sinusoid)
@@ -141,7 +165,7 @@ class Law:
 
     def step(self, tau: ArrayLike) -> tuple[NDArray, NDArray, NDArray]:
         """s, ds/dtau, d2s/dtau2 of the step this law's delta travels along."""
-        return quintic_step(tau)
+        return cosine_step(tau) if self.kind is LawKind.cosine_ramp else quintic_step(tau)
 
     def __call__(self, t: ArrayLike) -> LawValue:
         """Evaluate value, first and second derivative at times t (any shape)."""
@@ -183,7 +207,22 @@ def law_eval(c, t: float) -> tuple[float, float, float]:
     if delta != 0.0:
         T = c[L_T]
         tau = t / T
-        if tau <= 0.0:
+        if c[L_KIND] == COSINE_RAMP:
+            # the closed interval [0, 1]: at its ends the ramp's one-sided acceleration
+            if tau < 0.0:
+                s = 0.0
+                ds = 0.0
+                dds = 0.0
+            elif tau > 1.0:
+                s = 1.0
+                ds = 0.0
+                dds = 0.0
+            else:
+                x = math.pi * tau
+                s = 0.5 - 0.5 * math.cos(x)
+                ds = 0.5 * math.pi * math.sin(x)
+                dds = 0.5 * math.pi * math.pi * math.cos(x)
+        elif tau <= 0.0:
             s = 0.0
             ds = 0.0
             dds = 0.0

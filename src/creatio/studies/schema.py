@@ -205,12 +205,14 @@ _USED = {
     LawKind.linear: {"phi0", "rate"},
     LawKind.quintic: {"phi0", "delta"},
     LawKind.sinusoid: {"phi0", "amplitude", "omega"},
+    LawKind.cosine_ramp: {"phi0", "delta"},
 }
 
 
 @dataclass
 class LawConfig:
-    """A time law: phi0 + rate t + delta s(t/T) + amplitude sin(omega t), by kind."""
+    """A time law: phi0 + rate t + delta s(t/T) + amplitude sin(omega t), by kind (s the
+    kind's step: quintic or cosine_ramp)."""
 
     kind: LawKind = LawKind.constant
     phi0: float = 0.0
@@ -282,7 +284,7 @@ class GeometryConfig:
         return Surface(self.R0, self.dR, self.A, self.Kr, self.Ka)
 
 
-_NO_CYCLE = (LawKind.constant, LawKind.linear, LawKind.sinusoid)  # quintic needs phases.T
+_NO_CYCLE = (LawKind.constant, LawKind.linear, LawKind.sinusoid)  # a step needs phases.T
 
 
 @dataclass
