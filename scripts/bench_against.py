@@ -53,31 +53,19 @@ def export(revision: str, into: Path) -> Path:
 
 
 def compiled_call(pkg: str, study: str, method: str) -> Callable[[], object]:
-    """A zero-argument call of the compiled core of a study's default problem in package pkg
-    (the API of either side: compiled_call, or the earlier core_arguments + run)."""
+    """A zero-argument call of the compiled core of a study's default problem in package pkg,
+    through the API of either side: a problem split into records (SphereProblem.replace,
+    creatio.dynamics.compiled_call) or a flat one (dataclasses.replace, its compiled_call)."""
     dyn = importlib.import_module(f"{pkg}.dynamics")
-    try:
-        resolve = importlib.import_module(f"{pkg}.pipeline.config").resolve
-    except ImportError:
-        resolve = importlib.import_module(f"{pkg}.config").resolve
+    resolve = importlib.import_module(f"{pkg}.pipeline.config").resolve
     name, _, fixed_dt = method.partition("@")
-    problem = dataclasses.replace(resolve(study).obj.sphere_problem(), method=name)
+    changes: dict[str, object] = {"method": name}
     if fixed_dt:  # "radau5@0.05": a fixed step of 0.05 s
-        problem = dataclasses.replace(problem, dt=float(fixed_dt),
-                                      fixed_step=dyn.METHODS[name].adaptive)
-    if hasattr(problem, "compiled_call"):
-        return problem.compiled_call()
-    problem = dyn.SphereProblem(**dataclasses.asdict(problem))
-    args = problem.core_arguments()
-    if method == "rk4":
-        core = importlib.import_module(f"{pkg}.dynamics.core")
-        return lambda: core.run(*args)
-    integ = importlib.import_module(f"{pkg}.dynamics.integrators")
-    max_steps = importlib.import_module(f"{pkg}.dynamics.problem").MAX_STEPS
-    p = problem
-    return lambda: integ.run(args[0], args[1], args[2], p.t_end, p.output_interval, p.dt,
-                             p.rtol, p.atol, p.method, p.fixed_step, max_steps, args[6],
-                             args[7], args[8])
+        changes |= {"dt": float(fixed_dt), "fixed_step": dyn.METHODS[name].adaptive}
+    problem = resolve(study).obj.sphere_problem()
+    if hasattr(problem, "replace"):
+        return dyn.compiled_call(problem.replace(**changes))
+    return dataclasses.replace(problem, **changes).compiled_call()
 
 
 def main() -> None:

@@ -9,6 +9,7 @@ import pytest
 
 from creatio.dynamics.kinematics import centre_kinematics
 from creatio.model.laws import Law, law_eval
+from creatio.model.surface import Motion, Surface
 
 # Notebook geometry (docs/studies.md): R0 = 0.68, dR = 1.72, A = 0.18, Kr = 1, Ka = 6.
 GEOM = {"R0": 0.68, "dR": 1.72, "A": 0.18, "Kr": 1, "Ka": 6}
@@ -85,10 +86,8 @@ POINTS = [(0.3, 0.4, 0.37), (1.2, 2.5, 1.11), (1.7, 5.0, 2.9), (0.43, math.pi / 
 
 
 def _kin(case: dict, R: float, alpha: float, t: float) -> dict[str, np.ndarray]:
-    return centre_kinematics(
-        GEOM["R0"], GEOM["dR"], GEOM["A"], GEOM["Kr"], GEOM["Ka"], B,
-        case["law_r"], case["law_a"], case["law_gamma"], R, alpha, t,
-    )  # fmt: skip
+    motion = Motion(case["law_r"], case["law_a"], case["law_gamma"])
+    return centre_kinematics(Surface(**GEOM), motion, B, R, alpha, t)
 
 
 def _d(f, i: int, h: float):

@@ -438,7 +438,7 @@ def test_a_problem_refusal_past_the_rules_is_named_by_its_key(monkeypatch):
     def refuse(self):
         raise ValueError("eps must be finite and > 0, got 1e-31")
 
-    monkeypatch.setattr(schema.DynamicConfig, "step_limit", refuse)
+    monkeypatch.setattr(schema.DynamicConfig, "stability_problems", refuse)
     with pytest.raises(ConfigError) as err:
         cfg.check()
     assert str(err.value) == ("invalid config: sphere.eps=0.01: the run refuses it: eps must "

@@ -12,9 +12,9 @@ import numpy as np
 from numpy.typing import NDArray
 
 from creatio.dynamics.jit import njit
-from creatio.model.laws import Law, law_eval
+from creatio.model.laws import law_eval
 from creatio.model.offset import offset_jets
-from creatio.model.surface import wavenumber
+from creatio.model.surface import Motion, Surface
 
 __all__ = ["centre_kinematics"]
 
@@ -45,38 +45,25 @@ def _centre_kinematics_rot(R, a, t, R0, k, A, Ka, b, lr, la, lg):
     return out
 
 
-def centre_kinematics(
-    R0: float,
-    dR: float,
-    A: float,
-    Kr: int,
-    Ka: int,
-    b: float,
-    law_r: Law,
-    law_a: Law,
-    law_gamma: Law,
-    R: float,
-    alpha: float,
-    t: float,
-) -> dict[str, NDArray[np.float64]]:
+def centre_kinematics(surface: Surface, motion: Motion, b: float, R: float, alpha: float,
+                      t: float) -> dict[str, NDArray[np.float64]]:
     """World-frame X, X_q (3, 2), X_t, X_qq (3, 2, 2), X_qt (3, 2), X_tt, n, c, c_t at one point.
 
     The exact derivatives the integrator uses, exposed for verification and for callers
-    that need the offset-surface geometry; q = (R, alpha).
+    that need the offset-surface geometry of a sphere of radius b; q = (R, alpha).
     """
-    k = wavenumber(Kr, dR)
     rot = _centre_kinematics_rot(
         float(R),
         float(alpha),
         float(t),
-        float(R0),
-        k,
-        float(A),
-        float(Ka),
+        float(surface.R0),
+        surface.k,
+        float(surface.A),
+        float(surface.Ka),
         float(b),
-        law_r.coefficients(),
-        law_a.coefficients(),
-        law_gamma.coefficients(),
+        motion.phi_r.coefficients(),
+        motion.phi_a.coefficients(),
+        motion.gamma.coefficients(),
     )
     ca, sa = math.cos(alpha), math.sin(alpha)
     to_world = np.array([[ca, -sa, 0.0], [sa, ca, 0.0], [0.0, 0.0, 1.0]])
