@@ -112,8 +112,7 @@ from creatio.dynamics.layout import (
     energy_start,
     state_size,
 )
-from creatio.dynamics.solvers.driver import _next_h
-from creatio.dynamics.solvers.explicit import error_norm, step_factor
+from creatio.dynamics.solvers.explicit import error_norm, next_step, stages, step_factor
 from creatio.dynamics.sphere import (
     new_extrema,
     observe,
@@ -171,66 +170,34 @@ def _flight_rhs(y, dy, g):
     dy[F_DISSIPATION] = 0.0
 
 
-@njit(cache=True)
-def _f(phase, t, y, dy, pp, lc):
-    """The right-hand side of the phase (contact: creatio.dynamics.sphere.rhs)."""
+@njit(cache=True, inline="always")
+def _f(phase, t, y, dy, pp, lc, rot, en, diag):
+    """The right-hand side of the phase, in the signature the explicit stepper calls
+    (creatio.dynamics.solvers.explicit.stages): contact, creatio.dynamics.sphere.rhs (the
+    hybrid loop always integrates rotation and energy, rot = en = True); flight, X'' = g."""
     if phase == CONTACT:
-        rhs(t, y, dy, pp, lc, True, True, False)
+        rhs(t, y, dy, pp, lc, rot, en, diag)
     else:
         _flight_rhs(y, dy, pp[P_G])
 
 
 @njit(cache=True)
 def _step(phase, t, h, t_next, y, ynew, K, work, kst, tab, pp, lc, estimate, rtol, atol):
-    """One explicit Runge-Kutta step of size h from (t, y) into ynew, in the driver's
-    summation order (so a contact step is the driver's step bit for bit); with estimate, the
-    scaled error norm of the step (0 otherwise)."""
-    c, a_ptr, a_idx, a_val, b_idx, b_val, b_divisor, e, e3, estimator, error_order = tab[:11]
+    """One explicit Runge-Kutta step of size h from (t, y) into ynew: the driver's stepper
+    (creatio.dynamics.solvers.explicit.stages), so a contact step is the driver's step bit
+    for bit; with estimate, the scaled error norm of the step (0 otherwise)."""
     n = y.size
-    s = c.size
-    _f(phase, t, y, kst, pp, lc)
+    _f(phase, t, y, kst, pp, lc, True, True, False)
     for j in range(n):
         K[0, j] = kst[j]
-    for stg in range(1, s):
-        p0 = a_ptr[stg]
-        p1 = a_ptr[stg + 1]
-        if p1 == p0:
-            for j in range(n):
-                work[j] = y[j]
-        else:
-            q = a_idx[p0]
-            v = a_val[p0]
-            for j in range(n):
-                work[j] = v * K[q, j]
-            for pq in range(p0 + 1, p1):
-                q = a_idx[pq]
-                v = a_val[pq]
-                for j in range(n):
-                    work[j] += v * K[q, j]
-            for j in range(n):
-                work[j] = y[j] + h * work[j]
-        ts = t_next if c[stg] == 1.0 else t + c[stg] * h
-        _f(phase, ts, work, kst, pp, lc)
-        for j in range(n):
-            K[stg, j] = kst[j]
-    q = b_idx[0]
-    v = b_val[0]
-    for j in range(n):
-        ynew[j] = v * K[q, j]
-    for pq in range(1, b_idx.size):
-        q = b_idx[pq]
-        v = b_val[pq]
-        for j in range(n):
-            ynew[j] += v * K[q, j]
-    hb = h / b_divisor
-    for j in range(n):
-        ynew[j] = y[j] + hb * ynew[j]
+    stages(_f, phase, tab, t, h, t_next, y, ynew, K, work, kst, pp, lc, True, True)
     if not estimate:
         return 0.0
-    _f(phase, t_next, ynew, kst, pp, lc)
+    _f(phase, t_next, ynew, kst, pp, lc, True, True, False)
+    s = tab.c.size
     for j in range(n):
         K[s, j] = kst[j]
-    return error_norm(K, y, ynew, h, e, e3, estimator, rtol, atol)
+    return error_norm(K, y, ynew, h, tab.e, tab.e3, tab.estimator, rtol, atol)
 
 
 @njit(cache=True)
@@ -488,7 +455,7 @@ def _drive_flight(p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, atol,
     icap = max(1, int(cap))
     ring = np.full(icap, -math.inf)
     n_imp = 0
-    s = tab[0].size
+    s = tab.c.size
     yc = y0.copy()
     yf = np.zeros(NF)
     yt_c = np.empty(NC)
@@ -517,7 +484,7 @@ def _drive_flight(p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, atol,
     kg = 0
     on_grid = True
     h = h0 if fixed else min(h0, interval)
-    error_order = tab[10]
+    error_order = tab.error_order
     final = n_steps == 0 if fixed else t_end <= 0.0
     sample = True
     first = True
@@ -655,7 +622,7 @@ def _drive_flight(p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, atol,
                 ok, factor = step_factor(err, error_order, rejected)
                 if ok:
                     accepted = True
-                    h = _next_h(h, h_use, factor, m_split)
+                    h = next_step(h, h_use, factor, m_split)
                 else:
                     h = h_use * factor
                     rejected = True
