@@ -95,7 +95,7 @@ def test_force_problem_refines_the_step_to_its_stability_limit() -> None:
     p = cfg.force_problem(Confinement.normal, 10.0, 981.0)
     dt = p.solver.dt
     assert dt < stability_limit(p) * (1 + 1e-12) and 0.002 / dt == round(0.002 / dt)
-    assert cfg.force_problem(Confinement.base, 10.0, 0.05).dt == 0.002
+    assert cfg.force_problem(Confinement.base, 10.0, 0.05).solver.dt == 0.002
 
 
 def test_round_up_keeps_three_digits() -> None:
