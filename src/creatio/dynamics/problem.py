@@ -72,7 +72,8 @@ from creatio.model.surface import Motion, Surface
 
 __all__ = [
     "MAX_IMPACT_CAP",
-    "MAX_STEPS",
+    "MAX_RHS_EVALS",
+    "PROGRESS_INTERVAL",
     "Events",
     "Model",
     "Output",
@@ -88,8 +89,12 @@ __all__ = [
     "stability_limit",
 ]
 
-#: Accepted steps after which an adaptive run gives up (status step_failed).
-MAX_STEPS = 20_000_000
+#: Right-hand-side evaluations a run may spend before it stops with status budget_exceeded
+#: (Solver.max_rhs_evals, solver.max_rhs_evals in a config): far above every study's runs
+#: (EN-02 at dt / 2 takes 4.8e5), and reached in minutes where a run would go on for hours.
+MAX_RHS_EVALS = 100_000_000
+#: Seconds between the progress lines a long run prints to stderr.
+PROGRESS_INTERVAL = 10.0
 #: Largest cap on impacts per second: the event table is sized 3 x cap x t_end rows.
 MAX_IMPACT_CAP = 10_000.0
 
@@ -250,7 +255,10 @@ class Solver:
     at the constant step dt (RK4, or any method with fixed_step) or under local error control
     to rtol / atol (dt is then the first step); ``dense_output`` samples the output grid from
     each step's interpolant instead of cutting steps to land on it (a fixed dt need not then
-    divide the interval; the last step lands on t_end)."""
+    divide the interval; the last step lands on t_end). A run stops with status
+    budget_exceeded after ``max_rhs_evals`` right-hand-side evaluations (the budget never
+    changes a step), and prints a line of progress to stderr every ``progress_interval``
+    seconds while it runs (inf: never)."""
 
     method: str = "rk4"
     dt: float = 0.002
@@ -259,10 +267,18 @@ class Solver:
     fixed_step: bool = False
     dense_output: bool = False
     allow_unstable: bool = False
+    max_rhs_evals: int = MAX_RHS_EVALS
+    progress_interval: float = PROGRESS_INTERVAL
 
     def __post_init__(self) -> None:
         solvers.get(self.method)
         _positive(self, "dt", "rtol", "atol")
+        if int(self.max_rhs_evals) != self.max_rhs_evals or self.max_rhs_evals < 1:
+            raise ValueError(f"max_rhs_evals must be a positive integer, got "
+                             f"{self.max_rhs_evals}")
+        if not self.progress_interval > 0.0:
+            raise ValueError(f"progress_interval must be > 0 s (inf: never), got "
+                             f"{self.progress_interval}")
 
     @property
     def adaptive(self) -> bool:

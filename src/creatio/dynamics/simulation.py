@@ -7,6 +7,7 @@ lazily so that building and validating problems never does.
 from __future__ import annotations
 
 import math
+import sys
 
 import numpy as np
 
@@ -60,13 +61,13 @@ from creatio.dynamics.layout import (
     X_MAX_GAP,
 )
 from creatio.dynamics.problem import (
-    MAX_STEPS,
     SimulationResult,
     SphereProblem,
     check_stable,
     slip_rate,
     stability_limit,
 )
+from creatio.dynamics.progress import budget_message
 from creatio.dynamics.solvers.driver import run
 from creatio.dynamics.solvers.hybrid import FLIGHT, run_flight
 from creatio.model import sphere as contact
@@ -96,7 +97,8 @@ def _run_arguments(problem: SphereProblem) -> tuple[tuple, dict]:
         "t_end": out.t_end, "interval": out.interval, "h0": sv.dt,
         "n_steps": 0 if problem.adaptive else n_steps, "stride": stride,
         "rtol": sv.rtol, "atol": sv.atol, "fixed": not problem.adaptive,
-        "max_steps": MAX_STEPS, "rotation": rot, "energy": en,
+        "max_evals": sv.max_rhs_evals, "progress": sv.progress_interval,
+        "rotation": rot, "energy": en,
         "free": problem.structure_free, "dense": sv.dense_output,
     }
     return args, kwargs
@@ -163,6 +165,11 @@ def simulate(problem: SphereProblem) -> SimulationResult:
     else:
         (status, steps, rows, evals, ext, rejected, jacobians, factorisations, stop_time) = run(
             *args, **kwargs)
+    if status == st.BUDGET_EXCEEDED:
+        message = budget_message(float(stop_time), problem.output.t_end, int(steps),
+                                 sv.max_rhs_evals)
+        print(f"creatio: {message}", file=sys.stderr, flush=True)
+        warnings.append(message)
     min_n, max_n, max_slip, max_res, max_track, min_clear, max_bk = (
         float(v) for v in ext[:E_E0]
     )

@@ -20,6 +20,7 @@ from typing import Any
 from creatio.dynamics import problem as core
 from creatio.dynamics.problem import (
     MAX_IMPACT_CAP,
+    MAX_RHS_EVALS,
     SphereProblem,
     UnstableStepError,
     check_stable,
@@ -363,7 +364,8 @@ class SolverConfig:
     that order gives when the global error is proportional to the tolerance), and their
     datasets are still named by dt and dt / refine. dense_output samples the output grid from
     each step's interpolant instead of cutting steps to land on it (then a fixed dt need not
-    divide output_interval).
+    divide output_interval). max_rhs_evals is each run's budget of right-hand-side
+    evaluations: a run that spends it stops with status budget_exceeded.
     """
 
     method: Method = Method.rk4
@@ -375,6 +377,7 @@ class SolverConfig:
     atol: float = 1e-10
     fixed_step: bool = False
     dense_output: bool = False
+    max_rhs_evals: int = MAX_RHS_EVALS
 
     @property
     def adaptive(self) -> bool:
@@ -382,8 +385,11 @@ class SolverConfig:
         return METHODS[str(self.method)].adaptive and not self.fixed_step
 
     def check(self, path: str) -> None:
-        """dt > 0, refine >= 2, tolerances > 0, output_interval a multiple of a fixed dt."""
+        """dt > 0, refine >= 2, tolerances > 0, a budget >= 1, output_interval a multiple of a
+        fixed dt."""
         require(self.dt > 0.0, f"{path}.dt", self.dt, "must be > 0")
+        require(self.max_rhs_evals >= 1, f"{path}.max_rhs_evals", self.max_rhs_evals,
+                "must be a positive integer (right-hand-side evaluations per run)")
         require(self.refine >= 2, f"{path}.refine", self.refine, "must be an integer >= 2")
         require(math.isfinite(self.rtol) and self.rtol > 0.0, f"{path}.rtol", self.rtol,
                  "must be finite and > 0")
@@ -705,7 +711,7 @@ class DynamicConfig:
             start=core.Start(st.initial.R, math.radians(st.initial.alpha_deg),
                              st.initial.Rdot, st.initial.alphadot),
             solver=core.Solver(str(sv.method), dt, rtol, atol, sv.fixed_step, sv.dense_output,
-                               sv.allow_unstable),
+                               sv.allow_unstable, sv.max_rhs_evals),
             output=core.Output(st.duration, sv.output_interval,
                                True if Output.rotation in st.outputs else None,
                                Output.energy in st.outputs),
@@ -742,7 +748,8 @@ _PROBLEM_KEYS = {
     "R0": "geometry.R0", "dR": "geometry.dR", "A": "geometry.A", "Kr": "geometry.Kr",
     "Ka": "geometry.Ka", "m": "sphere.m", "b": "sphere.b", "eps": "sphere.eps",
     "g": "sphere.g", "mu": "sphere.mu", "dt": "solver.dt", "rtol": "solver.rtol",
-    "atol": "solver.atol", "interval": "solver.output_interval", "t_end": "study.duration",
+    "atol": "solver.atol", "max_rhs_evals": "solver.max_rhs_evals",
+    "interval": "solver.output_interval", "t_end": "study.duration",
     "phi_r": "phases.r", "phi_a": "phases.a", "gamma": "phases.gamma",
     "rotation": "study.outputs", "equilibrium": "sphere.g", "inertia": "structure.inertia",
     "confinement": "structure.confinement", "force": "structure.force",

@@ -1,6 +1,7 @@
 """The one output-grid driver of every method, compiled, and its entry points.
 
-The driver owns time, step size, output landing, diagnostics and the step budget; a step is
+The driver owns time, step size, output landing, diagnostics, the evaluation budget and the
+progress lines of a long run (creatio.dynamics.progress); a step is
 taken by the stepper of the method's kind, each a module of this package under one contract
 (creatio.dynamics.solvers.STEPPERS): ``workspace(n, tab)`` its arrays and carried state,
 ``first_stage(ws, n)`` the array f(t, y) lives in, ``step(...)`` one try at one step (outcome,
@@ -38,6 +39,7 @@ from numba.extending import overload
 from creatio.dynamics import status as st
 from creatio.dynamics.jit import njit
 from creatio.dynamics.layout import NDIAG
+from creatio.dynamics.progress import CLOCK_MASK, tick
 from creatio.dynamics.solvers import (
     EXPLICIT,
     RADAU,
@@ -128,7 +130,7 @@ def _dense_of(stepper, ws, t, h, y, tg, yout, pp, lc, rot, en, free):
 
 @njit(cache=True)
 def _drive(stepper, p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, atol, fixed,
-           max_steps, tab, out, rot, en, free, dense):
+           max_evals, progress, tab, out, rot, en, free, dense):
     """Integrate from t = 0 to t_end with the stepper of kind `stepper` (a compile-time
     constant); rows of `out` are the sampled histories.
 
@@ -140,7 +142,9 @@ def _drive(stepper, p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, ato
     on the grid are the step's dense output (with one more right-hand-side evaluation each
     for their diagnostics). Returns (status, steps, rows, rhs_evals,
     extrema, rejected, jacobians, lu_factorisations, stop_time); STEP_FAILED when the step
-    underflows, Newton fails at a fixed step, or max_steps accepted steps did not reach t_end.
+    underflows or Newton fails at a fixed step, BUDGET_EXCEEDED when max_evals right-hand-side
+    evaluations did not reach t_end (the budget never changes a step). A line of progress
+    goes to stderr every `progress` seconds (inf: never).
     """
     pp, lc = pack(p, lawc)
     n = y0.size
@@ -154,6 +158,7 @@ def _drive(stepper, p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, ato
     yout = np.empty(n)
     tol = (rtol, atol)
     ext = new_extrema(en)
+    clock = np.zeros(2)
     # Counters and flags start as typed values, not literals: a literal argument would make
     # numba compile the callee once more for it (observe), costing seconds.
     evals = np.int64(0)
@@ -162,6 +167,8 @@ def _drive(stepper, p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, ato
     n_lu = np.int64(0)
     rows = np.int64(0)
     steps = np.int64(0)
+    tries = np.int64(0)
+    top_wrote = np.int64(0)
     yes = np.bool_(True)
     no = not yes
     t = 0.0
@@ -182,9 +189,9 @@ def _drive(stepper, p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, ato
         else:
             d = rhs_of(free, t, y, f, pp, lc, rot, en, True)
             evals += 1
-        status, wrote = observe(steps == 0, t, y, d, pp, ext, out, rows, final, sample, rot, en,
-                                free)
-        rows += wrote
+        status, top_wrote = observe(steps == 0, t, y, d, pp, ext, out, rows, final, sample, rot,
+                                    en, free)
+        rows += top_wrote
         if status != st.OK or final:
             break
         if fixed:
@@ -204,8 +211,14 @@ def _drive(stepper, p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, ato
         h_use = h
         t_next = t_target
         while not accepted:
+            if evals >= max_evals:
+                status = st.BUDGET_EXCEEDED
+                break
+            tries += 1
+            if tries & CLOCK_MASK == 1 and progress < math.inf:
+                tick(clock, t, t_end, steps, evals, max_evals, progress)
             if not fixed:
-                if steps >= max_steps or h < 1e-12 * max(1.0, t_end) or not math.isfinite(h):
+                if h < 1e-12 * max(1.0, t_end) or not math.isfinite(h):
                     status = st.STEP_FAILED
                     break
                 if dense:
@@ -280,8 +293,9 @@ def _drive(stepper, p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, ato
                 jn += 1
             final = hit and t_target >= t_end
             sample = hit
-    if status == st.STEP_FAILED:
-        # record the state where the integrator gave up, so the stop is visible in histories
+    if (status == st.STEP_FAILED or status == st.BUDGET_EXCEEDED) and top_wrote == 0:
+        # record the state where the run gave up, so the stop is visible in the histories
+        # (unless that state's row was just written)
         d = rhs_of(free, t, y, f, pp, lc, rot, en, True)
         evals += 1
         _, wrote = observe(steps == 0, t, y, d, pp, ext, out, rows, yes, yes, rot, en, free)
@@ -294,10 +308,10 @@ def _entry(stepper: int, rot: bool, en: bool, free: bool):
     rotation, energy and structure flags as constants (numba freezes a closure's variables),
     so a run compiles only the stepper, right-hand side and bookkeeping it uses. Its name
     spells the key, and is what numba's cache files it under (one file per entry)."""
-    def entry(p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, atol, fixed, max_steps,
-              tab, out, dense):
+    def entry(p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, atol, fixed, max_evals,
+              progress, tab, out, dense):
         return _drive(stepper, p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, atol,
-                      fixed, max_steps, tab, out, rot, en, free, dense)
+                      fixed, max_evals, progress, tab, out, rot, en, free, dense)
 
     flags = [name for name, on in (("structure", free), ("rot", rot), ("en", en)) if on]
     entry.__name__ = entry.__qualname__ = "_".join(["", STEPPERS[stepper], *flags])
@@ -325,7 +339,8 @@ def run(
     rtol: float,
     atol: float,
     fixed: bool,
-    max_steps: int,
+    max_evals: int,
+    progress: float,
     rotation: bool,
     energy: bool,
     free: bool = False,
@@ -336,5 +351,5 @@ def run(
     instead of steps cut to land on the grid."""
     fn = SPECIALISATIONS[(method.stepper, bool(rotation), bool(energy), bool(free))]
     return fn(p, lawc, y0, float(t_end), float(interval), float(h0), int(n_steps), int(stride),
-              float(rtol), float(atol), bool(fixed), int(max_steps), method.driver_tableau, out,
-              bool(dense))
+              float(rtol), float(atol), bool(fixed), int(max_evals), float(progress),
+              method.driver_tableau, out, bool(dense))

@@ -112,6 +112,7 @@ from creatio.dynamics.layout import (
     energy_start,
     state_size,
 )
+from creatio.dynamics.progress import CLOCK_MASK, tick
 from creatio.dynamics.solvers.explicit import error_norm, next_step, stages, step_factor
 from creatio.dynamics.sphere import (
     new_extrema,
@@ -434,14 +435,15 @@ def _observe_flight(first, t, y, fx, gap, pp, lc, ext, out, row, final, sample):
 
 @njit(cache=True)
 def _drive_flight(p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, atol, fixed,
-                  max_steps, tab, out, fl, ev):
+                  max_evals, progress, tab, out, fl, ev):
     """Integrate the hybrid contact/flight model from t = 0 to t_end (see the module).
 
     fl = (restitution e, resumption speed, impacts per second cap, start height: > 0 starts
     in flight that far above the initial contact position); ev the event table
     (rows beyond its size are counted, not written). Returns the driver's tuple (status,
     steps, rows, rhs_evals, extrema, rejected, jacobians, lu, stop_time) plus the event
-    count, the flight extrema and the final phase.
+    count, the flight extrema and the final phase. The evaluation budget max_evals and the
+    progress lines (every `progress` seconds) are the driver's.
     """
     pp, lc = pack(p, lawc)
     m = pp[P_M]
@@ -458,6 +460,9 @@ def _drive_flight(p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, atol,
     s = tab.c.size
     yc = y0.copy()
     yf = np.zeros(NF)
+    clock = np.zeros(2)
+    tries = np.int64(0)
+    top_wrote = 0
     yt_c = np.empty(NC)
     yt_f = np.empty(NF)
     Kc = np.empty((s + 1, NC))
@@ -502,6 +507,7 @@ def _drive_flight(p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, atol,
         fx[X_FOOT_A] = As
         phase = FLIGHT
     while True:
+        top_wrote = 0
         # instantaneous transitions at the current state
         while transition and status == st.OK:
             transition = False
@@ -577,6 +583,7 @@ def _drive_flight(p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, atol,
                                             final, sample)
         first = False
         rows += wrote
+        top_wrote = wrote
         if status != st.OK or final:
             break
         # one step towards the next grid (fixed) or output (adaptive) time
@@ -596,10 +603,13 @@ def _drive_flight(p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, atol,
         m_split = 1
         h_use = h0
         t_next = t_target
-        if steps >= max_steps:
-            status = st.STEP_FAILED
-            break
         while not accepted:
+            if evals >= max_evals:
+                status = st.BUDGET_EXCEEDED
+                break
+            tries += 1
+            if tries & CLOCK_MASK == 1 and progress < math.inf:
+                tick(clock, t, t_end, steps, evals, max_evals, progress)
             if fixed:
                 h_use = h0 if on_grid else t_target - t
                 _step(phase, t, h_use, t_next, y, yn, K, work, kst, tab, pp, lc, False, rtol,
@@ -607,7 +617,7 @@ def _drive_flight(p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, atol,
                 evals += s
                 accepted = True
             else:
-                if steps >= max_steps or h < 1e-12 * max(1.0, t_end) or not math.isfinite(h):
+                if h < 1e-12 * max(1.0, t_end) or not math.isfinite(h):
                     status = st.STEP_FAILED
                     break
                 remaining = t_target - t
@@ -691,8 +701,11 @@ def _drive_flight(p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, atol,
                 jn += 1
             final = hit and t_target >= t_end
             sample = hit
-    if status == st.STEP_FAILED or status == st.FOOT_POINT_FAILED:
-        # record the state where the run gave up, so the stop is visible in histories
+    gave_up = (status == st.STEP_FAILED or status == st.FOOT_POINT_FAILED
+               or status == st.BUDGET_EXCEEDED)
+    if gave_up and top_wrote == 0:
+        # record the state where the run gave up, so the stop is visible in the histories
+        # (unless that state's row was just written)
         if phase == CONTACT:
             d = rhs(t, yc, dy, pp, lc, True, True, True)
             _, wrote = observe(first, t, yc, d, pp, ext, out, rows, True, True, True, True,
@@ -707,8 +720,8 @@ def _drive_flight(p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, atol,
 def run_flight(method, p: np.ndarray, lawc: np.ndarray, y0: np.ndarray, out: np.ndarray,
                ev: np.ndarray, fl: np.ndarray, *, t_end: float, interval: float, h0: float,
                n_steps: int, stride: int, rtol: float, atol: float, fixed: bool,
-               max_steps: int) -> tuple:
+               max_evals: int, progress: float) -> tuple:
     """Run an explicit `method` through the hybrid loop; see _drive_flight for the result."""
     return _drive_flight(p, lawc, y0, float(t_end), float(interval), float(h0), int(n_steps),
-                         int(stride), float(rtol), float(atol), bool(fixed), int(max_steps),
-                         method.driver_tableau, out, fl, ev)
+                         int(stride), float(rtol), float(atol), bool(fixed), int(max_evals),
+                         float(progress), method.driver_tableau, out, fl, ev)
