@@ -9,6 +9,7 @@ ratios now / then. Use it to check that a change keeps the core as fast as befor
     python scripts/bench_against.py                  # against the revision before HEAD
     python scripts/bench_against.py bdffec5 --repeats 15 --cases en02:rk4,en02:radau5
     python scripts/bench_against.py HEAD --cases en02:radau5@0.05   # radau5 at a fixed 0.05 s
+    python scripts/bench_against.py HEAD --quick     # one round of en02:rk4 (a smoke test)
 """
 
 from __future__ import annotations
@@ -77,7 +78,11 @@ def main() -> None:
     parser.add_argument("--cases", default="en02:rk4,en02:radau5",
                         help="study:method pairs, method@dt for a fixed step (default "
                              "en02:rk4,en02:radau5)")
+    parser.add_argument("--quick", action="store_true",
+                        help="one round of en02:rk4: checks the script runs, measures nothing")
     args = parser.parse_args()
+    if args.quick:
+        args.repeats, args.cases = 1, "en02:rk4"
     cases = [tuple(c.split(":")) for c in args.cases.split(",")]
     rev = subprocess.run(["git", "rev-parse", "--short", args.revision], cwd=REPO,
                          capture_output=True, text=True, check=True).stdout.strip()

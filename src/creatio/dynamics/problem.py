@@ -90,9 +90,10 @@ __all__ = [
 ]
 
 #: Right-hand-side evaluations a run may spend before it stops with status budget_exceeded
-#: (Solver.max_rhs_evals, solver.max_rhs_evals in a config): far above every study's runs
-#: (EN-02 at dt / 2 takes 4.8e5), and reached in minutes where a run would go on for hours.
-MAX_RHS_EVALS = 100_000_000
+#: (Solver.max_rhs_evals, solver.max_rhs_evals in a config): above every study's runs (EN-02
+#: at dt / 2 takes 4.8e5, EN-03M's strongest confinement, 43 us steps over 120 s, 1.1e7),
+#: and spent in about a minute of one core where a run would go on for hours.
+MAX_RHS_EVALS = 50_000_000
 #: Seconds between the progress lines a long run prints to stderr.
 PROGRESS_INTERVAL = 10.0
 #: Largest cap on impacts per second: the event table is sized 3 x cap x t_end rows.

@@ -137,7 +137,9 @@ for _fn in layout.SCALAR_KERNELS:
     register_jitable(_fn)
 
 
-@njit(cache=True)
+# allocates nothing: compiled without reference counting (a call takes no reference to its
+# arrays, which costs atomic operations every step otherwise)
+@njit(cache=True, _nrt=False)
 def rhs(t, y, dy, pp, lc, rot, en, diag):
     """Write dy/dt into dy; return the diagnostics tuple (creatio.dynamics.layout D_*: N,
     |v_s|, X, V, f in the rotating frame, phi_r, gamma, b kappa, phi_a).
@@ -284,7 +286,9 @@ def new_extrema(en):
     return ext
 
 
-@njit(cache=True)
+# allocates nothing: compiled without reference counting (a call takes no reference to its
+# arrays, which costs atomic operations every step otherwise)
+@njit(cache=True, _nrt=False)
 def observe(first, t, y, d, pp, ext, out, row, final, sample, rot, en, free):
     """Diagnostics of one step start: update extrema, test the stop conditions, write a row.
 

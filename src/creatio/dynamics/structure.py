@@ -59,7 +59,9 @@ from creatio.model.structure import confinement_power, free_structure_solve
 __all__ = ["rhs_structure", "rhs_structure_on"]
 
 
-@njit(cache=True)
+# allocates nothing: compiled without reference counting (a call takes no reference to its
+# arrays, which costs atomic operations every step otherwise)
+@njit(cache=True, _nrt=False)
 def rhs_structure(t, y, dy, pp, lc, rot, en, diag):
     """Write dy/dt into dy on the structure path; return the diagnostics tuple of
     creatio.dynamics.sphere.rhs (N, |v_s|, X, V_rel, f, phi_r, gamma, b kappa, phi_a).

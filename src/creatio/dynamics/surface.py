@@ -16,13 +16,18 @@ from creatio.model.offset import offset_jets
 __all__ = ["phases", "surface"]
 
 
+#: The law evaluation, inlined where the right-hand sides call it: LLVM keeps it an out-of-line
+#: call (three per right-hand side) once it holds more than one step kind.
+_law = njit(cache=True, inline="always")(law_eval)
+
+
 @njit(cache=True, inline="always")
 def phases(t: float, lc: tuple) -> tuple:
     """(phi_r, phi_r', phi_r'', phi_a, phi_a', phi_a'', gamma, gamma', gamma'') at time t, from
     the law coefficient vectors lc (rows LAW_R, LAW_A, LAW_GAMMA of the law matrix)."""
-    pr, pr1, pr2 = law_eval(lc[LAW_R], t)
-    pa, pa1, pa2 = law_eval(lc[LAW_A], t)
-    gm, g1, g2 = law_eval(lc[LAW_GAMMA], t)
+    pr, pr1, pr2 = _law(lc[LAW_R], t)
+    pa, pa1, pa2 = _law(lc[LAW_A], t)
+    gm, g1, g2 = _law(lc[LAW_GAMMA], t)
     return pr, pr1, pr2, pa, pa1, pa2, gm, g1, g2
 
 

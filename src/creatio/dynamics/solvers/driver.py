@@ -1,14 +1,14 @@
 """The one output-grid driver of every method, compiled, and its entry points.
 
 The driver owns time, step size, output landing, diagnostics, the evaluation budget and the
-progress lines of a long run (creatio.dynamics.progress); a step is
-taken by the stepper of the method's kind, each a module of this package under one contract
-(creatio.dynamics.solvers.STEPPERS): ``workspace(n, tab)`` its arrays and carried state,
-``first_stage(ws, n)`` the array f(t, y) lives in, ``step(...)`` one try at one step (outcome,
-step factor, work counters, whether the end-of-step evaluation is done), ``dense(...)`` its
-dense output inside the last accepted step. The explicit Runge-Kutta stepper reads any tableau
-of the registry (creatio.dynamics.solvers.explicit); Radau IIA and RODAS4 are the implicit
-ones. A new stepper kind is such a module and an entry of STEPPERS.
+progress lines of a long run (creatio.dynamics.progress); a step is taken by the stepper of
+the method's kind (creatio.dynamics.solvers.STEPPERS). The explicit Runge-Kutta stepper
+(creatio.dynamics.solvers.explicit) reads any tableau of the registry; the implicit kinds,
+Radau IIA and RODAS4, are modules under one contract: ``workspace(n)`` their arrays and
+carried state, ``step(...)`` one try at one step (outcome, step factor, work counters,
+whether the end-of-step evaluation is done), ``dense(ws, t, yout)`` the dense output inside
+the last accepted step. A new implicit kind is such a module and an entry of STEPPERS; the
+explicit kind's arrays are the driver's own (see below).
 
 * Fixed step (RK4, or any method with ``fixed``): step i runs from t_i = i dt to t_{i+1};
   histories are every ``stride`` steps, and the run is ``n_steps`` steps long.
@@ -21,10 +21,17 @@ Every accepted step's end state is observed (creatio.dynamics.sphere.observe), s
 over all steps. The stepper kind and the rotation / energy / structure flags are compile-time
 constants of each entry point in SPECIALISATIONS: a run compiles only the stepper, the
 right-hand side (fixed structure or the structure path of docs/model.md s.9-10, resolved by
-creatio.dynamics.sphere.rhs_of) and the bookkeeping it uses. numba inlines the stepper into
-the loop (a function boundary per step, a row view of the stage matrix inside the loop or
-diagnostics carried from one iteration to the next each cost 5-20 % when measured), so the
-generic stepper runs RK4 as fast as a hand-written RK4 loop and reproduces it bit for bit.
+creatio.dynamics.sphere.rhs_of) and the bookkeeping it uses.
+
+How the loop is kept fast: an entry point allocates every array of the run (_arrays, the
+implicit workspace) and hands them to _drive, which allocates nothing and is compiled without
+reference counting (numba's ``_nrt=False``), as are the right-hand sides and the step's
+observation. numba inlines the explicit step into the loop (creatio.dynamics.solvers
+.explicit.step, with the tableau and stage arrays unpacked once, before it), so a step
+neither crosses a function boundary nor takes or drops a reference to an array: the atomic
+reference counts were a fifth of RK4's time (perf, EN-02), and inlining a stepper that takes
+arrays in a counted loop cost 21-43 % more (measured). The generic stepper reproduces the
+notebook's RK4, y + dt/6 (k1 + 2 (k2 + k3) + k4), bit for bit.
 """
 
 from __future__ import annotations
@@ -50,89 +57,97 @@ from creatio.dynamics.solvers import (
     radau,
     rosenbrock,
 )
-from creatio.dynamics.solvers.explicit import ACCEPTED, next_step
+from creatio.dynamics.solvers.explicit import ACCEPTED, ERROR_REJECTED, next_step
 from creatio.dynamics.sphere import load, new_extrema, observe, pack, rhs_of
 
 __all__ = ["SPECIALISATIONS", "run"]
 
-#: The stepper module of each kind (the contract of the module docstring).
-_MODULES = {EXPLICIT: explicit, RADAU: radau, ROSENBROCK: rosenbrock}
-assert set(_MODULES) == set(STEPPERS)
+#: The module of each implicit kind (the contract of the module docstring).
+_IMPLICIT = {RADAU: radau, ROSENBROCK: rosenbrock}
+assert set(_IMPLICIT) | {EXPLICIT} == set(STEPPERS)
 
 
-def _workspace(stepper, n, tab):
-    """The stepper's workspace (compiled code only; resolved at compile time)."""
+def _implicit_workspace(stepper, n):
+    """The implicit stepper's workspace (compiled code only; resolved at compile time)."""
     raise NotImplementedError("called only from compiled code")
 
 
-def _first_stage(stepper, ws, n):
-    """The array f(t, y) lives in (compiled code only; resolved at compile time)."""
+def _implicit_step(stepper, t, t_next, h, y, f, ynew, fnew, dbuf, ws, tol, fixed, rejected, pp,
+                   lc, rot, en, free):
+    """One try at one implicit step (compiled code only; resolved at compile time)."""
     raise NotImplementedError("called only from compiled code")
 
 
-def _step(stepper, t, t_next, h, y, f, ynew, fnew, dbuf, ws, tol, fixed, dense, rejected, pp,
-          lc, rot, en, free):
-    """One try at one step (compiled code only; resolved at compile time)."""
+def _implicit_dense(stepper, ws, tg, yout):
+    """The implicit stepper's dense output at tg inside its last accepted step (compiled code
+    only; resolved at compile time)."""
     raise NotImplementedError("called only from compiled code")
 
 
-def _dense(stepper, ws, t, h, y, tg, yout, pp, lc, rot, en, free):
-    """The stepper's dense output at tg inside its last accepted step (compiled code only;
-    resolved at compile time); returns the evaluations it cost."""
-    raise NotImplementedError("called only from compiled code")
-
-
-def _module(stepper):
-    """The stepper module of a literal kind (None for a kind not known at compile time)."""
+@overload(_implicit_workspace, prefer_literal=True)
+def _implicit_workspace_of(stepper, n):
+    """The kind's workspace; an empty placeholder for the explicit kind."""
     if not isinstance(stepper, types.IntegerLiteral):
         return None
-    return _MODULES[stepper.literal_value]
-
-
-@overload(_workspace, prefer_literal=True)
-def _workspace_of(stepper, n, tab):
-    """The kind's workspace: only the stepper a run uses is typed and compiled."""
-    module = _module(stepper)
+    module = _IMPLICIT.get(stepper.literal_value)
     if module is None:
-        return None
+        return lambda stepper, n: np.empty(0)
     workspace = module.workspace
-    return lambda stepper, n, tab: workspace(n, tab)
+    return lambda stepper, n: workspace(n)
 
 
-@overload(_first_stage, prefer_literal=True, inline="always")
-def _first_stage_of(stepper, ws, n):
-    """The kind's first-stage array."""
-    module = _module(stepper)
-    if module is None:
+@overload(_implicit_step, prefer_literal=True, inline="always")
+def _implicit_step_of(stepper, t, t_next, h, y, f, ynew, fnew, dbuf, ws, tol, fixed, rejected,
+                      pp, lc, rot, en, free):
+    """The kind's step, inlined into the loop; for the explicit kind a stand-in that is never
+    run, so an explicit run never types or compiles an implicit stepper."""
+    if not isinstance(stepper, types.IntegerLiteral):
         return None
-    first_stage = module.first_stage
-    return lambda stepper, ws, n: first_stage(ws, n)
+    module = _IMPLICIT.get(stepper.literal_value)
+    if module is not None:
+        return module.step.py_func
+
+    def impl(stepper, t, t_next, h, y, f, ynew, fnew, dbuf, ws, tol, fixed, rejected, pp, lc,
+             rot, en, free):
+        return ERROR_REJECTED, 1.0, 0, 0, 0, False
+    return impl
 
 
-@overload(_step, prefer_literal=True, inline="always")
-def _step_of(stepper, t, t_next, h, y, f, ynew, fnew, dbuf, ws, tol, fixed, dense, rejected,
-             pp, lc, rot, en, free):
-    """The kind's step, inlined into the loop."""
-    module = _module(stepper)
-    return None if module is None else module.step.py_func
-
-
-@overload(_dense, prefer_literal=True, inline="always")
-def _dense_of(stepper, ws, t, h, y, tg, yout, pp, lc, rot, en, free):
-    """The kind's dense output."""
-    module = _module(stepper)
-    if module is None:
+@overload(_implicit_dense, prefer_literal=True, inline="always")
+def _implicit_dense_of(stepper, ws, tg, yout):
+    """The kind's dense output; a stand-in never run for the explicit kind."""
+    if not isinstance(stepper, types.IntegerLiteral):
         return None
+    module = _IMPLICIT.get(stepper.literal_value)
+    if module is None:
+        return lambda stepper, ws, tg, yout: None
     dense = module.dense
-    return lambda stepper, ws, t, h, y, tg, yout, pp, lc, rot, en, free: dense(
-        ws, t, h, y, tg, yout, pp, lc, rot, en, free)
+    return lambda stepper, ws, tg, yout: dense(ws, tg, yout)
 
 
 @njit(cache=True)
-def _drive(stepper, p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, atol, fixed,
-           max_evals, progress, tab, out, rot, en, free, dense):
-    """Integrate from t = 0 to t_end with the stepper of kind `stepper` (a compile-time
-    constant); rows of `out` are the sampled histories.
+def _arrays(n, n_dense, en):
+    """Every array the loop writes for a state of size n, allocated once per run (the loop
+    allocates nothing): the new state, the explicit stages (n_dense rows: the stages, the
+    end-of-step one, the dense output's extra ones), the end-of-step derivative and its
+    diagnostics, a trial state, a stage derivative, a dense-output state, the dense weights,
+    the running extrema and the progress clock."""
+    return (np.empty(n), np.empty((n_dense, n)), np.empty(n), np.empty(NDIAG), np.empty(n),
+            np.empty(n), np.empty(n), np.empty(n_dense), new_extrema(en), np.zeros(2))
+
+
+#: The running extrema's place in the tuple of _arrays.
+_EXT = 8
+
+
+@njit(cache=True, _nrt=False)
+def _drive(stepper, p, lawc, y, arrays, iws, t_end, interval, h0, n_steps, stride, rtol, atol,
+           fixed, max_evals, progress, tab, out, rot, en, free, dense):
+    """Integrate from t = 0 to t_end, from the initial state y (overwritten), with the
+    stepper of kind `stepper` (a compile-time constant); rows of `out` are the sampled
+    histories. The arrays it writes come from _arrays and, for an implicit kind, its
+    workspace iws: it allocates none, and is compiled without reference counting (numba's
+    _nrt=False), so no step takes or drops a reference to an array.
 
     Fixed step: h0 = dt, n_steps steps, a history row every `stride` steps. Adaptive: h0 is
     the first step, rows on the grid of `interval`. tab is the explicit tableau
@@ -140,25 +155,21 @@ def _drive(stepper, p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, ato
     steps are not cut to the grid: the step size runs free (a
     fixed step need not divide the interval), only the last step lands on t_end, and the rows
     on the grid are the step's dense output (with one more right-hand-side evaluation each
-    for their diagnostics). Returns (status, steps, rows, rhs_evals,
-    extrema, rejected, jacobians, lu_factorisations, stop_time); STEP_FAILED when the step
+    for their diagnostics). Returns (status, steps, rows, rhs_evals, rejected, jacobians,
+    lu_factorisations, stop_time), the extrema in the arrays; STEP_FAILED when the step
     underflows or Newton fails at a fixed step, BUDGET_EXCEEDED when max_evals right-hand-side
     evaluations did not reach t_end (the budget never changes a step). A line of progress
     goes to stderr every `progress` seconds (inf: never).
     """
     pp, lc = pack(p, lawc)
-    n = y0.size
-    y = y0.copy()
-    ynew = np.empty(n)
-    ws = _workspace(stepper, n, tab)
-    f = _first_stage(stepper, ws, n)
-    fnew = np.empty(n)
-    dbuf = np.empty(NDIAG)
-    kst = np.empty(n)
-    yout = np.empty(n)
+    (c, a_ptr, a_idx, a_val, b_idx, b_val, b_divisor, e, e3, estimator, error_order, c_extra,
+     a_extra, dense_p) = tab
+    n = y.size
+    s = c.size
+    ynew, K, fnew, dbuf, work, kst, yout, wq, ext, clock = arrays
+    f = K[0]  # f(t, y) is the first stage: a view made once, so never copied into K
     tol = (rtol, atol)
-    ext = new_extrema(en)
-    clock = np.zeros(2)
+    scalars = (b_divisor, estimator, error_order)
     # Counters and flags start as typed values, not literals: a literal argument would make
     # numba compile the callee once more for it (observe), costing seconds.
     evals = np.int64(0)
@@ -236,9 +247,17 @@ def _drive(stepper, p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, ato
                     break
             elif dense and t_target == t_end:
                 h_use = t_end - t
-            outcome, factor, ev, nj, nl, have_f = _step(
-                stepper, t, t_next, h_use, y, f, ynew, fnew, dbuf, ws, tol, fixed, dense,
-                rejected, pp, lc, rot, en, free)
+            if stepper == EXPLICIT:
+                outcome, factor, ev, have_f = explicit.step(
+                    free, c, a_ptr, a_idx, a_val, b_idx, b_val, e, e3, scalars, t, t_next,
+                    h_use, y, ynew, fnew, dbuf, K, work, kst, tol, fixed, dense, rejected, pp,
+                    lc, rot, en)
+                nj = 0
+                nl = 0
+            else:
+                outcome, factor, ev, nj, nl, have_f = _implicit_step(
+                    stepper, t, t_next, h_use, y, f, ynew, fnew, dbuf, iws, tol, fixed,
+                    rejected, pp, lc, rot, en, free)
             evals += ev
             n_jac += nj
             n_lu += nl
@@ -257,11 +276,18 @@ def _drive(stepper, p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, ato
             break
         if dense:
             # rows on the grid inside the step (t_end's row is the landing step's end)
+            extras_done = not yes
             while jn <= n_int:
                 tg = jn * interval
                 if tg > t_next or tg >= t_end * (1.0 - 1e-12):
                     break
-                evals += _dense(stepper, ws, t, h_use, y, tg, yout, pp, lc, rot, en, free)
+                if stepper == EXPLICIT:
+                    evals += explicit.dense(free, s, c_extra, a_extra, dense_p, extras_done, t,
+                                            h_use, y, tg, yout, K, work, kst, wq, pp, lc, rot,
+                                            en)
+                    extras_done = yes
+                else:
+                    _implicit_dense(stepper, iws, tg, yout)
                 d = rhs_of(free, tg, yout, kst, pp, lc, rot, en, True)
                 evals += 1
                 status, wrote = observe(no, tg, yout, d, pp, ext, out, rows, no, yes, rot, en,
@@ -300,7 +326,7 @@ def _drive(stepper, p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, ato
         evals += 1
         _, wrote = observe(steps == 0, t, y, d, pp, ext, out, rows, yes, yes, rot, en, free)
         rows += wrote
-    return status, steps, rows, evals, ext, n_rej, n_jac, n_lu, t
+    return status, steps, rows, evals, n_rej, n_jac, n_lu, t
 
 
 def _entry(stepper: int, rot: bool, en: bool, free: bool):
@@ -310,8 +336,13 @@ def _entry(stepper: int, rot: bool, en: bool, free: bool):
     spells the key, and is what numba's cache files it under (one file per entry)."""
     def entry(p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, atol, fixed, max_evals,
               progress, tab, out, dense):
-        return _drive(stepper, p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, atol,
-                      fixed, max_evals, progress, tab, out, rot, en, free, dense)
+        n = y0.size
+        arrays = _arrays(n, tab.dense.shape[0], en)
+        status, steps, rows, evals, n_rej, n_jac, n_lu, t = _drive(
+            stepper, p, lawc, y0.copy(), arrays, _implicit_workspace(stepper, n), t_end,
+            interval, h0, n_steps, stride, rtol, atol, fixed, max_evals, progress, tab, out, rot,
+            en, free, dense)
+        return status, steps, rows, evals, arrays[_EXT], n_rej, n_jac, n_lu, t
 
     flags = [name for name, on in (("structure", free), ("rot", rot), ("en", en)) if on]
     entry.__name__ = entry.__qualname__ = "_".join(["", STEPPERS[stepper], *flags])

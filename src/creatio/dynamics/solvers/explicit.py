@@ -2,15 +2,15 @@
 
 :func:`stages` computes a step's stages and its new state for any right-hand side (the
 sphere's, and the hybrid loop's contact and flight phases, creatio.dynamics.solvers.hybrid);
-:func:`step` is one try at one step of the driver (creatio.dynamics.solvers.driver) under the
-stepper contract the implicit steppers share (creatio.dynamics.solvers.radau, rosenbrock),
-and :func:`dense` its dense output. Step control is scipy's for the same pairs (safety 0.9,
+:func:`step` is one try at one step of the driver (creatio.dynamics.solvers.driver), and
+:func:`dense` its dense output. Step control is scipy's for the same pairs (safety 0.9,
 factors in [0.2, 10], RMS norm of err / (atol + rtol max(|y|, |y_new|))), so native and scipy
 runs of a method take comparable steps.
 
 Written for the compiled loop: numba inlines :func:`stages` and :func:`step` where they are
-called (a function boundary per step cost RK4 5-20 % when measured), and their sums run in
-the tableau's own order, so the generic stepper reproduces the notebook's RK4,
+called (the driver's loop, compiled without reference counting, where an inlined argument
+costs nothing; a call per step cost RK4 5-20 % when measured). Their sums run in the
+tableau's own order, so the generic stepper reproduces the notebook's RK4,
 y + dt/6 (k1 + 2 (k2 + k3) + k4), bit for bit.
 """
 
@@ -18,15 +18,12 @@ from __future__ import annotations
 
 import math
 
-import numpy as np
-
 from creatio.dynamics.jit import njit
 from creatio.dynamics.solvers import COMBINED_5_3, EMBEDDED
 from creatio.dynamics.sphere import rhs_of, store
 
 __all__ = ["ACCEPTED", "ERROR_REJECTED", "MAX_FACTOR", "MIN_FACTOR", "NEWTON_FAILED", "SAFETY",
-           "dense", "error_norm", "first_stage", "next_step", "scaled_rms", "stages", "step",
-           "step_factor", "workspace"]
+           "dense", "error_norm", "next_step", "scaled_rms", "stages", "step", "step_factor"]
 
 SAFETY = 0.9
 MIN_FACTOR = 0.2
@@ -109,18 +106,18 @@ def step_factor(err, error_order, rejected):
 
 
 @njit(cache=True, inline="always")
-def stages(f, key, tab, t, h, t_next, y, ynew, K, work, kst, pp, lc, rot, en):
+def stages(f, key, c, a_ptr, a_idx, a_val, b_idx, b_val, b_divisor, t, h, t_next, y, ynew, K,
+           work, kst, pp, lc, rot, en):
     """The stages K[1 .. s-1] of a step from (t, y) of size h (K[0] = f(t, y) given), and
-    the new state ynew = y + (h / divisor) sum_q b_q K[q].
+    the new state ynew = y + (h / b_divisor) sum_q b_q K[q].
 
     f(key, t, y, dy, pp, lc, rot, en, diag) is the right-hand side (creatio.dynamics.sphere
-    .rhs_of, key its structure flag; the hybrid loop's, key its phase). Stage st starts from
+    .rhs_of, key its structure flag; the hybrid loop's, key its phase); the tableau comes as
+    the arrays of creatio.dynamics.solvers.DriverTableau. Stage st starts from
     y + h sum_q a[st, q] K[q], its terms added in column order from the first (0 + x = x
     exactly, so skipping zero coefficients changes no rounding); stages at c = 1 are
     evaluated at t_next exactly; b is summed in the tableau's order.
     """
-    c, a_ptr, a_idx, a_val = tab.c, tab.a_ptr, tab.a_idx, tab.a_val
-    b_idx, b_val = tab.b_idx, tab.b_val
     n = y.size
     for stg in range(1, c.size):
         p0 = a_ptr[stg]
@@ -153,72 +150,51 @@ def stages(f, key, tab, t, h, t_next, y, ynew, K, work, kst, pp, lc, rot, en):
         v = b_val[pq]
         for j in range(n):
             ynew[j] += v * K[q, j]
-    hb = h / tab.b_divisor
+    hb = h / b_divisor
     for j in range(n):
         ynew[j] = y[j] + hb * ynew[j]
 
 
-@njit(cache=True)
-def workspace(n, tab):
-    """The stepper's arrays for a state of size n: the tableau, the stages (one row each: the
-    s stages, the end-of-step derivative, the dense output's extra stages), a trial state, a
-    stage derivative, the dense weights, and whether this step's extra stages are computed."""
-    n_dense = tab.dense.shape[0]
-    return (tab, np.empty((n_dense, n)), np.empty(n), np.empty(n), np.empty(n_dense),
-            np.zeros(1))
+@njit(cache=True, inline="always")
+def step(free, c, a_ptr, a_idx, a_val, b_idx, b_val, e, e3, scalars, t, t_next, h, y, ynew,
+         fnew, dbuf, K, work, kst, tol, fixed, dense, rejected, pp, lc, rot, en):
+    """One try at the driver's step t -> t_next = t + h from K[0] = f(t, y): (outcome,
+    factor, rhs evaluations, whether fnew and dbuf hold the end-of-step evaluation).
+    scalars = (b_divisor, estimator, error_order) of the tableau, tol = (rtol, atol).
 
-
-@njit(cache=True)
-def first_stage(ws, n):
-    """The array f(t, y) lives in: the first stage's row, a view made once so that it is
-    never copied into the stages."""
-    return ws[1][0]
-
-
-@njit(cache=True)
-def step(stepper, t, t_next, h, y, f, ynew, fnew, dbuf, ws, tol, fixed, dense, rejected, pp,
-         lc, rot, en, free):
-    """One try at the step t -> t_next = t + h (the stepper contract of the driver; `stepper`
-    is its kind, which the driver dispatches on at compile time); f = f(t, y) is the first
-    stage (:func:`first_stage`).
-
-    Returns (outcome, factor, rhs evaluations, jacobians, LU factorisations, whether fnew and
-    dbuf hold the end-of-step evaluation). A fixed step without dense output leaves the
-    end-of-step derivative to the next step's top, as the notebook's RK4 did; otherwise it
-    is taken here with its diagnostics (the next step's first stage: FSAL), and an adaptive
-    step's error is measured against tol = (rtol, atol).
+    A fixed step without dense output leaves the end-of-step derivative to the next step's
+    top, as the notebook's RK4 did; otherwise it is taken here with its diagnostics (the next
+    step's first stage: FSAL, into K[s]), and an adaptive step's error is measured.
     """
-    tab, K, work, kst, wq, extras = ws
-    extras[0] = 0.0
-    stages(rhs_of, free, tab, t, h, t_next, y, ynew, K, work, kst, pp, lc, rot, en)
-    s = tab.c.size
+    b_divisor, estimator, error_order = scalars
+    stages(rhs_of, free, c, a_ptr, a_idx, a_val, b_idx, b_val, b_divisor, t, h, t_next, y,
+           ynew, K, work, kst, pp, lc, rot, en)
+    s = c.size
     if fixed and not dense:
-        return ACCEPTED, 1.0, s - 1, 0, 0, False
+        return ACCEPTED, 1.0, s - 1, False
     store(rhs_of(free, t_next, ynew, fnew, pp, lc, rot, en, True), dbuf)
     for j in range(y.size):
         K[s, j] = fnew[j]
     if fixed:
-        return ACCEPTED, 1.0, s, 0, 0, True
+        return ACCEPTED, 1.0, s, True
     rtol, atol = tol
-    en_err = error_norm(K, y, ynew, h, tab.e, tab.e3, tab.estimator, rtol, atol)
-    ok, factor = step_factor(en_err, tab.error_order, rejected)
-    return ACCEPTED if ok else ERROR_REJECTED, factor, s, 0, 0, ok
+    en_err = error_norm(K, y, ynew, h, e, e3, estimator, rtol, atol)
+    ok, factor = step_factor(en_err, error_order, rejected)
+    return ACCEPTED if ok else ERROR_REJECTED, factor, s, ok
 
 
 @njit(cache=True)
-def dense(ws, t, h, y, tg, yout, pp, lc, rot, en, free):
+def dense(free, s, c_extra, a_extra, dense_p, extras_done, t, h, y, tg, yout, K, work, kst, wq,
+          pp, lc, rot, en):
     """The dense output at tg inside the last accepted step from (t, y) of size h:
-    y + h sum_q K_q P_q(x), x = (tg - t) / h (docs/model.md s.6.1), over the stages, the
-    end-of-step derivative and the extra stages, which are computed on the step's first
-    dense row. Returns the right-hand-side evaluations it cost."""
-    tab, K, work, kst, wq, extras = ws
-    c_extra, a_extra, dense_p = tab.c_extra, tab.a_extra, tab.dense
+    y + h sum_q K_q P_q(x), x = (tg - t) / h (docs/model.md s.6.1), over the s stages, the
+    end-of-step derivative and the extra stages, computed on the step's first dense row
+    (unless extras_done). Returns the right-hand-side evaluations it cost."""
     n = y.size
-    s = tab.c.size
     n_dense = dense_p.shape[0]
     n_extra = c_extra.size
     evals = 0
-    if n_extra > 0 and extras[0] == 0.0:
+    if n_extra > 0 and not extras_done:
         for i in range(n_extra):
             row = s + 1 + i
             for j in range(n):
@@ -234,7 +210,6 @@ def dense(ws, t, h, y, tg, yout, pp, lc, rot, en, free):
             for j in range(n):
                 K[row, j] = kst[j]
         evals = n_extra
-        extras[0] = 1.0
     x = (tg - t) / h
     for q in range(n_dense):
         acc = 0.0

@@ -191,7 +191,8 @@ def _step(phase, t, h, t_next, y, ynew, K, work, kst, tab, pp, lc, estimate, rto
     _f(phase, t, y, kst, pp, lc, True, True, False)
     for j in range(n):
         K[0, j] = kst[j]
-    stages(_f, phase, tab, t, h, t_next, y, ynew, K, work, kst, pp, lc, True, True)
+    stages(_f, phase, tab.c, tab.a_ptr, tab.a_idx, tab.a_val, tab.b_idx, tab.b_val,
+           tab.b_divisor, t, h, t_next, y, ynew, K, work, kst, pp, lc, True, True)
     if not estimate:
         return 0.0
     _f(phase, t_next, ynew, kst, pp, lc, True, True, False)

@@ -34,7 +34,7 @@ from creatio.dynamics.solvers.explicit import (
 from creatio.dynamics.solvers.linalg import lu_factor, lu_solve
 from creatio.dynamics.sphere import rhs_of, store
 
-__all__ = ["THETA", "dense", "first_stage", "jacobian", "step", "workspace"]
+__all__ = ["THETA", "dense", "jacobian", "step", "workspace"]
 
 NEWTON_MAXITER = 6
 #: Newton contraction rate above which the Jacobian is refreshed (Hairer's THET).
@@ -59,9 +59,8 @@ RS_HAVE_JAC, RS_CURRENT_JAC, RS_LU_H, RS_HAVE_OLD, RS_T_OLD, RS_H_PREV, RS_H_OLD
 
 
 @njit(cache=True)
-def workspace(n, tab):
-    """Carried state and work arrays of step for a state of size n: nothing computed yet (the
-    explicit tableau tab is not read)."""
+def workspace(n):
+    """Carried state and work arrays of step for a state of size n: nothing computed yet."""
     rs = np.zeros(8)
     rs[RS_LU_H] = -1.0
     rs[RS_H_OLD] = -1.0
@@ -85,12 +84,6 @@ def workspace(n, tab):
         np.empty(n),                            # work: a trial state
         np.empty(n),                            # tmp: a trial derivative
     )
-
-
-@njit(cache=True)
-def first_stage(ws, n):
-    """The array f(t, y) lives in."""
-    return np.empty(n)
 
 
 @njit(cache=True)
@@ -254,11 +247,10 @@ def _factor(h, n_iter, rate, en_err, rs, fixed):
 
 
 @njit(cache=True)
-def step(stepper, t, t_next, h, y, f, ynew, fnew, dbuf, ws, tol, fixed, dense, rejected, pp, lc,
-         rot, en, free):
-    """One try at the step t -> t_next = t + h (the driver's stepper contract; `stepper` is
-    its kind, which the driver dispatches on at compile time; the end-of-step evaluation is
-    always taken, so `dense` changes nothing).
+def step(stepper, t, t_next, h, y, f, ynew, fnew, dbuf, ws, tol, fixed, rejected, pp, lc, rot,
+         en, free):
+    """One try at the step t -> t_next = t + h (the driver's implicit-stepper contract;
+    `stepper` is its kind, which the driver dispatches on at compile time).
 
     Returns (outcome, factor, rhs evaluations, jacobians, LU factorisations, whether fnew and
     dbuf hold the end-of-step evaluation): ACCEPTED (ynew, fnew and the diagnostics dbuf
@@ -362,10 +354,9 @@ def step(stepper, t, t_next, h, y, f, ynew, fnew, dbuf, ws, tol, fixed, dense, r
 
 
 @njit(cache=True)
-def dense(ws, t, h, y, tg, yout, pp, lc, rot, en, free):
+def dense(ws, tg, yout):
     """Dense output at tg inside the last accepted step: its collocation polynomial
-    y_old + Q (x, x^2, x^3), x = (tg - t_old) / h, which matches the stage values (order 3);
-    kept in the workspace, so it costs no evaluation (returns 0)."""
+    y_old + Q (x, x^2, x^3), x = (tg - t_old) / h, which matches the stage values (order 3)."""
     rs = ws[0]
     Qold = ws[10]
     yold = ws[11]
@@ -374,4 +365,3 @@ def dense(ws, t, h, y, tg, yout, pp, lc, rot, en, free):
     x3 = x2 * x
     for j in range(yold.size):
         yout[j] = yold[j] + Qold[j, 0] * x + Qold[j, 1] * x2 + Qold[j, 2] * x3
-    return 0

@@ -29,7 +29,7 @@ from creatio.dynamics.solvers.linalg import lu_factor, lu_solve
 from creatio.dynamics.solvers.radau import jacobian
 from creatio.dynamics.sphere import rhs_of, store
 
-__all__ = ["dense", "first_stage", "step", "workspace"]
+__all__ = ["dense", "step", "workspace"]
 
 _GAMMA = tb.RODAS4_GAMMA
 _ALPHA = tb.RODAS4_ALPHA.copy()
@@ -48,9 +48,8 @@ RS_JAC_T, RS_LU_H, RS_T_OLD, RS_H_OLD = range(4)
 
 
 @njit(cache=True)
-def workspace(n, tab):
-    """Carried state and work arrays of step for a state of size n: nothing computed yet (the
-    explicit tableau tab is not read)."""
+def workspace(n):
+    """Carried state and work arrays of step for a state of size n: nothing computed yet."""
     rs = np.zeros(4)
     rs[RS_JAC_T] = math.nan
     rs[RS_LU_H] = -1.0
@@ -68,15 +67,9 @@ def workspace(n, tab):
 
 
 @njit(cache=True)
-def first_stage(ws, n):
-    """The array f(t, y) lives in."""
-    return np.empty(n)
-
-
-@njit(cache=True)
-def step(stepper, t, t_next, h, y, f, ynew, fnew, dbuf, ws, tol, fixed, dense, rejected, pp, lc,
-         rot, en, free):
-    """One try at the step t -> t_next = t + h (the driver's stepper contract, as
+def step(stepper, t, t_next, h, y, f, ynew, fnew, dbuf, ws, tol, fixed, rejected, pp, lc, rot,
+         en, free):
+    """One try at the step t -> t_next = t + h (the driver's implicit-stepper contract, as
     creatio.dynamics.solvers.radau.step): (outcome, factor, rhs evaluations, jacobians, LU
     factorisations, whether fnew and dbuf hold the end-of-step evaluation)."""
     rs, jac, lu, piv, U, dfdt, work, tmp, hermite = ws
@@ -164,10 +157,9 @@ def step(stepper, t, t_next, h, y, f, ynew, fnew, dbuf, ws, tol, fixed, dense, r
 
 
 @njit(cache=True)
-def dense(ws, t, h, y, tg, yout, pp, lc, rot, en, free):
+def dense(ws, tg, yout):
     """Dense output at tg inside the last accepted step: the cubic Hermite polynomial through
-    both ends' states and derivatives (order 3), kept in the workspace (returns 0
-    evaluations)."""
+    both ends' states and derivatives (order 3)."""
     rs = ws[0]
     hermite = ws[8]
     h_old = rs[RS_H_OLD]
@@ -179,4 +171,3 @@ def dense(ws, t, h, y, tg, yout, pp, lc, rot, en, free):
     for j in range(yout.size):
         yout[j] = (h00 * hermite[0, j] + h_old * h10 * hermite[1, j] + h01 * hermite[2, j]
                    + h_old * h11 * hermite[3, j])
-    return 0
