@@ -20,8 +20,24 @@ before it, like :func:`structure_start`; the blocks before it keep their positio
 from __future__ import annotations
 
 __all__ = [
-    "NCOL", "NDIAG", "NEV", "NEXT", "NF", "NLAWS", "NPAR", "NQ", "NROT", "PARAMETERS",
-    "SCALAR_KERNELS", "energy_start", "energy_size", "state_size", "structure_start",
+    "COL_ALPHA", "COL_AZIMUTH", "COL_CAVITY_R", "COL_CELL_U", "COL_CELL_V", "COL_CONFINE",
+    "COL_DISSIPATION", "COL_ENERGY", "COL_F", "COL_HZ_ORBITAL", "COL_HZ_SPIN",
+    "COL_HZ_STRUCTURE", "COL_KINETIC", "COL_MARKER", "COL_N", "COL_OMEGA", "COL_POTENTIAL",
+    "COL_Q", "COL_R", "COL_RESIDUAL", "COL_SLIP", "COL_SPEED", "COL_SPIN", "COL_SPIN_RATE",
+    "COL_T", "COL_THETA", "COL_THETA_RATE", "COL_V", "COL_WORK", "COL_WORLD_AZIMUTH", "COL_X",
+    "D_BK", "D_F", "D_GAMMA", "D_N", "D_PHI_A", "D_PHI_R", "D_SLIP", "D_V", "D_X", "E_AZ",
+    "E_E0", "E_HZ0", "E_LEFT", "E_MAX_BK", "E_MAX_HZ_DRIFT", "E_MAX_IS_THETA", "E_MAX_N",
+    "E_MAX_RES", "E_MAX_RHO", "E_MAX_SLIP", "E_MAX_THETA_RATE", "E_MAX_TRACK", "E_MIN_CLEAR",
+    "E_MIN_N", "EN_CONFINE", "EN_DISSIPATION", "EN_WORK", "energy_size", "energy_start",
+    "EV_ALPHA", "EV_CONTACT", "EV_HEIGHT", "EV_IMPACT", "EV_KIND", "EV_LOSS", "EV_R",
+    "EV_SEPARATION", "EV_T", "EV_VN", "EV_VN_AFTER", "EV_X", "EVENT_KINDS", "F_DISSIPATION",
+    "F_OMEGA", "F_Q", "F_SPIN", "F_V", "F_WORK", "F_X", "FL_IMPACT_CAP", "FL_RESTITUTION",
+    "FL_RESUME_SPEED", "FL_START_HEIGHT", "LAW_A", "LAW_GAMMA", "LAW_R", "NCOL", "NDIAG", "NEV",
+    "NEXT", "NF", "NFL", "NFX", "NLAWS", "NPAR", "NQ", "NROT", "NSTRUCT", "P_A", "P_B", "P_DR",
+    "P_EPS", "P_G", "P_I", "P_INV_IS", "P_IS", "P_K", "P_KA", "P_M", "P_MCAV", "P_MU", "P_NCAV",
+    "P_PRELOAD", "P_R0", "P_STOP_LEAVE", "SCALAR_KERNELS", "ST_RATE", "ST_THETA",
+    "state_size", "structure_start", "X_FLIGHT_GAP", "X_FOOT_A", "X_FOOT_R", "X_MAX_GAP",
+    "Y_ALPHA", "Y_ALPHADOT", "Y_OMEGA", "Y_Q", "Y_R", "Y_RDOT", "Y_SPIN",
 ]
 
 # ------------------------------------------------------------------------- state vector
@@ -81,8 +97,6 @@ NFL = 4
 #: The surface and sphere, the cavity (n, m) the run starts in, the structure's inertia I_s
 #: (inf: fixed) and its inverse, the normal preload P, and whether leaving the cavity stops
 #: the run (1.0) or is only recorded (0.0).
-PARAMETERS = ("R0", "dR", "k", "A", "Ka", "m", "b", "g", "mu", "eps", "inertia", "n_cavity",
-              "m_cavity", "I_s", "inv_I_s", "preload", "stop_on_leaving_cavity")
 (P_R0, P_DR, P_K, P_A, P_KA, P_M, P_B, P_G, P_MU, P_EPS, P_I, P_NCAV, P_MCAV, P_IS, P_INV_IS,
  P_PRELOAD, P_STOP_LEAVE) = range(17)
 NPAR = 17

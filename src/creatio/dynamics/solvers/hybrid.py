@@ -435,6 +435,72 @@ def _observe_flight(first, t, y, fx, gap, pp, lc, ext, out, row, final, sample):
 
 
 @njit(cache=True)
+def _drop(height, yc, yf, fx, pp, lc):
+    """A dropped start: the flight state of the centre `height` along n above its contact
+    position in yc, at rest, and its foot point."""
+    _to_flight(0.0, yc, yf, pp, lc)
+    found, Rs, As, gap, vn, n1, n2, n3, c1, c2, c3 = _foot(0.0, yf, pp, lc, yc[Y_R],
+                                                            yc[Y_ALPHA])
+    yf[F_X] += height * n1
+    yf[F_X + 1] += height * n2
+    yf[F_X + 2] += height * n3
+    fx[X_FOOT_R] = Rs
+    fx[X_FOOT_A] = As
+
+
+@njit(cache=True)
+def _separate(t, yc, yf, fx, ev, nev, pp, lc):
+    """A separation at t: the flight state of contact state yc, its foot point, the event row
+    nev; False when the foot point is not found (nothing recorded)."""
+    _to_flight(t, yc, yf, pp, lc)
+    found, Rs, As, gap, vn, n1, n2, n3, c1, c2, c3 = _foot(t, yf, pp, lc, yc[Y_R], yc[Y_ALPHA])
+    if not found:
+        return False
+    fx[X_FOOT_R] = Rs
+    fx[X_FOOT_A] = As
+    fx[X_FLIGHT_GAP] = 0.0
+    _record(ev, nev, t, EV_SEPARATION, vn, vn, 0.0, yf[F_X], yf[F_X + 1], yf[F_X + 2], Rs, As,
+            math.nan)
+    return True
+
+
+@njit(cache=True)
+def _impact(t, yf, yc, fx, ext, ev, nev, forced, fl, pp, lc, Rs, As, n1, n2, n3, c1, c2, c3):
+    """An impact at t at the foot point (Rs, As) with normal n and membrane velocity c: the
+    impact law (creatio.model.flight.impact) on the flight state, its loss taken off the
+    energy reference, the event row; contact resumes (into yc, with its own event row) when
+    e = 0, the rebound is slower than the resumption speed, or the impact cap forces it.
+    Returns (whether contact resumed, the event count)."""
+    m = pp[P_M]
+    g = pp[P_G]
+    inertia = pp[P_I]
+    V1, V2, V3 = yf[F_V], yf[F_V + 1], yf[F_V + 2]
+    w1, w2, w3 = yf[F_OMEGA], yf[F_OMEGA + 1], yf[F_OMEGA + 2]
+    E0 = _energy(m, inertia, g, V1, V2, V3, w1, w2, w3, yf[F_X + 2])
+    V1, V2, V3, w1, w2, w3, vm, vp, jn_, jt_ = impact(
+        V1, V2, V3, w1, w2, w3, n1, n2, n3, c1, c2, c3, m, inertia, pp[P_B],
+        fl[FL_RESTITUTION], pp[P_MU])
+    yf[F_V] = V1
+    yf[F_V + 1] = V2
+    yf[F_V + 2] = V3
+    yf[F_OMEGA] = w1
+    yf[F_OMEGA + 1] = w2
+    yf[F_OMEGA + 2] = w3
+    E1 = _energy(m, inertia, g, V1, V2, V3, w1, w2, w3, yf[F_X + 2])
+    ext[E_E0] -= E0 - E1
+    nev = _record(ev, nev, t, EV_IMPACT, vm, vp, E0 - E1, yf[F_X], yf[F_X + 1], yf[F_X + 2],
+                  Rs, As, fx[X_FLIGHT_GAP])
+    if fl[FL_RESTITUTION] == 0.0 or abs(vp) < fl[FL_RESUME_SPEED] or forced:
+        _to_contact(t, yf, yc, pp, lc, Rs, As)
+        Ec, X1, X2, X3, N = _contact_energy(t, yc, pp, lc)
+        ext[E_E0] -= E1 - Ec
+        nev = _record(ev, nev, t, EV_CONTACT, vp, 0.0, E1 - Ec, X1, X2, X3, Rs, As, math.nan)
+        return True, nev
+    fx[X_FLIGHT_GAP] = 0.0
+    return False, nev
+
+
+@njit(cache=True)
 def _drive_flight(p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, atol, fixed,
                   max_evals, progress, tab, out, fl, ev):
     """Integrate the hybrid contact/flight model from t = 0 to t_end (see the module).
@@ -447,13 +513,6 @@ def _drive_flight(p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, atol,
     progress lines (every `progress` seconds) are the driver's.
     """
     pp, lc = pack(p, lawc)
-    m = pp[P_M]
-    b = pp[P_B]
-    g = pp[P_G]
-    mu = pp[P_MU]
-    inertia = pp[P_I]
-    e_rest = fl[FL_RESTITUTION]
-    v_resume = fl[FL_RESUME_SPEED]
     cap = fl[FL_IMPACT_CAP]
     icap = max(1, int(cap))
     ring = np.full(icap, -math.inf)
@@ -497,15 +556,7 @@ def _drive_flight(p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, atol,
     transition = True  # the state may need an event at once (the start, after an event)
     height = fl[FL_START_HEIGHT]
     if height > 0.0:
-        # a dropped start: the centre `height` above its contact position, at rest, in flight
-        _to_flight(0.0, yc, yf, pp, lc)
-        found, Rs, As, gap, vn, n1, n2, n3, c1, c2, c3 = _foot(0.0, yf, pp, lc, yc[Y_R],
-                                                                yc[Y_ALPHA])
-        yf[F_X] += height * n1
-        yf[F_X + 1] += height * n2
-        yf[F_X + 2] += height * n3
-        fx[X_FOOT_R] = Rs
-        fx[X_FOOT_A] = As
+        _drop(height, yc, yf, fx, pp, lc)
         phase = FLIGHT
     while True:
         top_wrote = 0
@@ -515,17 +566,10 @@ def _drive_flight(p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, atol,
             if phase == CONTACT:
                 Ec, X1, X2, X3, N = _contact_energy(t, yc, pp, lc)
                 if N <= 0.0:
-                    _to_flight(t, yc, yf, pp, lc)
-                    found, Rs, As, gap, vn, n1, n2, n3, c1, c2, c3 = _foot(
-                        t, yf, pp, lc, yc[Y_R], yc[Y_ALPHA])
-                    if not found:
+                    if not _separate(t, yc, yf, fx, ev, nev, pp, lc):
                         status = st.FOOT_POINT_FAILED
                         break
-                    fx[X_FOOT_R] = Rs
-                    fx[X_FOOT_A] = As
-                    fx[X_FLIGHT_GAP] = 0.0
-                    nev = _record(ev, nev, t, EV_SEPARATION, vn, vn, 0.0, yf[F_X],
-                                  yf[F_X + 1], yf[F_X + 2], Rs, As, math.nan)
+                    nev += 1
                     phase = FLIGHT
             else:
                 found, Rs, As, gap, vn, n1, n2, n3, c1, c2, c3 = _foot(
@@ -536,34 +580,14 @@ def _drive_flight(p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, atol,
                 fx[X_FOOT_R] = Rs
                 fx[X_FOOT_A] = As
                 if gap <= 0.0 and vn < 0.0:
-                    V1, V2, V3 = yf[F_V], yf[F_V + 1], yf[F_V + 2]
-                    w1, w2, w3 = yf[F_OMEGA], yf[F_OMEGA + 1], yf[F_OMEGA + 2]
-                    E0 = _energy(m, inertia, g, V1, V2, V3, w1, w2, w3, yf[F_X + 2])
-                    V1, V2, V3, w1, w2, w3, vm, vp, jn_, jt_ = impact(
-                        V1, V2, V3, w1, w2, w3, n1, n2, n3, c1, c2, c3, m, inertia, b, e_rest, mu)
-                    yf[F_V] = V1
-                    yf[F_V + 1] = V2
-                    yf[F_V + 2] = V3
-                    yf[F_OMEGA] = w1
-                    yf[F_OMEGA + 1] = w2
-                    yf[F_OMEGA + 2] = w3
-                    E1 = _energy(m, inertia, g, V1, V2, V3, w1, w2, w3, yf[F_X + 2])
-                    ext[E_E0] -= E0 - E1
-                    nev = _record(ev, nev, t, EV_IMPACT, vm, vp, E0 - E1, yf[F_X], yf[F_X + 1],
-                                  yf[F_X + 2], Rs, As, fx[X_FLIGHT_GAP])
                     forced = t - ring[n_imp % icap] < 1.0
                     ring[n_imp % icap] = t
                     n_imp += 1
-                    if e_rest == 0.0 or abs(vp) < v_resume or forced:
-                        _to_contact(t, yf, yc, pp, lc, Rs, As)
-                        Ec, X1, X2, X3, N = _contact_energy(t, yc, pp, lc)
-                        ext[E_E0] -= E1 - Ec
-                        nev = _record(ev, nev, t, EV_CONTACT, vp, 0.0, E1 - Ec, X1, X2, X3,
-                                      Rs, As, math.nan)
+                    resumed, nev = _impact(t, yf, yc, fx, ext, ev, nev, forced, fl, pp, lc, Rs,
+                                           As, n1, n2, n3, c1, c2, c3)
+                    if resumed:
                         phase = CONTACT
                         transition = True
-                    else:
-                        fx[X_FLIGHT_GAP] = 0.0
         if status != st.OK:
             break
         # observe the state (extrema, stops, history row)
