@@ -31,7 +31,7 @@ from creatio.pipeline.io import write_dataset
 from creatio.pipeline.run import run_study
 from creatio.scenes import registry
 from creatio.scenes.config import resolve, route
-from creatio.scenes.plan import needs
+from creatio.scenes.needs import needs
 from creatio.scenes.run import scene_dataset
 from creatio.studies import registry as studies
 from creatio.studies.schema import vary

@@ -5,7 +5,8 @@ holds the frames is reused."""
 from __future__ import annotations
 
 from creatio.scenes.config import resolve
-from creatio.scenes.plan import needs, reusable
+from creatio.scenes.needs import needs
+from creatio.scenes.plan import reusable
 from creatio.studies.schema import vary
 
 

@@ -27,7 +27,7 @@ import xarray as xr
 
 from creatio.model.cavity import classify_inclination
 from creatio.model.surface import Frame, Motion
-from creatio.scenes.plan import RunNeed, needs
+from creatio.scenes.needs import RunNeed, needs
 from creatio.scenes.schema import Readout
 from creatio.studies.schema import GeometryConfig, vary
 
