@@ -444,8 +444,11 @@ def _control_lines(c: dict, k: dict, figures: dict[str, Path]) -> list[str]:
              f"{f(k['max_energy_residual_carried_J'], '.3g')} J, dt - dt/2 centre difference "
              f"at most {f(k['max_timestep_difference_carried_m'], '.3g')} m.", "",
              *table([key for key, _ in CONTROL_CASE_KEYS],
-                    [tuple(case[key] if not isinstance(case[key], float) else f(case[key], '.4g')
-                           for key, _ in CONTROL_CASE_KEYS) for case in c["cases"]]), ""]
+                    [tuple("-" if case[key] is None else f(case[key], ".4g")
+                           if isinstance(case[key], float) or case[key] is None else case[key]
+                           for key, _ in CONTROL_CASE_KEYS) for case in c["cases"]]), "",
+             "`-`: the run has no such time (it never arrived, or did not stay within the band "
+             "to its end); a run that ends `contact_lost` or `edge_crossed` stopped there."]
     return lines
 
 
