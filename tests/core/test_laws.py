@@ -292,6 +292,8 @@ def test_compiled_law_eval_matches_the_law(name: str) -> None:
     law at times before, inside and after the cycle, to rounding."""
     from numba import njit
 
+    import creatio.dynamics.jit  # noqa: F401  (registers the kernels law_eval calls)
+
     compiled = njit(law_eval)
     law = LAWS[name]
     times = np.array([-0.5, 0.0, 0.37, 1.0, 1.11, 1.99, 2.0, 2.5, 7.0])
@@ -332,6 +334,8 @@ def test_trapezoid_against_its_kinematics(T: float, ramp: float) -> None:
     """Phase, rate and acceleration away from the switches equal the constant-acceleration
     kinematics; the cruise rate is D / (T - ta); the compiled law_eval equals the NumPy law."""
     from numba import njit
+
+    import creatio.dynamics.jit  # noqa: F401  (registers the kernels law_eval calls)
 
     phi0, D = 0.3, -4.0
     law = Law.trapezoid(phi0, D, T, ramp)

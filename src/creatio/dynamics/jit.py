@@ -129,7 +129,7 @@ from creatio.model import cavity, control, flight, laws, offset, sphere, structu
 # offset_jets is inlined into its callers by numba: LLVM would keep it a call that returns
 # its 53 numbers through memory, and the right-hand side runs ~7% slower (bench_against)
 _INLINED = {offset.offset_jets: "always"}
-for _fn in (laws.law_eval, *offset.SCALAR_KERNELS, *sphere.SCALAR_KERNELS,
+for _fn in (laws.law_eval, laws.trapezoid_scalar, *offset.SCALAR_KERNELS, *sphere.SCALAR_KERNELS,
             *cavity.SCALAR_KERNELS, *structure.SCALAR_KERNELS, *flight.SCALAR_KERNELS,
             *control.SCALAR_KERNELS):
     register_jitable(inline=_INLINED.get(_fn, "never"))(_fn)
