@@ -79,7 +79,7 @@ def main(argv: list[str] | None = None) -> int:
 
                 t, paths = best(study_run, args.repeats)
                 problem = base.obj.sphere_problem()
-                rot, en = problem.rotation_integrated, bool(problem.energy)
+                rot, en = problem.rotation_integrated, bool(problem.output.energy)
                 full[base.sha256] = {
                     "seconds": t, "paths": paths, "parts": len(parts),
                     "state": len(problem.initial_state(rot, en)),
@@ -94,7 +94,7 @@ def main(argv: list[str] | None = None) -> int:
         states = []
         for n in runs:
             problem = vary(r.bases[n.study].obj, n.changes()).sphere_problem()
-            rot, en = problem.rotation_integrated, bool(problem.energy)
+            rot, en = problem.rotation_integrated, bool(problem.output.energy)
             states.append(len(problem.initial_state(rot, en)))
         what = "; ".join(
             f"{n.study}: 1 run at dt = {n.dt:g} s, {'+'.join(n.outputs)}"
