@@ -7,8 +7,8 @@ import pytest
 import xarray as xr
 
 from creatio.pipeline.config import resolve
-from creatio.pipeline.io import read_dataset, write_dataset
 from creatio.pipeline.run import run_study
+from creatio.store.netcdf import read_dataset, write_dataset
 
 
 @pytest.fixture(scope="module")

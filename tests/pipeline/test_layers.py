@@ -13,15 +13,19 @@ import creatio
 
 PACKAGE = Path(creatio.__file__).resolve().parent
 
-#: Each layer and the layers it may import (its own included). cli dispatches to everything.
+#: Each layer and the layers it may import (its own included), from the top down: the
+#: pipeline runs studies and writes their reports, the reports read datasets, and the
+#: dataset store (files, NetCDF, CF) sits below every layer that reads or writes results.
+#: No layer imports one above it, and there is no allowance. cli dispatches to everything.
 ALLOWED = {
     "model": {"model"},
     "dynamics": {"model", "dynamics"},
     "studies": {"model", "dynamics", "studies"},
-    "pipeline": {"model", "dynamics", "studies", "pipeline", "reports"},
-    "reports": {"model", "dynamics", "studies", "pipeline", "reports"},
-    "diff": {"model", "dynamics", "studies", "pipeline", "diff"},
-    "scenes": {"model", "dynamics", "studies", "pipeline", "reports", "scenes"},
+    "store": {"store"},
+    "reports": {"model", "dynamics", "studies", "store", "reports"},
+    "pipeline": {"model", "dynamics", "studies", "store", "reports", "pipeline"},
+    "diff": {"model", "dynamics", "studies", "store", "pipeline", "diff"},
+    "scenes": {"model", "dynamics", "studies", "store", "reports", "pipeline", "scenes"},
 }
 #: Top-level modules every layer may import.
 SHARED = {"errors", "__init__"}

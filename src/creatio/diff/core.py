@@ -25,7 +25,7 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
-from creatio.pipeline.io import VOLATILE_ATTRS, atomic_write
+from creatio.pipeline.io import VOLATILE_ATTRS
 from creatio.pipeline.release import (
     MANIFEST,
     ReleaseError,
@@ -35,6 +35,7 @@ from creatio.pipeline.release import (
     sha256_file,
     verify_release,
 )
+from creatio.store.atomic import atomic_write
 
 __all__ = ["DamagedRelease", "DiffError", "Tolerance", "compare_arrays", "diff", "main",
            "render_text"]
@@ -523,7 +524,7 @@ def path_study(rel: str) -> str:
 
 
 def _load_dataset(path: Path) -> tuple[xr.Dataset, dict]:
-    from creatio.pipeline.io import read_dataset
+    from creatio.store.netcdf import read_dataset
 
     try:
         return read_dataset(path)

@@ -220,7 +220,7 @@ def sobol_dataset(resolved: Resolved, sample: En05Sample | None = None,
 
 def run_study_sample(resolved: Resolved, root: Path) -> list[Path]:
     """`creatio run study=en05`: the sample's batches in this process, then its dataset."""
-    from creatio.pipeline.io import write_dataset
+    from creatio.store.netcdf import write_dataset
 
     out = Path(resolved.entry.dataset_dir(str(root))) / "en05_sobol.nc"
     return [write_dataset(sobol_dataset(resolved, compute_missing=True), out)]
@@ -342,7 +342,7 @@ def main(argv: Sequence[str], say: Callable[[str], None] | None = None) -> int:
                                   f"must lie in [0, {sample.n_batches - 1}]")
             run_batch(sample.plan(), args.batch, args.out)
         else:
-            from creatio.pipeline.io import write_dataset
+            from creatio.store.netcdf import write_dataset
 
             out = args.out or Path("data/studies/en05/en05_sobol.nc")
             write_dataset(sobol_dataset(resolved, sample, args.compute_missing), out)

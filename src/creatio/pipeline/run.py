@@ -48,7 +48,7 @@ def run_study(resolved: Resolved, part: str | None = None, **args: Any) -> Any:
 
 def compute_dataset(resolved: Resolved, out: Path, part: str | None = None) -> Path:
     """Run one dataset of a study and write it atomically to out."""
-    from creatio.pipeline.io import write_dataset
+    from creatio.store.netcdf import write_dataset
 
     t0 = time.perf_counter()
     ds = run_study(resolved, part)
@@ -68,7 +68,7 @@ def write_report(study: str, outdir: Path, datasets: Sequence[Path]) -> dict[str
     entry = registry.get(study)
     if entry.kind.name == "sphere":
         from creatio.pipeline.checks import ChecksFailed, run_problems
-        from creatio.pipeline.io import read_dataset
+        from creatio.store.netcdf import read_dataset
 
         runs = [read_dataset(Path(p))[0] for p in datasets]
         try:

@@ -21,7 +21,6 @@ import numpy as np
 import xarray as xr
 from matplotlib.ticker import ScalarFormatter
 
-from creatio.pipeline.io import atomic_write
 from creatio.reports.common import (
     fmt,
     plt,
@@ -32,6 +31,7 @@ from creatio.reports.common import (
     write_text,
 )
 from creatio.reports.sphere import history_csv
+from creatio.store.atomic import atomic_write
 
 __all__ = ["en02g_summary", "en03_summary", "en03m_summary", "run_difference",
            "write_en02g", "write_en03", "write_en03m"]
@@ -120,7 +120,7 @@ def _paths(outdir: Path, study: str) -> dict[str, Path]:
 
 
 def _load(datasets: Sequence[Path]) -> tuple[list[xr.Dataset], dict]:
-    from creatio.pipeline.io import read_dataset
+    from creatio.store.netcdf import read_dataset
 
     loaded = [read_dataset(p) for p in datasets]
     return [ds for ds, _ in loaded], loaded[0][1]

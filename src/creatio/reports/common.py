@@ -20,7 +20,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from creatio.pipeline.io import atomic_save, atomic_write  # noqa: E402
+from creatio.store.atomic import atomic_save, atomic_write  # noqa: E402
 from creatio.studies.published import Published  # noqa: E402
 
 __all__ = ["PUBLISHED_HEADER", "cell", "fmt", "h_key", "markdown_html", "nested", "plt",

@@ -109,7 +109,7 @@ def sphere_scene(resolved: Any, reuse: Mapping[str, str | Path] | None = None,
     is the scene's base's (else the run is computed and the mismatch logged); ``computed``
     maps a study to the :func:`run_need` result already in hand (a family member's).
     """
-    from creatio.pipeline.io import read_dataset
+    from creatio.store.netcdf import read_dataset
 
     reuse = dict(reuse or {})
     s = resolved.obj.scene

@@ -615,7 +615,7 @@ def run_batch(resolved: Any, family: Family, k: int, out: str | Path | None = No
                      "batch_size": family.batch_size, **counts, "compute_s": compute_s,
                      "wall_s": time.perf_counter() - t0})
     if out is not None:
-        from creatio.pipeline.io import write_dataset
+        from creatio.store.netcdf import write_dataset
 
         write_dataset(ds, out)
     return ds
@@ -627,7 +627,7 @@ def compute_family(resolved: Any, family: Family, batches: Sequence[str | Path] 
     computed here (with the store). One dataset over all members, in flat order."""
     import xarray as xr
 
-    from creatio.pipeline.io import read_dataset
+    from creatio.store.netcdf import read_dataset
 
     if batches:
         parts = []
@@ -664,7 +664,7 @@ def attach(scene_ds: Any, family: Family, members: Any) -> Any:
         members = members.pad(frame=(0, frames - members.sizes["frame"]))
     scene_ds = scene_ds.assign_coords(time=("frame", np.arange(frames) * interval,
                                             scene_ds.time.attrs))
-    from creatio.pipeline import cf
+    from creatio.store import cf
 
     out = scene_ds.copy()
     for name, var in members.data_vars.items():

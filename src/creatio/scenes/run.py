@@ -52,7 +52,7 @@ def write_scene_dataset(resolved: SceneResolved, out: str | Path,
                         family: Sequence[str | Path] = (),
                         store: str | Path | None = None) -> Path:
     """Compute (or read) the scene's data and write ``scene.nc`` atomically."""
-    from creatio.pipeline.io import write_dataset
+    from creatio.store.netcdf import write_dataset
 
     t0 = time.perf_counter()
     ds = scene_dataset(resolved, reuse, family, store)
@@ -65,7 +65,7 @@ def _read(path: str | Path) -> tuple[Any, SceneResolved]:
     """A scene dataset and the resolved config recorded in it."""
     import yaml
 
-    from creatio.pipeline.io import read_dataset
+    from creatio.store.netcdf import read_dataset
 
     ds, _ = read_dataset(path)
     return ds, validate(yaml.safe_load(ds.attrs["config_yaml"]))
