@@ -252,8 +252,8 @@ def _dataset(resolved: Resolved, track: Any, fit: Any, noise: float, source: str
                "coordinate": ("coordinate", list(track.coordinates)),
                "parameter": ("parameter", list(fit.keys)),
                "parameter2": ("parameter2", list(fit.keys)), "bound": ("bound", ["low", "high"])})
-    title = f"calibration of {resolved.study} to {Path(source).name}"
-    ds.attrs = {**provenance(resolved.study, resolved.yaml, resolved.sha256, title),
+    title = f"calibration of {resolved.id} to {Path(source).name}"
+    ds.attrs = {**provenance(resolved.id, resolved.yaml, resolved.sha256, title),
                 "track_file": str(source), "track_source": track.source,
                 "noise_m": noise, "residual_rms_m": fit.residual_rms_m,
                 "s2": fit.s2, "dof": fit.dof, "condition": fit.condition,

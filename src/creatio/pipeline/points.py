@@ -214,7 +214,7 @@ def sobol_dataset(resolved: Resolved, sample: En05Sample | None = None,
     ds.attrs["point_store"] = plan.outdir
     ds.attrs["sample_base_overrides"] = " ".join(plan.base)
     title = "EN-05 Sobol' indices of EN-02's outputs"
-    ds.attrs = {**provenance(resolved.study, resolved.yaml, resolved.sha256, title), **ds.attrs}
+    ds.attrs = {**provenance(resolved.id, resolved.yaml, resolved.sha256, title), **ds.attrs}
     return ds
 
 
@@ -298,8 +298,8 @@ def _config(path: Path) -> Resolved:
     from creatio.pipeline.config import validate
 
     resolved = validate(yaml.safe_load(path.read_text()))
-    if resolved.study != "en05":
-        raise ConfigError("--config-file", str(path), f"holds study {resolved.study}, not en05")
+    if resolved.id != "en05":
+        raise ConfigError("--config-file", str(path), f"holds study {resolved.id}, not en05")
     return resolved
 
 

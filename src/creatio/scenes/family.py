@@ -452,13 +452,13 @@ def member(resolved: Any, family: Family, index: int) -> Member:
         varied = dataclasses.replace(obj, scene=scene, bases=bases)
         varied.check()
     except ConfigError as e:
-        return Member(resolved.scene, index, None, str(e).removeprefix("invalid config: "), "")
+        return Member(resolved.id, index, None, str(e).removeprefix("invalid config: "), "")
     s = varied.scene
     text = json.dumps({
         "runs": [[name, _point_key(bases[name])] for name in s.studies],
         "interval": s.playback.interval, "rotation": s.rotation,
         "readouts": [str(r) for r in s.readouts], "code": _code()}, sort_keys=True)
-    return Member(resolved.scene, index, varied, "", hashlib.sha256(text.encode()).hexdigest())
+    return Member(resolved.id, index, varied, "", hashlib.sha256(text.encode()).hexdigest())
 
 
 def compute_member(m: Member) -> Any:
@@ -605,13 +605,13 @@ def run_batch(resolved: Any, family: Family, k: int, out: str | Path | None = No
         now = time.perf_counter()
         if now - last > 2.0 or done == len(indices):
             rate = done / max(now - t0, 1e-9)
-            say(f"scene {resolved.scene} family batch {k + 1}/{family.n_batches}: "
+            say(f"scene {resolved.id} family batch {k + 1}/{family.n_batches}: "
                 f"{done}/{len(indices)} members, {rate:.1f}/s, "
                 f"ETA {(len(indices) - done) / rate:.0f} s ({counts['computed']} computed, "
                 f"{counts['reused']} reused, {counts['refused']} refused)")
             last = now
     ds = assemble(rows, *_layout(resolved, family))
-    ds.attrs.update({"scene": resolved.scene, "config_sha256": resolved.sha256, "batch": k,
+    ds.attrs.update({"scene": resolved.id, "config_sha256": resolved.sha256, "batch": k,
                      "batch_size": family.batch_size, **counts, "compute_s": compute_s,
                      "wall_s": time.perf_counter() - t0})
     if out is not None:
@@ -635,7 +635,7 @@ def compute_family(resolved: Any, family: Family, batches: Sequence[str | Path] 
             ds, _ = read_dataset(path)
             if ds.attrs.get("config_sha256") != resolved.sha256:
                 raise ConfigError("family", str(path), "was computed for another config of "
-                                  f"scene {resolved.scene}: rerun its batch job")
+                                  f"scene {resolved.id}: rerun its batch job")
             parts.append(ds)
     else:
         parts = [run_batch(resolved, family, k, store=store) for k in range(family.n_batches)]
