@@ -395,7 +395,7 @@ class Member:
     """One member: the scene config with its axis values set in every study it shows; or
     the reason the validation refused it."""
 
-    scene: str
+    id: str
     index: int
     obj: Any
     refused: str
@@ -406,7 +406,7 @@ class Member:
         """The registry entry of the scene."""
         from creatio.scenes import registry
 
-        return registry.get(self.scene)
+        return registry.get(self.id)
 
     @functools.cached_property
     def bases(self) -> dict[str, _Base]:
