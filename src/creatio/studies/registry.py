@@ -18,15 +18,13 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from creatio.studies import published
-from creatio.studies.schema import (
-    Ct02Config,
-    DynamicConfig,
-    En01Config,
-    En02fConfig,
-    En02gConfig,
-    En03Config,
-    En03mConfig,
-)
+from creatio.studies.ct02_schema import Ct02Config
+from creatio.studies.en01_schema import En01Config
+from creatio.studies.en02f_schema import En02fConfig
+from creatio.studies.en02g_schema import En02gConfig
+from creatio.studies.en03_schema import En03Config
+from creatio.studies.en03m_schema import En03mConfig
+from creatio.studies.schema import DynamicConfig
 
 __all__ = ["KINDS", "STUDIES", "Kind", "Part", "Study", "get", "select"]
 
