@@ -193,7 +193,7 @@ def test_impact_cap_turns_bounces_into_contact() -> None:
 def test_en02f_builds_its_datasets_and_report(tmp_path) -> None:
     """EN-02F through its study function and report writer, on a short sweep."""
     from creatio.pipeline.config import resolve
-    from creatio.reports.flight import write_en02f
+    from creatio.reports.en02f import write_en02f
     from creatio.store.netcdf import write_dataset
     from creatio.studies import en02f
     from creatio.studies.schema import vary
