@@ -1,13 +1,15 @@
 """Report of EN-04: what the actuators must deliver, and the still-cavity check (docs/studies.md,
 docs/model.md s.12).
 
-From the study's datasets (``en04_actuation``, ``en04_oscillation``) the sphere kind's files:
-``en04.json`` (the contract: ``actuation.<study>``, ``oscillation.alpha`` / ``oscillation.R``,
-and ``control``, which a later part of the study fills; the checks beside them),
-``en04.md``, ``en04.png`` (the powers over the cycle), ``en04_history.csv`` (the actuation
-histories), ``en04_trajectory.png`` (the still-cavity oscillations) and
-``en04_convergence.png`` (the quadrature's convergence, its closed-form check and the load
-energy against the run's own bookkeeping). Nothing here recomputes a study.
+From the study's datasets (``en04_actuation``, ``en04_oscillation``, ``en04_control``) the
+sphere kind's files: ``en04.json`` (the contract: ``actuation.<study>``, ``oscillation.alpha``
+/ ``oscillation.R`` and ``control``; the checks beside them), ``en04.md``, ``en04.png`` (the
+powers over the cycle), ``en04_history.csv`` (the actuation histories),
+``en04_trajectory.png`` (the still-cavity oscillations), ``en04_convergence.png`` (the
+quadrature's convergence, its closed-form check and the load energy against the run's own
+bookkeeping), and for the closed loop ``en04_control.png`` (arrival over the controller
+grid) and ``en04_control_paths.png`` (the fastest closed loop beside the open-loop laws).
+Nothing here recomputes a study.
 """
 
 from __future__ import annotations
@@ -20,8 +22,15 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
-from creatio.reports.beyond import _finish, _start
-from creatio.reports.common import plt, save_figure, table, write_markdown, write_text
+from creatio.reports.common import (
+    finish_figure,
+    plt,
+    save_figure,
+    start_report,
+    table,
+    write_markdown,
+    write_text,
+)
 from creatio.studies.en04 import oscillation_tolerance
 
 __all__ = ["ACTUATION_KEYS", "CONTROL_CASE_KEYS", "en04_summary", "write_report"]
@@ -201,7 +210,7 @@ def _powers(ds: xr.Dataset, path: Path) -> None:
         ax.set_xlabel("t (s)")
         ax.set_ylabel("power (mW)")
         ax.legend(fontsize=8, ncol=4)
-    _finish(fig, path)
+    finish_figure(fig, path)
 
 
 def _oscillations(ds: xr.Dataset, path: Path) -> None:
@@ -238,7 +247,7 @@ def _oscillations(ds: xr.Dataset, path: Path) -> None:
         bx.set_ylabel("(measured - closed form) / closed form")
         bx.set_title(f"along {d}: slide (mu = 0) and roll", fontsize=9)
         bx.legend(fontsize=7)
-    _finish(fig, path)
+    finish_figure(fig, path)
 
 
 def _convergence(act: xr.Dataset | None, path: Path) -> None:
@@ -278,13 +287,13 @@ def _convergence(act: xr.Dataset | None, path: Path) -> None:
     a3.set_ylabel("J")
     a3.set_title("W_surface from (N n + f) . c_t minus the run's surface work", fontsize=9)
     a3.legend(fontsize=7)
-    _finish(fig, path)
+    finish_figure(fig, path)
 
 
 def _csv(act: xr.Dataset, path: Path) -> None:
     """The actuation histories every output interval of the studies (the sphere reports'
     sampling), one column per study and variable (units in the header)."""
-    from creatio.reports.beyond import _write_csv
+    from creatio.reports.common import write_csv
 
     every = float(act.attrs.get("history_interval", act.attrs["sample_interval"]))
     step = max(1, round(every / float(act.attrs["sample_interval"])))
@@ -294,13 +303,13 @@ def _csv(act: xr.Dataset, path: Path) -> None:
                            for c in act.case.values for v in names]
     cols = [act.time.values] + [act[v].values[i] for i in range(act.sizes["case"])
                                 for v in names]
-    _write_csv(path, header, list(zip(*cols, strict=True)))
+    write_csv(path, header, list(zip(*cols, strict=True)))
 
 
 def write_report(datasets: Sequence[Path], outdir: str | Path) -> dict[str, Path]:
     """Write en04.json/.md/.png, _history.csv (actuation histories), _trajectory.png (the
     still-cavity oscillations), _convergence.png (quadrature, closed form, load energy)."""
-    runs, s, paths = _start(datasets, outdir, en04_summary)
+    runs, s, paths = start_report(datasets, outdir, en04_summary)
     parts = _split(runs)
     act = parts.get("actuation")
     osc = parts.get("oscillation")
@@ -630,4 +639,4 @@ def _paths_figure(ds: xr.Dataset, path: Path) -> None:
     axes[0].legend(fontsize=8)
     axes[-1].set_xlabel("t (s)")
     fig.suptitle("Closed loop (fastest carried case) beside the open-loop laws", fontsize=10)
-    _finish(fig, path)
+    finish_figure(fig, path)
