@@ -475,12 +475,12 @@ def test_no_module_imports_one_that_imports_it_back():
 
 
 def test_no_stale_module_names_in_the_workflow():
-    """workflow/rules/release.smk named creatio.release, which does not exist; every
+    """workflow/rules/release.smk (now workflows/) named creatio.release, which does not exist; every
     creatio.X the Snakefile and the rules name is a module (or a name in one)."""
     import importlib
     import re
 
-    texts = [REPO / "Snakefile", *sorted((REPO / "workflow").rglob("*.smk"))]
+    texts = [REPO / "Snakefile", *sorted((REPO / "workflows").rglob("*.smk"))]
     for path in texts:
         for name in re.findall(r"(?<![/\w])creatio(?:\.\w+)+", path.read_text()):
             if name.endswith((".yaml", ".yml")):  # a file (envs/creatio.yaml), not a module
@@ -618,7 +618,7 @@ def test_the_diff_rule_reruns_when_a_release_file_changes(tmp_path):
     report.write_bytes(text)
     assert len({before, edited, deleted}) == 3
     assert workflow_release_digest("0.1.0", data) == before
-    rule = (REPO / "workflow" / "rules" / "release.smk").read_text()
+    rule = (REPO / "workflows" / "rules" / "release.smk").read_text()
     assert "release=lambda wc: _release.workflow_release_digest(wc.version)" in rule
 
 

@@ -8,7 +8,13 @@
 #
 # A report job's `published` parameter names what the notebook publishes of its study (empty
 # for none): the report captions promise only what the study has.
-from creatio.pipeline.planning import published_groups
+
+
+localrules:
+    study_config,
+    kinematic_report,
+    sphere_report,
+    compare,
 
 
 rule study_config:

@@ -16,6 +16,13 @@ SCENES = SceneRuns(config.get("overrides"), config.get("scenes"))
 SCENE_LIBRARY = "data/scenes/lib/three.min.js"
 
 
+localrules:
+    scenes,
+    scene_config,
+    scene_library,
+    scene_page,
+
+
 rule scenes:
     input:
         lambda wc: SCENES.targets(),

@@ -1,0 +1,82 @@
+"""One Snakemake invocation's plan: what the Snakefile and the rules of workflows/ read.
+
+The Snakefile stays thin (config, validation, includes, target rules); the planners live
+here: the studies of `all` and `beyond`, the analyses, the sweeps, EN-05, and the order in
+which a job re-invoked on its own (a ``run:`` job, a cluster job), which parses the workflow
+anew without its targets, looks for the configuration that writes its output. The command
+the rules run (``CREATIO``) is here too.
+"""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+from typing import Any
+
+from creatio.pipeline.planning import (
+    JobConfigs,
+    StudyRuns,
+    SweepRegistry,
+    analysis_ids,
+    beyond_studies,
+    beyond_targets,
+    wildcard_pattern,
+)
+
+__all__ = ["Invocation", "job_command"]
+
+#: The worked sweep of conf/sweeps/, planned for a job re-invoked alone.
+WORKED_SWEEP = "en02_mu"
+
+
+def job_command(executable: str | Path | None = None, cwd: Path | None = None) -> str:
+    """The command a rule runs creatio with: this interpreter, relative to the working
+    directory when it lives there (.venv/bin/python), so that the report's job parameters
+    show no clone's absolute path."""
+    py = Path(executable or sys.executable)
+    cwd = cwd or Path.cwd()
+    py = py.relative_to(cwd) if py.is_relative_to(cwd) else py
+    return f'"{py}" -m creatio.cli'
+
+
+class Invocation:
+    """Every planner of one invocation, planned on first use (a sweep never plans `all`)."""
+
+    def __init__(self, config: dict[str, Any], basedir: str | Path) -> None:
+        from creatio.pipeline.points import En05Runs
+
+        self.config = config
+        self.command = job_command()
+        self.study_ids = wildcard_pattern(folder="studies")
+        self.analysis_ids = wildcard_pattern(folder="benchmarks")
+        self.jobs = JobConfigs()
+        self.runs = StudyRuns(self.jobs, config.get("overrides"), config.get("studies"))
+        self.analyses = StudyRuns(self.jobs, None, analysis_ids())
+        self.sweeps = SweepRegistry(self.jobs, basedir)
+        # --config studies=[...] selects among beyond's studies too
+        self.beyond = StudyRuns(self.jobs, config.get("overrides"),
+                                beyond_studies(config.get("studies")))
+        self.en05 = En05Runs(self.jobs, config.get("overrides"))
+        # A job re-invoked alone asks these in turn: EN-05 first (the planners after it
+        # refuse overrides only EN-05 has), beyond last (what no other planner knows).
+        self.jobs.fallbacks += [self.en05.fallback, lambda: self.runs.plans,
+                                lambda: self.analyses.plans, self._ad_hoc_sweep,
+                                self._worked_sweep, lambda: self.beyond.plans]
+        self.sweeps.fallbacks += [self._ad_hoc_sweep, self._worked_sweep]
+
+    # ------------------------------------------------------------------ targets
+    def sweep_targets(self) -> list[str]:
+        """The aggregate of `snakemake sweep --config study=ID 'sweep=[...]'`."""
+        c = self.config
+        return self.sweeps.outputs(c.get("study", ""), c.get("sweep", []), c.get("overrides", []),
+                                   c.get("sweep_batch"), c.get("sweep_max_points"))
+
+    def beyond_targets(self) -> list[str]:
+        """The files of `snakemake beyond`."""
+        return beyond_targets(self.beyond, self.config.get("studies"))
+
+    def _ad_hoc_sweep(self) -> list[str] | None:
+        return self.sweep_targets() if self.config.get("sweep") else None
+
+    def _worked_sweep(self) -> list[str]:
+        return self.sweeps.worked(WORKED_SWEEP)
