@@ -475,8 +475,9 @@ def test_no_module_imports_one_that_imports_it_back():
 
 
 def test_no_stale_module_names_in_the_workflow():
-    """workflow/rules/release.smk (now workflows/) named creatio.release, which does not exist; every
-    creatio.X the Snakefile and the rules name is a module (or a name in one)."""
+    """workflow/rules/release.smk (now workflows/) named creatio.release, which does not
+    exist; every creatio.X the Snakefile and the rules name is a module (or a name in
+    one)."""
     import importlib
     import re
 
