@@ -18,7 +18,7 @@
 # Thin on purpose: the --config is validated here; what it plans lives in the package
 # (creatio.pipeline.invocation: the studies of all and beyond, analyses, sweeps, EN-05, and
 # where a job re-invoked alone finds its configuration); the rules, report captions, schemas
-# and envs live in workflows/.
+# and envs live in workflows/. Local jobs run in a warm worker (creatio.pipeline.worker).
 from snakemake.utils import min_version
 
 from creatio.pipeline.invocation import Invocation
@@ -45,8 +45,17 @@ include: "workflows/rules/en05.smk"
 include: "workflows/rules/index.smk"
 
 
+onstart:
+    PLAN.start_worker(workflow)
+
+
 onsuccess:
+    PLAN.stop_worker()
     list_results()
+
+
+onerror:
+    PLAN.stop_worker()
 
 
 localrules:

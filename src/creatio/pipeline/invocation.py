@@ -4,11 +4,12 @@ The Snakefile stays thin (config, validation, includes, target rules); the plann
 here: the studies of `all` and `beyond`, the analyses, the sweeps, EN-05, and the order in
 which a job re-invoked on its own (a ``run:`` job, a cluster job), which parses the workflow
 anew without its targets, looks for the configuration that writes its output. The command
-the rules run (``CREATIO``) is here too.
+the rules run (``CREATIO``) and the warm worker of a local invocation are here too.
 """
 
 from __future__ import annotations
 
+import os
 import sys
 from pathlib import Path
 from typing import Any
@@ -63,6 +64,7 @@ class Invocation:
                                 lambda: self.analyses.plans, self._ad_hoc_sweep,
                                 self._worked_sweep, lambda: self.beyond.plans]
         self.sweeps.fallbacks += [self._ad_hoc_sweep, self._worked_sweep]
+        self._worker: Any = None
 
     # ------------------------------------------------------------------ targets
     def sweep_targets(self) -> list[str]:
@@ -80,3 +82,45 @@ class Invocation:
 
     def _worked_sweep(self) -> list[str]:
         return self.sweeps.worked(WORKED_SWEEP)
+
+    # ------------------------------------------------------------------ warm worker
+    def start_worker(self, workflow: Any) -> None:
+        """Run this invocation's jobs in a warm worker (creatio.pipeline.worker) when they
+        run on this machine: this checkout's daemon if one answers, else a worker of this
+        invocation, which stops with it. Jobs on a cluster, ``CREATIO_WORKER=off``, or a
+        system without fork and descriptor passing keep a process each."""
+        from creatio.pipeline import worker
+
+        if os.environ.get(worker.ENV) == "off" or not _can_fork():
+            return
+        if not workflow.local_exec or workflow.exec_mode.name != "DEFAULT":
+            return
+        try:
+            daemon = worker.daemon_socket()
+            if worker.control(daemon, "status") is not None:
+                os.environ[worker.ENV] = str(daemon)
+                print(f"creatio: jobs run in the warm worker at {daemon}", file=sys.stderr)
+                return
+            path = daemon.with_name(f"s-{os.getpid()}.sock")
+            log = Path(".snakemake") / "log" / f"creatio-worker-{os.getpid()}.log"
+            log.parent.mkdir(parents=True, exist_ok=True)
+            self._worker = worker.start(path, owner=os.getpid(), log=log)
+        except OSError as e:  # no private directory, no socket: a process per job
+            print(f"creatio: no warm worker ({e}): a process per job", file=sys.stderr)
+            return
+        os.environ[worker.ENV] = str(path)
+
+    def stop_worker(self) -> None:
+        """Stop this invocation's worker, if it started one."""
+        from creatio.pipeline import worker
+
+        if self._worker is not None:
+            worker.stop(self._worker)
+            self._worker = None
+            os.environ.pop(worker.ENV, None)
+
+
+def _can_fork() -> bool:
+    import socket
+
+    return hasattr(os, "fork") and hasattr(socket, "send_fds") and hasattr(socket, "AF_UNIX")
