@@ -9,6 +9,7 @@ ratios now / then. Use it to check that a change keeps the core as fast as befor
     python scripts/bench_against.py                  # against the revision before HEAD
     python scripts/bench_against.py bdffec5 --repeats 15 --cases en02:rk4,en02:radau5
     python scripts/bench_against.py HEAD --cases en02:radau5@0.05   # radau5 at a fixed 0.05 s
+    python scripts/bench_against.py HEAD --quick     # one round of en02:rk4 (a smoke test)
 """
 
 from __future__ import annotations
@@ -53,31 +54,19 @@ def export(revision: str, into: Path) -> Path:
 
 
 def compiled_call(pkg: str, study: str, method: str) -> Callable[[], object]:
-    """A zero-argument call of the compiled core of a study's default problem in package pkg
-    (the API of either side: compiled_call, or the earlier core_arguments + run)."""
+    """A zero-argument call of the compiled core of a study's default problem in package pkg,
+    through the API of either side: a problem split into records (SphereProblem.replace,
+    creatio.dynamics.compiled_call) or a flat one (dataclasses.replace, its compiled_call)."""
     dyn = importlib.import_module(f"{pkg}.dynamics")
-    try:
-        resolve = importlib.import_module(f"{pkg}.pipeline.config").resolve
-    except ImportError:
-        resolve = importlib.import_module(f"{pkg}.config").resolve
+    resolve = importlib.import_module(f"{pkg}.pipeline.config").resolve
     name, _, fixed_dt = method.partition("@")
-    problem = dataclasses.replace(resolve(study).obj.sphere_problem(), method=name)
+    changes: dict[str, object] = {"method": name}
     if fixed_dt:  # "radau5@0.05": a fixed step of 0.05 s
-        problem = dataclasses.replace(problem, dt=float(fixed_dt),
-                                      fixed_step=dyn.METHODS[name].adaptive)
-    if hasattr(problem, "compiled_call"):
-        return problem.compiled_call()
-    problem = dyn.SphereProblem(**dataclasses.asdict(problem))
-    args = problem.core_arguments()
-    if method == "rk4":
-        core = importlib.import_module(f"{pkg}.dynamics.core")
-        return lambda: core.run(*args)
-    integ = importlib.import_module(f"{pkg}.dynamics.integrators")
-    max_steps = importlib.import_module(f"{pkg}.dynamics.problem").MAX_STEPS
-    p = problem
-    return lambda: integ.run(args[0], args[1], args[2], p.t_end, p.output_interval, p.dt,
-                             p.rtol, p.atol, p.method, p.fixed_step, max_steps, args[6],
-                             args[7], args[8])
+        changes |= {"dt": float(fixed_dt), "fixed_step": dyn.METHODS[name].adaptive}
+    problem = resolve(study).obj.sphere_problem()
+    if hasattr(problem, "replace"):
+        return dyn.compiled_call(problem.replace(**changes))
+    return dataclasses.replace(problem, **changes).compiled_call()
 
 
 def main() -> None:
@@ -89,7 +78,11 @@ def main() -> None:
     parser.add_argument("--cases", default="en02:rk4,en02:radau5",
                         help="study:method pairs, method@dt for a fixed step (default "
                              "en02:rk4,en02:radau5)")
+    parser.add_argument("--quick", action="store_true",
+                        help="one round of en02:rk4: checks the script runs, measures nothing")
     args = parser.parse_args()
+    if args.quick:
+        args.repeats, args.cases = 1, "en02:rk4"
     cases = [tuple(c.split(":")) for c in args.cases.split(",")]
     rev = subprocess.run(["git", "rev-parse", "--short", args.revision], cwd=REPO,
                          capture_output=True, text=True, check=True).stdout.strip()

@@ -5,13 +5,13 @@ and the first call of this process with its cache state), then the median and mi
 repeated runs for full diagnostics and for trajectory-only specialisations. Target: one
 EN-02 run <= 0.1 s of core time, JIT excluded.
 
-Usage: .venv/bin/python scripts/bench_en02.py [--repeats 9] [--no-cold]
+Usage: .venv/bin/python scripts/bench_en02.py [--repeats 9] [--no-cold] [--quick]
+(--quick: 1 s runs, one repeat, no cold compile: checks the script runs, measures nothing)
 """
 
 from __future__ import annotations
 
 import argparse
-import dataclasses
 import os
 import platform
 import statistics
@@ -23,7 +23,7 @@ import time
 import numba
 import numpy as np
 
-from creatio.dynamics import SphereProblem, simulate
+from creatio.dynamics import SphereProblem, compiled_call, simulate
 from creatio.dynamics.solvers import EXPLICIT
 from creatio.dynamics.solvers.driver import SPECIALISATIONS
 from creatio.pipeline.config import resolve
@@ -33,24 +33,19 @@ EN02 = resolve("en02").obj.sphere_problem()
 
 VARIANTS = {
     "EN-02 full (rotation + energy)": EN02,
-    "EN-02 trajectory-only (energy off; mu > 0 needs rotation)": dataclasses.replace(
-        EN02, energy=False
-    ),
-    "EN-02 mu=0 full (rotation forced + energy)": dataclasses.replace(EN02, mu=0.0, rotation=True),
-    "EN-02 mu=0 trajectory-only (rotation + energy off)": dataclasses.replace(
-        EN02, mu=0.0, rotation=False, energy=False
-    ),
+    "EN-02 trajectory-only (energy off; mu > 0 needs rotation)": EN02.replace(energy=False),
+    "EN-02 mu=0 full (rotation forced + energy)": EN02.replace(mu=0.0, rotation=True),
+    "EN-02 mu=0 trajectory-only (rotation + energy off)": EN02.replace(mu=0.0, rotation=False,
+                                                                        energy=False),
 }
 
 COLD_SNIPPET = """
-import math, time
+import time
 t0 = time.perf_counter()
-from creatio.dynamics import SphereProblem, simulate
+from creatio.dynamics import simulate
+from creatio.pipeline.config import resolve
 t1 = time.perf_counter()
-p = SphereProblem(R0=0.68, dR=1.72, A=0.18, Kr=1, Ka=6, law_r=(0, 0, 0, 120, 0, 0),
-                  law_a=(0, 0, 12 * math.pi, 120, 0, 0), law_gamma=(0, 0, 0, 1, 0, 0),
-                  m=1, b=0.12, g=9.81, mu=0.15, eps=0.01, R_init=0.43,
-                  alpha_init=math.pi / 6, t_end=0.1)
+p = resolve("en02").obj.sphere_problem().replace(t_end=0.1)
 simulate(p)
 print(t1 - t0, time.perf_counter() - t1)
 """
@@ -72,7 +67,8 @@ def machine_info() -> str:
 def cold_compile() -> tuple[float, float]:
     """Import time and first EN-02 call time (JIT of the rotation + energy loop), no cache."""
     with tempfile.TemporaryDirectory() as cache:
-        env = dict(os.environ, NUMBA_CACHE_DIR=cache)
+        # an empty cache, whichever variable names it (creatio.dynamics.jit reads both)
+        env = dict(os.environ, NUMBA_CACHE_DIR=cache, CREATIO_NUMBA_CACHE=cache)
         cmd = [sys.executable, "-c", COLD_SNIPPET]
         out = subprocess.run(cmd, env=env, capture_output=True, text=True, check=True)
     imp, first = (float(x) for x in out.stdout.split())
@@ -81,7 +77,7 @@ def cold_compile() -> tuple[float, float]:
 
 def core_call(problem: SphereProblem) -> tuple[float, int]:
     """Time one call of the compiled loop alone (arrays prepared beforehand)."""
-    call = problem.compiled_call()
+    call = compiled_call(problem)
     t0 = time.perf_counter()
     result = call()
     elapsed = time.perf_counter() - t0
@@ -93,23 +89,27 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeats", type=int, default=9, help="timed runs per variant (>= 7)")
     parser.add_argument("--no-cold", action="store_true", help="skip the cold-compile probe")
+    parser.add_argument("--quick", action="store_true",
+                        help="1 s runs, one repeat, no cold compile (a smoke test)")
     args = parser.parse_args()
-    repeats = max(7, args.repeats)
+    repeats = 1 if args.quick else max(7, args.repeats)
+    variants = {name: p.replace(t_end=1.0) if args.quick else p for name, p in VARIANTS.items()}
     print(machine_info())
-    if not args.no_cold:
+    if not (args.no_cold or args.quick):
         imp, first = cold_compile()
         print(f"cold JIT (fresh process, empty numba cache): import {imp:.2f} s, "
               f"first EN-02 simulate (compiles its specialisation) {first:.2f} s")  # fmt: skip
     t0 = time.perf_counter()
-    simulate(dataclasses.replace(EN02, t_end=0.1))
+    simulate(EN02.replace(t_end=0.1))
     first = time.perf_counter() - t0
-    stats = SPECIALISATIONS[(EXPLICIT, True, True)].stats
+    stats = SPECIALISATIONS[(EXPLICIT, True, True, False)].stats
     hits = sum(stats.cache_hits.values())
     misses = sum(stats.cache_misses.values())
     print(f"this process: first simulate {first:.3f} s (numba cache hits {hits}, misses {misses})")
-    print(f"timed: {repeats} repeats, 60,000 RK4 steps each; core = compiled loop alone, "
+    steps = round(EN02.output.t_end / EN02.solver.dt) if not args.quick else 500
+    print(f"timed: {repeats} repeats, {steps:,} RK4 steps each; core = compiled loop alone, "
           f"simulate = whole call")  # fmt: skip
-    for name, problem in VARIANTS.items():
+    for name, problem in variants.items():
         core_times = []
         evals = 0
         for _ in range(repeats):

@@ -15,6 +15,7 @@ after the other, in fresh working directories:
 
     python scripts/bench_workflow.py              # against bdffec5 (before the rework)
     python scripts/bench_workflow.py HEAD~3 --big --timeout 120
+    python scripts/bench_workflow.py HEAD --quick   # the planning row only (a smoke test)
 """
 
 from __future__ import annotations
@@ -128,11 +129,17 @@ t0 = time.perf_counter(); run_study(r); print(time.perf_counter() - t0)
 
 
 def measure(tree: Tree, scratch: Path, args: argparse.Namespace) -> dict[str, str]:
-    """Every case for one tree; values are formatted seconds (or a note)."""
+    """Every case for one tree (with --quick, the planning row alone); values are formatted
+    seconds (or a note)."""
     out: dict[str, str] = {}
     work = scratch / f"{tree.label}-all"
     work.mkdir()
     cold = scratch / f"{tree.label}-numba-cold"
+    if args.quick:
+        t, _ = tree.snakemake(work, "all", "-n", numba_cache=cold)
+        creatio = float(tree.python(PLAN, work))
+        out["snakemake all -n (creatio planning inside)"] = f"{t:.1f} s ({creatio:.2f} s)"
+        return out
     t, code = tree.snakemake(work, "all", numba_cache=cold)
     out["snakemake all -c 2, numba cache cold"] = f"{t:.1f} s" + ("" if code == 0 else " (failed)")
     shutil.rmtree(work / "data")
@@ -173,6 +180,8 @@ def main() -> None:
                         help="seconds before a dry run of the 10^5-point sweep is given up")
     parser.add_argument("--big", action="store_true",
                         help="also the 1,000-point sweep on 2 cores (this tree; minutes)")
+    parser.add_argument("--quick", action="store_true",
+                        help="the planning row only: checks the script runs")
     args = parser.parse_args()
     with tempfile.TemporaryDirectory() as tmp:
         scratch = Path(tmp)

@@ -31,7 +31,7 @@ from creatio.pipeline.io import write_dataset
 from creatio.pipeline.run import run_study
 from creatio.scenes import registry
 from creatio.scenes.config import resolve, route
-from creatio.scenes.plan import needs
+from creatio.scenes.needs import needs
 from creatio.scenes.run import scene_dataset
 from creatio.studies import registry as studies
 from creatio.studies.schema import vary
@@ -79,7 +79,7 @@ def main(argv: list[str] | None = None) -> int:
 
                 t, paths = best(study_run, args.repeats)
                 problem = base.obj.sphere_problem()
-                rot, en = problem.rotation_integrated, bool(problem.energy)
+                rot, en = problem.rotation_integrated, bool(problem.output.energy)
                 full[base.sha256] = {
                     "seconds": t, "paths": paths, "parts": len(parts),
                     "state": len(problem.initial_state(rot, en)),
@@ -94,7 +94,7 @@ def main(argv: list[str] | None = None) -> int:
         states = []
         for n in runs:
             problem = vary(r.bases[n.study].obj, n.changes()).sphere_problem()
-            rot, en = problem.rotation_integrated, bool(problem.energy)
+            rot, en = problem.rotation_integrated, bool(problem.output.energy)
             states.append(len(problem.initial_state(rot, en)))
         what = "; ".join(
             f"{n.study}: 1 run at dt = {n.dt:g} s, {'+'.join(n.outputs)}"

@@ -9,7 +9,6 @@ sphere (arctan(A k)). At gamma = 0 it is EN-02's start, bit for bit.
 
 from __future__ import annotations
 
-import dataclasses
 import json
 import math
 
@@ -20,14 +19,15 @@ from creatio.dynamics import SphereProblem, simulate
 from creatio.dynamics.kinematics import centre_kinematics
 from creatio.model.cavity import cavity_cell_offsets, in_cavity_cell
 from creatio.model.equilibrium import equilibrium_limit, height_derivatives, static_equilibrium
+from creatio.model.laws import Law
 from creatio.pipeline.config import resolve
 
 K = 2.0 * math.pi / 1.72  # notebook geometry: Kr = 1, dR = 1.72
 
 
 def _inclined(p: SphereProblem, gamma_deg: float) -> SphereProblem:
-    law = (math.radians(gamma_deg), 0.0, 0.0, 120.0, 0.0, 0.0)
-    return dataclasses.replace(p, law_gamma=law, equilibrium_start=True)
+    law = Law.constant(math.radians(gamma_deg))
+    return p.replace(gamma=law, equilibrium=True)
 
 
 def _eq(gamma_deg: float, b: float = 0.12):
@@ -41,7 +41,7 @@ def test_equilibrium_solves_jt_g_to_rounding_and_is_a_minimum(en02_problem, gamm
     assert eq.iterations <= 8  # quadratic convergence from the cavity bottom
     # J^T g in the world frame from the exact centre kinematics of the dynamics layer
     p = _inclined(en02_problem, gamma_deg)
-    kin = centre_kinematics(p.R0, p.dR, p.A, p.Kr, p.Ka, p.b, p.law_r, p.law_a, p.law_gamma,
+    kin = centre_kinematics(p.model.surface, p.model.motion, p.model.sphere.b,
                             eq.R, eq.alpha, 0.0)
     jtg = kin["X_q"].T @ np.array([0.0, 0.0, -9.81])
     assert np.abs(jtg).max() < 1e-14  # rounding (g = 9.81, slopes of order 1)
@@ -131,15 +131,14 @@ def test_a_short_cycle_leaves_its_cavity_yet_ends_ok(en02_problem) -> None:
     point crossed the cell's outer edge (the zero line of W past the radial wall) at
     t = 4.272 s, for about 0.15 s, before falling back; EN-02 itself is carried."""
     assert simulate(en02_problem).carried
-    fast = dataclasses.replace(en02_problem, law_a=(0.0, 0.0, 12 * math.pi, 6.9, 0.0, 0.0),
-                               t_end=6.9)
+    fast = en02_problem.replace(phi_a=Law(0.0, 0.0, 12 * math.pi, 6.9, 0.0, 0.0), t_end=6.9)
     res = simulate(fast)
     assert res.status == "ok" and not res.carried
     assert res.left_cavity_time == pytest.approx(4.272, abs=1e-9)
     inside = (np.abs(res.cell_u) < math.pi / 2) & (np.abs(res.cell_v) < math.pi / 2)
     assert inside[res.t < 4.272].all() and not inside[(res.t > 4.25) & (res.t < 4.45)].any()
     assert np.abs(res.cell_u[~inside]).min() >= math.pi / 2  # out over the radial edge
-    stop = simulate(dataclasses.replace(fast, stop_on_leaving_cavity=True))
+    stop = simulate(fast.replace(stop_on_leaving_cavity=True))
     assert stop.status == "left_cavity" and stop.stop_time == res.left_cavity_time
     np.testing.assert_array_equal(stop.X[:-1], res.X[:len(stop.t) - 1])
 

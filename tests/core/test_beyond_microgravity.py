@@ -8,7 +8,6 @@ force; the study's dataset and report.
 
 from __future__ import annotations
 
-import dataclasses
 import json
 import math
 
@@ -16,6 +15,7 @@ import numpy as np
 import pytest
 
 from creatio.dynamics import SphereProblem, simulate, stability_limit
+from creatio.model.laws import Law
 from creatio.pipeline.config import resolve
 from creatio.studies.en03m import probe, round_up, search
 from creatio.studies.schema import Confinement
@@ -23,9 +23,8 @@ from creatio.studies.schema import Confinement
 
 def _micro(p: SphereProblem, kind: str, P: float, T: float, I_s: float = 10.0
            ) -> SphereProblem:
-    return dataclasses.replace(p, g=0.0, structure_inertia=I_s, confinement=kind,
-                               confining_force=P, law_a=(0.0, 0.0, 12 * math.pi, T, 0.0, 0.0),
-                               t_end=T)
+    return p.replace(g=0.0, inertia=I_s, confinement=kind, force=P,
+                     phi_a=Law.quintic(0.0, 12 * math.pi, T), t_end=T)
 
 
 def test_base_pull_closes_the_energy_balance_like_gravity(en02_problem) -> None:
@@ -43,7 +42,7 @@ def test_normal_preload_work_closes_the_energy_balance(en02_problem) -> None:
     -P n . c_t; the residual is the scheme's error (4th order), W_confine is O(1 J)."""
     p = _micro(en02_problem, "normal", 5.0, 30.0)
     res = simulate(p)
-    half = simulate(dataclasses.replace(p, dt=0.001))
+    half = simulate(p.replace(dt=0.001))
     assert res.status == "ok"
     without = res.energy - res.energy[0] - res.surface_work + res.friction_dissipation
     np.testing.assert_allclose(res.energy_residual, without - res.confinement_work, atol=1e-14)
@@ -56,13 +55,12 @@ def test_normal_preload_work_closes_the_energy_balance(en02_problem) -> None:
 
 def test_base_at_m_g_on_a_fixed_structure_is_en02(en02_problem) -> None:
     en02 = simulate(en02_problem)
-    base = simulate(dataclasses.replace(en02_problem, g=0.0, confinement="base",
-                                        confining_force=9.81))
+    base = simulate(en02_problem.replace(g=0.0, confinement="base", force=9.81))
     assert not base.structure_free  # a fixed structure and a pull along -z: EN-02's path
     for name in ("X", "N", "f", "omega", "energy", "energy_residual"):
         np.testing.assert_array_equal(getattr(base, name), getattr(en02, name))
     # the same through the structure path (I_s = inf, so 1 / I_s = 0): to rounding
-    path = simulate(dataclasses.replace(en02_problem, confinement="normal", confining_force=0.0))
+    path = simulate(en02_problem.replace(confinement="normal", force=0.0))
     assert np.abs(path.X - en02.X).max() < 1e-13
 
 
@@ -70,10 +68,9 @@ def test_the_normal_preload_does_not_carry(en02_problem) -> None:
     """A force along -n has no tangential part: it only adds friction, which pins the sphere
     to membrane points that move along the normal; the cavity passes it at any P."""
     for P in (0.01, 1.0, 100.0):
-        p = dataclasses.replace(_micro(en02_problem, "normal", P, 120.0, math.inf),
-                                stop_on_leaving_cavity=True)
+        p = _micro(en02_problem, "normal", P, 120.0, math.inf).replace(stop_on_leaving_cavity=True)
         limit = stability_limit(p)
-        p = dataclasses.replace(p, dt=p.dt / math.ceil(p.dt / limit))
+        p = p.replace(dt=p.solver.dt / math.ceil(p.solver.dt / limit))
         res = simulate(p)
         assert res.status == "left_cavity" and 20.0 < res.stop_time < 21.0
         assert abs(math.degrees(res.azimuth[-1] - res.azimuth[0])) < 4.0
@@ -96,8 +93,9 @@ def test_search_brackets_the_smallest_carrying_force() -> None:
 def test_force_problem_refines_the_step_to_its_stability_limit() -> None:
     cfg = resolve("en03m").obj
     p = cfg.force_problem(Confinement.normal, 10.0, 981.0)
-    assert p.dt < stability_limit(p) * (1 + 1e-12) and 0.002 / p.dt == round(0.002 / p.dt)
-    assert cfg.force_problem(Confinement.base, 10.0, 0.05).dt == 0.002
+    dt = p.solver.dt
+    assert dt < stability_limit(p) * (1 + 1e-12) and 0.002 / dt == round(0.002 / dt)
+    assert cfg.force_problem(Confinement.base, 10.0, 0.05).solver.dt == 0.002
 
 
 def test_round_up_keeps_three_digits() -> None:

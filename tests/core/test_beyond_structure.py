@@ -9,7 +9,6 @@ structure's turn; every integrator on the new states.
 
 from __future__ import annotations
 
-import dataclasses
 import json
 import math
 
@@ -20,6 +19,7 @@ from creatio.dynamics import SphereProblem, simulate, stability_limit
 from creatio.dynamics import sphere as core
 from creatio.dynamics.kinematics import centre_kinematics
 from creatio.dynamics.solvers.tableaus import RK4_REAL_STABILITY
+from creatio.model.laws import Law
 from creatio.model.structure import free_structure_solve, point_mass_rotation
 from creatio.pipeline.config import resolve
 
@@ -29,12 +29,12 @@ G = np.array([0.0, 0.0, -9.81])
 @pytest.fixture(scope="module")
 def en03(en02_problem: SphereProblem) -> SphereProblem:
     """EN-03's default single run (I_s = 10 kg m^2), built from the hand-made EN-02."""
-    return dataclasses.replace(en02_problem, structure_inertia=10.0)
+    return en02_problem.replace(inertia=10.0)
 
 
 @pytest.fixture(scope="module")
 def en03_pair(en03: SphereProblem):
-    return simulate(en03), simulate(dataclasses.replace(en03, dt=0.001))
+    return simulate(en03), simulate(en03.replace(dt=0.001))
 
 
 def _rz(theta: float) -> np.ndarray:
@@ -83,34 +83,35 @@ def test_equations_of_motion_against_high_order_differences(en02_problem) -> Non
     -[c x (N n + f - P n)] . z, I omega' = (-b n) x f, H_z constant."""
     I_s, P = 0.7, 3.0
     h = 2.5e-4
-    p = dataclasses.replace(
-        en02_problem, structure_inertia=I_s, confinement="normal", confining_force=P, mu=0.3,
-        law_r=(0.1, 0.02, 0.1, 2.0, 0.02, 1.3), law_a=(0.0, 0.05, 0.1, 1.5, 0.02, 0.9),
-        law_gamma=(0.2, 0.0, 0.05, 2.0, 0.02, 1.7), R_init=0.45, alpha_init=0.5,
-        Rdot_init=0.02, alphadot_init=0.03, omega_init=(0.5, -1.0, 0.5), t_end=2.0, dt=h,
-        output_interval=h)
+    p = en02_problem.replace(
+        inertia=I_s, confinement="normal", force=P, mu=0.3,
+        phi_r=Law(0.1, 0.02, 0.1, 2.0, 0.02, 1.3), phi_a=Law(0.0, 0.05, 0.1, 1.5, 0.02, 0.9),
+        gamma=Law(0.2, 0.0, 0.05, 2.0, 0.02, 1.7), R=0.45, alpha=0.5, Rdot=0.02, alphadot=0.03,
+        omega=(0.5, -1.0, 0.5), t_end=2.0, dt=h, interval=h)
     res = simulate(p)
     assert res.status == "ok" and res.max_slip_speed > 0.1
     assert np.abs(res.theta_rate).max() > 0.01  # the structure really turns
-    inertia = 0.4 * p.m * p.b**2
+    inertia = p.model.sphere.inertia
     W = np.stack([_rz(th) @ x for th, x in zip(res.theta, res.X, strict=True)])
     # the 5-point stencils' truncation error is largest in the early slip transient (the slip
     # relaxes at ~1000 1/s, h = 0.25 ms): a few 1e-7 relative there
     for i in (20, 2800, 6000):
-        n_s = centre_kinematics(p.R0, p.dR, p.A, p.Kr, p.Ka, p.b, p.law_r, p.law_a,
-                                p.law_gamma, res.R[i], res.alpha[i], res.t[i])["n"]
+        n_s = centre_kinematics(p.model.surface, p.model.motion, p.model.sphere.b, res.R[i],
+                                res.alpha[i], res.t[i])["n"]
         Rz = _rz(res.theta[i])
         n, f = Rz @ n_s, Rz @ res.f[i]
         acc = (-W[i - 2] + 16 * W[i - 1] - 30 * W[i] + 16 * W[i + 1] - W[i + 2]) / (12 * h * h)
-        np.testing.assert_allclose(p.m * acc, p.m * G - P * n + res.N[i] * n + f, atol=2e-6)
+        m = p.model.sphere.m
+        np.testing.assert_allclose(m * acc, m * G - P * n + res.N[i] * n + f, atol=2e-6)
         dTh = (res.theta_rate[i - 2] - 8 * res.theta_rate[i - 1] + 8 * res.theta_rate[i + 1]
                - res.theta_rate[i + 2]) / (12 * h)
-        c = res.X[i] - p.b * n_s  # contact point, structure frame
+        c = res.X[i] - p.model.sphere.b * n_s  # contact point, structure frame
         torque = -np.cross(c, res.N[i] * n_s + res.f[i] - P * n_s)[2]
         assert I_s * dTh == pytest.approx(torque, rel=1e-5)
         dw = (res.omega[i - 2] - 8 * res.omega[i - 1] + 8 * res.omega[i + 1]
               - res.omega[i + 2]) / (12 * h)
-        np.testing.assert_allclose(inertia * dw, np.cross(-p.b * n, f), rtol=1e-5, atol=1e-9)
+        np.testing.assert_allclose(inertia * dw, np.cross(-p.model.sphere.b * n, f), rtol=1e-5,
+                                   atol=1e-9)
     hz = res.hz_structure + res.hz_orbital + res.hz_spin
     assert np.abs(hz - hz[0]).max() == pytest.approx(res.max_hz_drift, rel=0.5, abs=1e-15)
     assert res.max_hz_drift < 1e-12 * max(1.0, res.max_structure_momentum * 1e3)
@@ -136,20 +137,20 @@ def test_en03_defaults_conserve_hz_and_energy_to_rounding(en03_pair) -> None:
 
 def test_large_inertia_is_en02_to_its_timestep_difference(en02_problem, en03_pair) -> None:
     fixed = simulate(en02_problem)
-    fixed_half = simulate(dataclasses.replace(en02_problem, dt=0.001))
+    fixed_half = simulate(en02_problem.replace(dt=0.001))
     step_difference = np.abs(fixed.X - fixed_half.X).max()
-    big = simulate(dataclasses.replace(en02_problem, structure_inertia=1e12))
+    big = simulate(en02_problem.replace(inertia=1e12))
     assert np.abs(big.X - fixed.X).max() <= step_difference  # 1.2e-14 vs 7.1e-14 m
     assert abs(big.theta[-1]) < 1e-11
     # the structure path on a fixed structure (1 / I_s = 0 exactly) with a zero preload
     # differs from the fixed path only by the order of its operations
-    same = simulate(dataclasses.replace(en02_problem, confinement="normal", confining_force=0.0))
+    same = simulate(en02_problem.replace(confinement="normal", force=0.0))
     assert same.structure_free and np.all(same.theta == 0.0)
     assert np.abs(same.X - fixed.X).max() < 1e-13
 
 
 def test_frictionless_leaves_the_spin_at_zero(en03) -> None:
-    res = simulate(dataclasses.replace(en03, mu=0.0, rotation=True, t_end=30.0))
+    res = simulate(en03.replace(mu=0.0, rotation=True, t_end=30.0))
     assert res.rotation_integrated and res.structure_free
     assert np.all(res.omega == 0.0) and np.all(res.cumulative_spin == 0.0)
     assert np.all(res.hz_spin == 0.0)
@@ -164,12 +165,13 @@ def test_point_mass_estimate_approached_as_the_cavity_shrinks_and_stiffens(en03)
     estimate, shrinks like A, and so does the difference."""
     diffs, excursions = [], []
     for s in (1.0, 1 / 3, 1 / 9):
-        p = dataclasses.replace(en03, A=0.18 * s, b=0.12 * s, g=9.81 / s**2, mu=0.0)
+        p = en03.replace(A=0.18 * s, b=0.12 * s, g=9.81 / s**2, mu=0.0)
         res = simulate(p)
         assert res.status == "ok" and res.carried
         relative = res.azimuth[-1] - res.azimuth[0]
         rho = np.hypot(res.X[:, 0], res.X[:, 1])
-        estimate = point_mass_rotation(p.m, float(rho[0]), p.structure_inertia, relative)
+        estimate = point_mass_rotation(p.model.sphere.m, float(rho[0]), p.model.structure.inertia,
+                                       relative)
         diffs.append(abs(res.theta[-1] - estimate) / abs(estimate))
         excursions.append(np.abs(rho - rho[0]).max())
     assert diffs[0] < 3e-4  # 2.6e-4 at the notebook's cavity
@@ -183,7 +185,7 @@ def test_stability_limit_gains_the_structure_turn(en03) -> None:
     linearised free-structure dynamics at rest has that eigenvalue, the radial slip keeps
     3.5 mu N / (m eps), and the RK4 limit follows the faster one."""
     I_s = 2.0
-    p = dataclasses.replace(en03, structure_inertia=I_s)
+    p = en03.replace(inertia=I_s)
     rho_c = 0.68 + 0.43
     rate = 0.15 * 9.81 * (3.5 + rho_c**2 / I_s) / 0.01
     assert stability_limit(p) == pytest.approx(RK4_REAL_STABILITY / (1.25 * rate), rel=1e-12)
@@ -204,9 +206,9 @@ def test_stability_limit_gains_the_structure_turn(en03) -> None:
 def test_every_integrator_runs_the_structure(en03, method) -> None:
     """Adaptive and implicit methods on the structure path (Radau's Jacobian differences the
     theta and Theta columns) agree with RK4 on a 20 s EN-03 segment."""
-    short = dataclasses.replace(en03, structure_inertia=1.0, t_end=20.0)
-    ref = simulate(dataclasses.replace(short, dt=0.001))
-    res = simulate(dataclasses.replace(short, method=method, rtol=1e-10, atol=1e-12))
+    short = en03.replace(inertia=1.0, t_end=20.0)
+    ref = simulate(short.replace(dt=0.001))
+    res = simulate(short.replace(method=method, rtol=1e-10, atol=1e-12))
     assert res.status == "ok" and res.t.size == ref.t.size
     np.testing.assert_allclose(res.theta, ref.theta, rtol=0, atol=1e-8)
     assert np.abs(res.X - ref.X).max() < 1e-8

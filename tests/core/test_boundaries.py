@@ -3,7 +3,6 @@ analysis as a configured study (validation, config hash, one end-to-end run)."""
 
 from __future__ import annotations
 
-import dataclasses
 import json
 import logging
 import math
@@ -134,7 +133,7 @@ def test_changing_a_grid_changes_the_config_hash():
 # ------------------------------------------------------------------------------ physics
 def test_default_run_b_kappa_is_the_cavity_bottom_curvature(en02):
     # The sphere starts at rest at the cavity bottom, the curvature maximum of the surface.
-    res = simulate(dataclasses.replace(en02.sphere_problem(), energy=False))
+    res = simulate(en02.sphere_problem().replace(energy=False))
     expected = en02.sphere.b * _bottom_curvature(en02)
     assert res.max_b_kappa == pytest.approx(expected, rel=1e-12)
     assert bd.bottom_b_kappa(en02) == pytest.approx(expected, rel=1e-12)

@@ -9,6 +9,7 @@ import pytest
 
 from creatio.dynamics.kinematics import centre_kinematics
 from creatio.model.laws import Law, law_eval
+from creatio.model.surface import Motion, Surface
 
 # Notebook geometry (docs/studies.md): R0 = 0.68, dR = 1.72, A = 0.18, Kr = 1, Ka = 6.
 GEOM = {"R0": 0.68, "dR": 1.72, "A": 0.18, "Kr": 1, "Ka": 6}
@@ -29,14 +30,14 @@ def test_law_eval_matches_creatio_laws(law: Law) -> None:
     times = np.array([-0.5, 0.0, 0.37, 1.11, 2.96, 3.0, 59.3, 60.0, 119.9, 120.0, 130.0])
     expected = law(times)
     for i, t in enumerate(times):
-        value, d1, d2 = law_eval(*law.coefficients(), float(t))
+        value, d1, d2 = law_eval(law.coefficients(), float(t))
         assert value == pytest.approx(expected.value[i], rel=1e-14, abs=1e-14)
         assert d1 == pytest.approx(expected.d1[i], rel=1e-13, abs=1e-15)
         assert d2 == pytest.approx(expected.d2[i], rel=1e-13, abs=1e-15)
 
 
-def _law_value(coeffs: tuple[float, ...], t: float) -> float:
-    return float(Law(*coeffs)(t).value)
+def _law_value(law: Law, t: float) -> float:
+    return float(law(t).value)
 
 
 def centre_reference(case: dict, R: float, alpha: float, t: float) -> np.ndarray:
@@ -64,31 +65,29 @@ def centre_reference(case: dict, R: float, alpha: float, t: float) -> np.ndarray
 CASES = {
     # both phases and the inclination time-varying (all three law terms active)
     "gamma_varying": {
-        "law_r": (0.23, 0.31, 0.4, 3.0, 0.1, 1.3),
-        "law_a": (0.5, 0.47, -0.7, 2.0, 0.2, 0.9),
-        "law_gamma": (math.pi / 4, 0.02, 0.1, 4.0, 0.3, 0.7),
+        "law_r": Law(0.23, 0.31, 0.4, 3.0, 0.1, 1.3),
+        "law_a": Law(0.5, 0.47, -0.7, 2.0, 0.2, 0.9),
+        "law_gamma": Law(math.pi / 4, 0.02, 0.1, 4.0, 0.3, 0.7),
     },
     # near-cylinder: gamma = pi/2 - 0.02 + 0.015 sin(1.1 t) stays below pi/2
     "gamma_near_half_pi": {
-        "law_r": (0.1, -0.4, 0.0, 1.0, 0.0, 0.0),
-        "law_a": (0.5, 0.5, 0.3, 5.0, 0.0, 0.0),
-        "law_gamma": (math.pi / 2 - 0.02, 0.0, 0.0, 1.0, 0.015, 1.1),
+        "law_r": Law(0.1, -0.4, 0.0, 1.0, 0.0, 0.0),
+        "law_a": Law(0.5, 0.5, 0.3, 5.0, 0.0, 0.0),
+        "law_gamma": Law(math.pi / 2 - 0.02, 0.0, 0.0, 1.0, 0.015, 1.1),
     },
     # EN-02 laws (gamma = 0, phi_a = 12 pi s(t/120)) at mid-cycle
     "en02": {
-        "law_r": (0.0, 0.0, 0.0, 120.0, 0.0, 0.0),
-        "law_a": (0.0, 0.0, 12.0 * math.pi, 120.0, 0.0, 0.0),
-        "law_gamma": (0.0, 0.0, 0.0, 1.0, 0.0, 0.0),
+        "law_r": Law(0.0, 0.0, 0.0, 120.0, 0.0, 0.0),
+        "law_a": Law(0.0, 0.0, 12.0 * math.pi, 120.0, 0.0, 0.0),
+        "law_gamma": Law(0.0, 0.0, 0.0, 1.0, 0.0, 0.0),
     },
 }
 POINTS = [(0.3, 0.4, 0.37), (1.2, 2.5, 1.11), (1.7, 5.0, 2.9), (0.43, math.pi / 6, 60.0)]
 
 
 def _kin(case: dict, R: float, alpha: float, t: float) -> dict[str, np.ndarray]:
-    return centre_kinematics(
-        GEOM["R0"], GEOM["dR"], GEOM["A"], GEOM["Kr"], GEOM["Ka"], B,
-        case["law_r"], case["law_a"], case["law_gamma"], R, alpha, t,
-    )  # fmt: skip
+    motion = Motion(case["law_r"], case["law_a"], case["law_gamma"])
+    return centre_kinematics(Surface(**GEOM), motion, B, R, alpha, t)
 
 
 def _d(f, i: int, h: float):

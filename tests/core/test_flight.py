@@ -8,7 +8,6 @@ and a run that never separates is the driver's run bit for bit.
 
 from __future__ import annotations
 
-import dataclasses
 import json
 import math
 from pathlib import Path
@@ -16,20 +15,24 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from creatio.dynamics import SphereProblem, simulate
-from creatio.dynamics.solvers.hybrid import EV_HEIGHT, EV_IMPACT, EV_KIND, EV_LOSS, EV_T
+from creatio.dynamics import Model, Sphere, SphereProblem, Start, simulate
+from creatio.dynamics.layout import EV_HEIGHT, EV_IMPACT, EV_KIND, EV_LOSS, EV_T
 from creatio.model.flight import _foot_terms, foot_point
+from creatio.model.laws import Law
+from creatio.model.surface import Motion, Surface
 
-FLAT = (0.0, 0.0, 0.0, 1.0, 0.0, 0.0)
+FLAT = Law.constant(0.0)
 
 
 def drop(e: float, h: float = 0.1, mu: float = 0.0, **kw) -> SphereProblem:
     """A sphere dropped at rest from gap h onto the flat, still surface (A = 0)."""
-    return SphereProblem(
-        R0=0.68, dR=1.72, A=0.0, Kr=1, Ka=6, law_r=FLAT, law_a=FLAT, law_gamma=FLAT,
-        m=1.0, b=0.12, g=9.81, mu=mu, eps=0.01, R_init=0.86, alpha_init=0.5,
-        t_end=kw.pop("t_end", 1.0), dt=kw.pop("dt", 1e-3), output_interval=0.01,
-        flight=True, restitution=e, start_height=h, **kw)  # fmt: skip
+    flat = SphereProblem(
+        model=Model(Surface(R0=0.68, dR=1.72, A=0.0, Kr=1, Ka=6), Motion(FLAT, FLAT, FLAT),
+                    Sphere(m=1.0, b=0.12, g=9.81, mu=mu, eps=0.01)),
+        start=Start(R=0.86, alpha=0.5),
+    )
+    return flat.replace(t_end=kw.pop("t_end", 1.0), dt=kw.pop("dt", 1e-3), interval=0.01,
+                        flight=True, restitution=e, height=h, **kw)
 
 
 def impacts(res) -> np.ndarray:
@@ -92,19 +95,18 @@ def test_foot_point_is_the_perpendicular_foot(X, guess) -> None:
 def fling(en02_problem: SphereProblem) -> SphereProblem:
     """EN-02 with a 4 s cycle: the sphere separates (the boundary is near 6.9 s); dt = 1 ms
     keeps RK4 inside the friction stability limit at the normal reactions after impacts."""
-    return dataclasses.replace(
-        en02_problem, law_a=(0.0, 0.0, 12.0 * math.pi, 4.0, 0.0, 0.0), t_end=1.7,
-        output_interval=0.1, dt=0.001)
+    return en02_problem.replace(phi_a=Law.quintic(0.0, 12.0 * math.pi, 4.0), t_end=1.7,
+                                interval=0.1, dt=0.001)
 
 
 def test_contact_lost_without_flight_and_ok_with(fling: SphereProblem) -> None:
     """Flight takes the run past the contact_lost stop: separation, impact, contact."""
     off = simulate(fling)
-    on = simulate(dataclasses.replace(fling, flight=True))
+    on = simulate(fling.replace(flight=True))
     assert off.status == "contact_lost"
-    assert on.status == "ok" and on.stop_time == fling.t_end
+    assert on.status == "ok" and on.stop_time == fling.output.t_end
     assert list(on.events[:, EV_KIND]) == [0, 1, 2]
-    assert on.events[0, EV_T] == pytest.approx(off.stop_time, abs=fling.dt)
+    assert on.events[0, EV_T] == pytest.approx(off.stop_time, abs=fling.solver.dt)
     # before the first separation the hybrid loop is the driver, bit for bit
     n = int(np.searchsorted(off.t, on.events[0, EV_T]))
     assert n > 10
@@ -118,7 +120,7 @@ def test_flight_energy_balance_closes_with_losses(fling: SphereProblem) -> None:
     phases' RK4 error: it falls by more than 2^3 when dt halves, to 1e-7 J."""
     res = []
     for dt in (0.001, 0.0005):
-        on = simulate(dataclasses.replace(fling, flight=True, restitution=0.5, dt=dt))
+        on = simulate(fling.replace(flight=True, restitution=0.5, dt=dt))
         assert on.status == "ok"
         assert np.sum(on.events[:, EV_KIND] == EV_IMPACT) > 5
         res.append(on.max_energy_residual)
@@ -128,7 +130,7 @@ def test_flight_energy_balance_closes_with_losses(fling: SphereProblem) -> None:
 def test_separation_time_converges_at_fourth_order(fling: SphereProblem) -> None:
     times = []
     for dt in (0.004, 0.002, 0.001):
-        res = simulate(dataclasses.replace(fling, flight=True, dt=dt, t_end=1.6))
+        res = simulate(fling.replace(flight=True, dt=dt, t_end=1.6))
         times.append(res.events[0, EV_T])
     d1 = abs(times[0] - times[1])
     d2 = abs(times[1] - times[2])
@@ -154,7 +156,7 @@ def test_flight_disabled_is_the_released_en02(en02_problem: SphereProblem) -> No
     assert centre.shape == a.X.shape
     assert np.max(np.abs(centre - a.X)) <= 1e-12
     assert np.max(np.abs(released["omega"].values - a.omega)) <= 1e-12
-    b = simulate(dataclasses.replace(en02_problem, restitution=0.7, impact_cap=5.0))
+    b = simulate(en02_problem.replace(restitution=0.7, impact_cap=5.0))
     assert np.array_equal(a.X, b.X) and np.array_equal(a.energy_residual, b.energy_residual)
 
 
@@ -164,7 +166,7 @@ def test_flight_settings_refused() -> None:
     with pytest.raises(ValueError, match="explicit method"):
         drop(0.5, method="radau5")
     with pytest.raises(ValueError, match="needs flight"):
-        dataclasses.replace(drop(0.5), flight=False)
+        drop(0.5).replace(flight=False)
 
 
 def test_adaptive_method_locates_the_same_events(fling: SphereProblem) -> None:
@@ -172,9 +174,8 @@ def test_adaptive_method_locates_the_same_events(fling: SphereProblem) -> None:
     impact times within 1e-7 s of RK4 at dt = 0.5 ms."""
     d = simulate(drop(0.5, method="dopri5", t_end=0.3))
     assert abs(impacts(d)[0, EV_T] - math.sqrt(2 * 0.1 / 9.81)) < 1e-9
-    rk = simulate(dataclasses.replace(fling, flight=True, dt=0.0005))
-    dp = simulate(dataclasses.replace(fling, flight=True, method="dopri5", rtol=1e-10,
-                                      atol=1e-12))
+    rk = simulate(fling.replace(flight=True, dt=0.0005))
+    dp = simulate(fling.replace(flight=True, method="dopri5", rtol=1e-10, atol=1e-12))
     assert dp.status == "ok"
     assert list(dp.events[:, EV_KIND]) == list(rk.events[:, EV_KIND])
     assert np.abs(dp.events[:, EV_T] - rk.events[:, EV_T]).max() < 1e-7

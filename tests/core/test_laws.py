@@ -7,7 +7,21 @@ import pytest
 from numpy.polynomial import Polynomial
 
 from creatio.model.cavity import pattern_angle
-from creatio.model.laws import Law, LawKind, quintic_step
+from creatio.model.laws import (
+    KIND_CODES,
+    L_AMPLITUDE,
+    L_DELTA,
+    L_KIND,
+    L_OMEGA,
+    L_PHI0,
+    L_RATE,
+    L_T,
+    NLAW,
+    Law,
+    LawKind,
+    law_eval,
+    quintic_step,
+)
 from creatio.model.surface import Motion, Surface
 
 # Quintic smooth step s(tau) = 10 tau^3 - 15 tau^4 + 6 tau^5, built as a polynomial object so
@@ -20,6 +34,7 @@ LAWS = {
     "linear": Law.linear(0.23, 0.31),
     "quintic": Law.quintic(0.5, 3.0, 2.0),
     "sinusoid": Law.sinusoid(np.pi / 4, 0.3, 0.7),
+    "cosine_ramp": Law.cosine_ramp(0.5, 3.0, 2.0),
 }
 
 
@@ -38,6 +53,11 @@ def closed_form(name: str, t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.nd
             D * 30.0 * tau**2 * (1.0 - tau) ** 2 / T,
             D * 60.0 * tau * (1.0 - tau) * (1.0 - 2.0 * tau) / T**2,
         )
+    if name == "cosine_ramp":
+        T, D = 2.0, 3.0
+        w = np.pi / T
+        return (0.5 + D * (1.0 - np.cos(w * t)) / 2.0, D * w * np.sin(w * t) / 2.0,
+                D * w**2 * np.cos(w * t) / 2.0)
     G, Om = 0.3, 0.7
     return np.pi / 4 + G * np.sin(Om * t), G * Om * np.cos(Om * t), -G * Om**2 * np.sin(Om * t)
 
@@ -47,8 +67,9 @@ def d5(f, x: np.ndarray, h: float) -> np.ndarray:
     return (f(x - 2 * h) - 8 * f(x - h) + 8 * f(x + h) - f(x + 2 * h)) / (12 * h)
 
 
-# Times strictly inside the quintic cycle [0, 2] with room for the 5-point stencil (the clamped
-# law is only C2 at 0 and T, so a stencil straddling them would lose its 4th order).
+# Times strictly inside the cycle [0, 2] with room for the 5-point stencil (the clamped laws are
+# only C2 (quintic) or C1 (cosine ramp) at 0 and T, so a stencil straddling them would lose
+# its 4th order).
 T_IN = np.linspace(0.01, 1.99, 67)
 
 
@@ -66,8 +87,9 @@ def test_law_derivatives_match_central_differences(name: str) -> None:
     """d1 from 5-point differences of value, d2 from 5-point differences of d1.
 
     Error of the 5-point formula: h^4/30 max|f^(5)| + ~1.5 eps max|f| / h. With h = 1e-3 the
-    largest fifth derivative here is the quintic's delta 720 / T^5 = 67.5, giving 2.3e-12,
-    and rounding (|f| <= 4) adds ~1.3e-12; atol 1e-10 is a safe margin over both.
+    largest fifth derivative here is the quintic's delta 720 / T^5 = 67.5, giving 2.3e-12
+    (the cosine ramp's delta (pi / T)^5 / 2 = 14.3 gives less), and rounding (|f| <= 4) adds
+    ~1.3e-12; atol 1e-10 is a safe margin over both.
     """
     law, h = LAWS[name], 1e-3
     lv = law(T_IN)
@@ -129,7 +151,8 @@ def test_quintic_law_is_c2_across_cycle_ends(edge: float) -> None:
 
 
 def test_constructors_set_kind_and_coefficients() -> None:
-    """coefficients() returns (phi0, rate, delta, T, amplitude, omega) for each constructor."""
+    """coefficients() lays out (phi0, rate, delta, T, amplitude, omega) and the kind's code
+    at the named positions, for each constructor."""
     cases = [
         (Law.constant(0.7), LawKind.constant, [0.7, 0, 0, 1, 0, 0]),
         (Law.linear(0.23, 0.31), LawKind.linear, [0.23, 0.31, 0, 1, 0, 0]),
@@ -138,8 +161,11 @@ def test_constructors_set_kind_and_coefficients() -> None:
     ]
     for law, kind, coeffs in cases:
         assert law.kind is kind
-        np.testing.assert_array_equal(law.coefficients(), coeffs)
-        assert law.coefficients().dtype == np.float64
+        c = law.coefficients()
+        assert c.dtype == np.float64 and c.shape == (NLAW,)
+        named = [c[i] for i in (L_PHI0, L_RATE, L_DELTA, L_T, L_AMPLITUDE, L_OMEGA)]
+        np.testing.assert_array_equal(named, coeffs)
+        assert c[L_KIND] == KIND_CODES[kind]
 
 
 @pytest.mark.parametrize("T", [0.0, -1.0])
@@ -222,3 +248,54 @@ def test_en01_pattern_rate_against_central_differences() -> None:
     # fifth derivative is <= 2 pi 720 / 120^5 ~ 2e-7, so the error is rounding ~ 1e-14)
     fd2 = d5(lambda s: pattern_angle(EN01_SURFACE, EN01_MOTION, s)[1], t[1:-1], h)
     np.testing.assert_allclose(fd2, acc[1:-1], rtol=0, atol=1e-12)
+
+
+@pytest.mark.parametrize("edge", [0.0, 2.0])
+def test_cosine_ramp_is_c1_with_the_acceleration_jump_of_its_closed_form(edge: float) -> None:
+    """Across t = 0 and t = T the cosine ramp's value and rate are continuous (the rate is
+    D pi / (2 T) sin(pi t / T), Lipschitz with constant D pi^2 / (2 T^2) = 3.70), while its
+    acceleration jumps by D pi^2 / (2 T^2): from 0 up at t = 0 (cos 0 = 1), from -jump to 0 at
+    T (cos pi = -1). At the ends themselves it takes the ramp's one-sided value (the closed
+    interval [0, T] of docs/model.md s.2), which a step landing there needs."""
+    law = Law.cosine_ramp(0.5, 3.0, 2.0)
+    jump = 3.0 * np.pi**2 / (2 * 2.0**2)
+    for e in (1e-4, 1e-6, 1e-8):
+        lo, hi = law(edge - e), law(edge + e)
+        assert abs(float(hi.value - lo.value)) <= jump * 2 * e + 1e-15
+        assert abs(float(hi.d1 - lo.d1)) <= jump * 2 * e + 1e-15
+        assert float(hi.d2 - lo.d2) == pytest.approx(jump, rel=1e-6)
+    at = law(edge)
+    assert float(at.d2) == pytest.approx(jump if edge == 0.0 else -jump, rel=1e-15)
+    assert float(at.value) == (0.5 if edge == 0.0 else 3.5)
+    before, after = law(-3.0), law(5.0)
+    assert float(before.value) == 0.5 and float(after.value) == 3.5
+    for lv in (before, after):
+        assert float(lv.d1) == 0.0 and float(lv.d2) == 0.0
+    assert law.bounds() == (0.5, 3.5)
+
+
+def test_cosine_ramp_peak_rate_and_midpoint() -> None:
+    """At t = T / 2 the ramp is halfway, at its peak rate D pi / (2 T) and zero acceleration."""
+    law = Law.cosine_ramp(0.0, 3.0, 2.0)
+    mid = law(1.0)
+    assert float(mid.value) == pytest.approx(1.5, abs=1e-15)
+    assert float(mid.d1) == pytest.approx(3.0 * np.pi / 4.0, rel=1e-15)
+    assert float(mid.d2) == pytest.approx(0.0, abs=1e-15)
+    t = np.linspace(0.0, 2.0, 20001)
+    assert float(np.max(law(t).d1)) == pytest.approx(3.0 * np.pi / 4.0, rel=1e-12)
+
+
+@pytest.mark.parametrize("name", list(LAWS))
+def test_compiled_law_eval_matches_the_law(name: str) -> None:
+    """law_eval compiled by numba (as the dynamics core compiles it) agrees with the NumPy
+    law at times before, inside and after the cycle, to rounding."""
+    from numba import njit
+
+    compiled = njit(law_eval)
+    law = LAWS[name]
+    times = np.array([-0.5, 0.0, 0.37, 1.0, 1.11, 1.99, 2.0, 2.5, 7.0])
+    lv = law(times)
+    for i, t in enumerate(times):
+        got = compiled(law.coefficients(), float(t))
+        np.testing.assert_allclose(got, (lv.value[i], lv.d1[i], lv.d2[i]), rtol=1e-13,
+                                   atol=1e-14)

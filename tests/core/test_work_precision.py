@@ -63,7 +63,7 @@ def test_tiny_config_validates_and_plans_every_registered_method(tiny) -> None:
         ("rk4-dense", "dt=0.003"), ("radau5-dense", "rtol=1e-08"),
         ("radau5-fixed-dense", "dt=0.06")]
     dense = next(s for s in plan if s.dense)
-    assert wp.native_problem(wp.base_problem(cfg, "en02"), dense, 0.01).dense_output
+    assert wp.native_problem(wp.base_problem(cfg, "en02"), dense, 0.01).solver.dense_output
     assert {s.method for s in plan if s.group == "full"} == {"rk4-full", "radau5-full"}
     assert {s.method for s in plan if s.group == "mu0"} == {"rk4-mu0", "rk4-mu0-full"}
     from creatio.dynamics.peers import PEERS, SUNDIALS
@@ -198,7 +198,7 @@ def test_harness_measures_the_native_error_on_the_same_solution(tiny) -> None:
     ref, evidence = wp.reference(base, tiny.obj.study.reference)
     assert evidence["check_adaptive_max_diff_m"] < 1e-12
     assert evidence["check_fixed_max_diff_m"] < 1e-12
-    native = simulate(dataclasses.replace(base, method="dopri5", rtol=1e-6, atol=1e-8))
+    native = simulate(base.replace(method="dopri5", rtol=1e-6, atol=1e-8))
     states = np.zeros((native.t.size, base.initial_state(True, False).size))
     states[:, 0] = native.R
     states[:, 1] = native.alpha
@@ -367,7 +367,7 @@ def test_cvode_harness_measures_the_native_error_on_the_same_solution(tiny) -> N
 
     base = wp.base_problem(tiny.obj, "en02")
     ref, _ = wp.reference(base, tiny.obj.study.reference)
-    native = simulate(dataclasses.replace(base, method="radau5", rtol=1e-11, atol=1e-13))
+    native = simulate(base.replace(method="radau5", rtol=1e-11, atol=1e-13))
     theirs = solve_peer(base, "CVODE", 1e-11, 1e-13)
     assert theirs.status == "ok" and theirs.steps == -1 and theirs.rhs_evals > 0
     np.testing.assert_array_equal(theirs.t, native.t)
@@ -392,6 +392,7 @@ def test_fixed_steps_also_run_at_each_newton_tolerance(tiny) -> None:
     plan = [s for s in wp.settings(cfg.study, base) if s.method == "radau5-fixed"]
     assert [s.label for s in plan] == ["dt=0.02", "dt=0.02 newton_rtol=1e-09"]
     plain, newton = (wp.native_problem(base, s, cfg.study.atol_ratio) for s in plan)
+    plain, newton, base = plain.solver, newton.solver, base.solver
     assert (plain.rtol, plain.atol) == (base.rtol, base.atol)
     assert (newton.rtol, newton.atol) == (1e-9, pytest.approx(1e-11))
     assert newton.dt == plain.dt == 0.02 and newton.fixed_step and newton.method == "radau5"

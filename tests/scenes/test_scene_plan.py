@@ -5,7 +5,8 @@ holds the frames is reused."""
 from __future__ import annotations
 
 from creatio.scenes.config import resolve
-from creatio.scenes.plan import needs, reusable
+from creatio.scenes.needs import needs
+from creatio.scenes.plan import reusable
 from creatio.studies.schema import vary
 
 
@@ -15,9 +16,9 @@ def test_a_sphere_scene_asks_for_frames_and_rotation_but_no_energy():
     assert need.interval == 0.4 and need.dt == 0.002 and need.frames == 301
     base = resolve("en02").obj.bases["en02"]
     problem = vary(base, need.changes()).sphere_problem()
-    assert problem.energy is False
+    assert problem.output.energy is False
     assert problem.rotation_integrated
-    assert problem.output_interval == 0.4
+    assert problem.output.interval == 0.4
     assert len(problem.initial_state(True, False)) == 12  # 4 + rotation 8, no energy 2
 
 

@@ -1,10 +1,11 @@
-"""Numeric core of the sphere dynamics on the moving corrugated surface (docs/model.md s.4-6).
+"""Numeric core of the sphere dynamics on the moving corrugated surface (docs/model.md s.4-11).
 
-Plain numbers in, NumPy arrays out. A SphereProblem is integrated by :func:`simulate`, one
-compiled loop (creatio.dynamics.solvers.driver) running any registered method
+Plain numbers in, NumPy arrays out. A SphereProblem (a Model, its Start, and the Solver,
+Output and Events of the run) is integrated by :func:`simulate`, one compiled loop
+(creatio.dynamics.solvers.driver) running any registered method
 (creatio.dynamics.solvers.METHODS: fixed-step RK4, the notebook's reference; the adaptive
-pairs dopri5 and dop853; the L-stable radau5). The friction stability limit of a
-fixed-step explicit scheme (:func:`stability_limit`) is enforced.
+pairs dopri5 and dop853; the L-stable radau5 and rodas4). The friction stability limit of a
+fixed-step explicit scheme (:func:`stability_limit`, :func:`check_stable`) is enforced.
 
 Importing this package compiles nothing: the compiler loads with the first
 :func:`simulate` call, so validation and planning can build problems without it.
@@ -15,22 +16,39 @@ from __future__ import annotations
 from typing import TYPE_CHECKING
 
 from creatio.dynamics.problem import (
+    Events,
+    Model,
+    Output,
     SimulationResult,
+    Solver,
+    Sphere,
     SphereProblem,
+    Start,
+    Structure,
     UnstableStepError,
+    check_stable,
     normal_reaction_at_start,
     stability_limit,
 )
 from creatio.dynamics.solvers import METHODS
 
 if TYPE_CHECKING:
-    from creatio.dynamics.simulation import simulate
+    from creatio.dynamics.simulation import compiled_call, simulate
 
 __all__ = [
     "METHODS",
+    "Events",
+    "Model",
+    "Output",
     "SimulationResult",
+    "Solver",
+    "Sphere",
     "SphereProblem",
+    "Start",
+    "Structure",
     "UnstableStepError",
+    "check_stable",
+    "compiled_call",
     "normal_reaction_at_start",
     "simulate",
     "stability_limit",
@@ -38,9 +56,9 @@ __all__ = [
 
 
 def __getattr__(name: str):
-    """Load the compiled half on first use: ``simulate`` imports numba."""
-    if name == "simulate":
-        from creatio.dynamics.simulation import simulate
+    """Load the compiled half on first use: ``simulate`` and ``compiled_call`` import numba."""
+    if name in ("simulate", "compiled_call"):
+        from creatio.dynamics import simulation
 
-        return simulate
+        return getattr(simulation, name)
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -14,7 +14,7 @@ from numpy.typing import NDArray
 from creatio.dynamics.jit import njit
 from creatio.model.laws import law_eval
 from creatio.model.offset import offset_jets
-from creatio.model.surface import wavenumber
+from creatio.model.surface import Motion, Surface
 
 __all__ = ["centre_kinematics"]
 
@@ -22,9 +22,9 @@ __all__ = ["centre_kinematics"]
 @njit(cache=True)
 def _centre_kinematics_rot(R, a, t, R0, k, A, Ka, b, lr, la, lg):
     """Rotating-frame X, its derivatives, n, c and c_t at (R, alpha, t) for the wrapper."""
-    pr, pr1, pr2 = law_eval(lr[0], lr[1], lr[2], lr[3], lr[4], lr[5], t)
-    pa, pa1, pa2 = law_eval(la[0], la[1], la[2], la[3], la[4], la[5], t)
-    gm, g1, g2 = law_eval(lg[0], lg[1], lg[2], lg[3], lg[4], lg[5], t)
+    pr, pr1, pr2 = law_eval(lr, t)
+    pa, pa1, pa2 = law_eval(la, t)
+    gm, g1, g2 = law_eval(lg, t)
     rho, z, n1, n2, n3, P, Q, Z = offset_jets(
         R, a, R0, k, A, Ka, b, pr, pr1, pr2, pa, pa1, pa2, gm, g1, g2
     )
@@ -45,38 +45,25 @@ def _centre_kinematics_rot(R, a, t, R0, k, A, Ka, b, lr, la, lg):
     return out
 
 
-def centre_kinematics(
-    R0: float,
-    dR: float,
-    A: float,
-    Kr: int,
-    Ka: int,
-    b: float,
-    law_r: tuple[float, ...],
-    law_a: tuple[float, ...],
-    law_gamma: tuple[float, ...],
-    R: float,
-    alpha: float,
-    t: float,
-) -> dict[str, NDArray[np.float64]]:
+def centre_kinematics(surface: Surface, motion: Motion, b: float, R: float, alpha: float,
+                      t: float) -> dict[str, NDArray[np.float64]]:
     """World-frame X, X_q (3, 2), X_t, X_qq (3, 2, 2), X_qt (3, 2), X_tt, n, c, c_t at one point.
 
     The exact derivatives the integrator uses, exposed for verification and for callers
-    that need the offset-surface geometry; q = (R, alpha), laws are 6-coefficient vectors.
+    that need the offset-surface geometry of a sphere of radius b; q = (R, alpha).
     """
-    k = wavenumber(Kr, dR)
     rot = _centre_kinematics_rot(
         float(R),
         float(alpha),
         float(t),
-        float(R0),
-        k,
-        float(A),
-        float(Ka),
+        float(surface.R0),
+        surface.k,
+        float(surface.A),
+        float(surface.Ka),
         float(b),
-        np.asarray(law_r, dtype=float),
-        np.asarray(law_a, dtype=float),
-        np.asarray(law_gamma, dtype=float),
+        motion.phi_r.coefficients(),
+        motion.phi_a.coefficients(),
+        motion.gamma.coefficients(),
     )
     ca, sa = math.cos(alpha), math.sin(alpha)
     to_world = np.array([[ca, -sa, 0.0], [sa, ca, 0.0], [0.0, 0.0, 1.0]])

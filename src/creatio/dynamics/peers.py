@@ -77,10 +77,11 @@ def peer_rhs(problem: SphereProblem, rotation: bool, energy: bool):
 
 def output_grid(problem: SphereProblem) -> NDArray[np.float64]:
     """Output times 0, dt_out, ..., t_end (the native loops' history times)."""
-    n = int(np.floor(problem.t_end / problem.output_interval * (1 + 1e-12)))
-    grid = np.arange(n + 1) * problem.output_interval
-    if grid[-1] < problem.t_end * (1 - 1e-12):
-        grid = np.append(grid, problem.t_end)
+    t_end, interval = problem.output.t_end, problem.output.interval
+    n = int(np.floor(t_end / interval * (1 + 1e-12)))
+    grid = np.arange(n + 1) * interval
+    if grid[-1] < t_end * (1 - 1e-12):
+        grid = np.append(grid, t_end)
     return grid
 
 
@@ -102,7 +103,7 @@ def solve_peer(
     ys = np.full((grid.size, y0.size), np.nan)
     ys[0] = y0
     t0 = time.perf_counter()
-    solver = PEERS[method](fun, 0.0, y0, problem.t_end, rtol=rtol, atol=atol)
+    solver = PEERS[method](fun, 0.0, y0, problem.output.t_end, rtol=rtol, atol=atol)
     steps = 0
     nxt = 1
     status = "ok"

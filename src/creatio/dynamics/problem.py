@@ -1,106 +1,122 @@
-"""A sphere run as plain numbers, its result, and its stability limit (docs/model.md s.4-10).
+"""A sphere run as plain numbers, its result, and its stability limit (docs/model.md s.4-11).
 
 Nothing here compiles: a SphereProblem is built, checked and its friction stability limit
 estimated without numba (validation and workflow planning use it), and creatio.dynamics
-.simulate hands it to the compiled driver. The same problem describes the fixed structure of
-EN-02 (s.4), an equilibrium start on the inclined family (s.8), a structure free to yaw
-(s.9) and a confining force (s.10).
+.simulate hands it to the compiled driver. A problem is split the way a study's config is:
+
+* :class:`Model`, the physical system: the surface's shape (creatio.model.surface.Surface)
+  and motion (its three time laws, creatio.model.surface.Motion), the :class:`Sphere`, and
+  the :class:`Structure` that carries the membrane (fixed, free to yaw, confined);
+* :class:`Start`, the initial state;
+* :class:`Solver`, how it is integrated: method, step, tolerances, dense output, budget;
+* :class:`Output`, what is recorded: the span and grid, rotation and energy bookkeeping;
+* :class:`Events`, what a run does at contact loss (flight) and at leaving its cavity.
+
+The same problem describes the fixed structure of EN-02 (s.4), an equilibrium start on the
+inclined family (s.8), a structure free to yaw (s.9), a confining force (s.10) and flight
+(s.11).
 """
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
 from creatio.dynamics import solvers
+from creatio.dynamics.layout import (
+    LAW_A,
+    LAW_GAMMA,
+    LAW_R,
+    NEV,
+    NLAWS,
+    NPAR,
+    P_A,
+    P_B,
+    P_DR,
+    P_EPS,
+    P_G,
+    P_I,
+    P_INV_IS,
+    P_IS,
+    P_K,
+    P_KA,
+    P_M,
+    P_MCAV,
+    P_MU,
+    P_NCAV,
+    P_PRELOAD,
+    P_R0,
+    P_STOP_LEAVE,
+    Y_ALPHA,
+    Y_ALPHADOT,
+    Y_OMEGA,
+    Y_Q,
+    Y_R,
+    Y_RDOT,
+    state_size,
+)
 from creatio.model import sphere as contact
 from creatio.model.cavity import cavity_angle_branch, cavity_branch
 from creatio.model.equilibrium import Equilibrium, static_equilibrium
-from creatio.model.laws import law_eval
+from creatio.model.laws import NLAW, Law
 from creatio.model.numerics import steps_in
 from creatio.model.offset import offset_jets
 from creatio.model.structure import CONFINEMENTS, inverse_inertia
-from creatio.model.surface import wavenumber
+from creatio.model.surface import Motion, Surface
 
 __all__ = [
     "MAX_IMPACT_CAP",
-    "MAX_STEPS",
-    "NCOL",
-    "NPAR",
+    "MAX_RHS_EVALS",
+    "PROGRESS_INTERVAL",
+    "Events",
+    "Model",
+    "Output",
     "SimulationResult",
+    "Solver",
+    "Sphere",
     "SphereProblem",
+    "Start",
+    "Structure",
     "UnstableStepError",
+    "check_stable",
     "normal_reaction_at_start",
     "stability_limit",
 ]
 
-#: Accepted steps after which an adaptive run gives up (status step_failed).
-MAX_STEPS = 20_000_000
+#: Right-hand-side evaluations a run may spend before it stops with status budget_exceeded
+#: (Solver.max_rhs_evals, solver.max_rhs_evals in a config): above every study's runs (EN-02
+#: at dt / 2 takes 4.8e5, EN-03M's strongest confinement, 43 us steps over 120 s, 1.1e7),
+#: and spent in about a minute of one core where a run would go on for hours.
+MAX_RHS_EVALS = 50_000_000
+#: Seconds between the progress lines a long run prints to stderr.
+PROGRESS_INTERVAL = 10.0
 #: Largest cap on impacts per second: the event table is sized 3 x cap x t_end rows.
 MAX_IMPACT_CAP = 10_000.0
 
-# Parameter vector layout of the compiled core (creatio.dynamics.sphere unpacks it): the
-# surface and sphere, the cavity (n, m) the run starts in, the structure's inertia I_s (inf:
-# fixed) and its inverse, the normal preload P, and whether leaving the cavity stops the run.
-(P_R0, P_DR, P_K, P_A, P_KA, P_M, P_B, P_G, P_MU, P_EPS, P_I, P_NCAV, P_MCAV, P_IS, P_INV_IS,
- P_PRELOAD, P_STOP_LEAVE) = range(17)
-NPAR = 17
-
-# Columns of the history table written by the compiled loop (world frame unless noted).
-COL_T = 0
-COL_X = 1
-COL_R = 4
-COL_ALPHA = 5
-COL_V = 6
-COL_SPEED = 9
-COL_N = 10
-COL_F = 11
-COL_SLIP = 14
-COL_OMEGA = 15
-COL_SPIN_RATE = 18
-COL_SPIN = 19
-COL_Q = 20
-COL_MARKER = 24
-COL_AZIMUTH = 27
-COL_KINETIC = 28
-COL_POTENTIAL = 29
-COL_ENERGY = 30
-COL_WORK = 31
-COL_DISSIPATION = 32
-COL_RESIDUAL = 33
-COL_CAVITY_R = 34
-COL_CELL_U = 35         # phase offsets from the starting cavity's bottom (docs/model.md s.8.2)
-COL_CELL_V = 36
-COL_THETA = 37          # structure yaw and its rate (free structure only, else NaN)
-COL_THETA_RATE = 38
-COL_HZ_STRUCTURE = 39   # H_z parts: I_s Theta, m [X x V_abs] . z^, I omega_z (free only)
-COL_HZ_ORBITAL = 40
-COL_HZ_SPIN = 41
-COL_CONFINE = 42        # W_confine, the normal preload's work (free path only)
-COL_WORLD_AZIMUTH = 43  # centre azimuth in the world frame: relative azimuth + theta
-NCOL = 44
-
-#: Columns of the event table of a run with flight (creatio.dynamics.solvers.hybrid).
-NEV = 11
-
 
 class UnstableStepError(ValueError):
-    """dt lies beyond the RK4 stability limit of the regularised friction (docs/model.md s.6)."""
+    """dt lies beyond the fixed-step stability limit of the regularised friction
+    (docs/model.md s.6.3)."""
 
 
-def _law_tuple(name: str, law: tuple[float, ...]) -> tuple[float, ...]:
-    coeffs = tuple(float(c) for c in law)
-    if len(coeffs) != 6:
-        raise ValueError(f"{name} needs 6 coefficients (phi0, rate, delta, T, amplitude, omega)")
-    if not coeffs[3] > 0.0:
-        raise ValueError(f"{name}: cycle length T must be > 0, got {coeffs[3]}")
-    if not all(math.isfinite(c) for c in coeffs):
-        raise ValueError(f"{name} has non-finite coefficients: {coeffs}")
-    return coeffs
+def _positive(record: Any, *names: str) -> None:
+    for name in names:
+        value = getattr(record, name)
+        if not (math.isfinite(value) and value > 0.0):
+            raise ValueError(f"{name} must be finite and > 0, got {value}")
+
+
+def _nonnegative(record: Any, *names: str) -> None:
+    for name in names:
+        value = getattr(record, name)
+        if not (math.isfinite(value) and value >= 0.0):
+            raise ValueError(f"{name} must be finite and >= 0, got {value}")
 
 
 def _multiple(name: str, value: float, dt: float) -> int:
@@ -111,310 +127,377 @@ def _multiple(name: str, value: float, dt: float) -> int:
     return n
 
 
+# ------------------------------------------------------------------------------- model
 @dataclass(frozen=True)
-class SphereProblem:
-    """One sphere on the moving corrugated surface: geometry, laws, sphere, initial state, solver.
+class Sphere:
+    """The homogeneous rigid sphere and its contact (docs/model.md s.4): mass m, radius b,
+    gravity g (along -z), friction coefficient mu and its regularisation speed eps."""
 
-    Laws are the 6-coefficient vectors (phi0, rate, delta, T, amplitude, omega) of
-    creatio.model.laws; angles in radians, SI units; gravity is (0, 0, -g).
-
-    method: "rk4" (fixed step dt) or one of the adaptive methods "dopri5", "dop853",
-    "radau5", which control the local error to rtol/atol (dt is then the first step; with
-    fixed_step they take the constant step dt instead, without error control).
-    ``dense_output``: steps are not cut to land on the output grid (a fixed dt need not divide
-    output_interval or t_end; the last step lands on t_end) and the rows on the grid are the
-    method's dense output, each with one more right-hand-side evaluation for its diagnostics.
-
-    Beyond the notebook (docs/model.md s.8-10): ``equilibrium_start`` starts at rest at the
-    static equilibrium nearest the bottom of the cavity nearest (R_init, alpha_init) instead
-    of at (R_init, alpha_init) (status no_equilibrium and no run when there is none);
-    ``structure_inertia`` is I_s about z (inf: the fixed structure of EN-02); confinement
-    ``normal`` presses the sphere along -n and ``base`` pulls it along -z, each with force
-    ``confining_force`` P (``base`` is gravity of strength g + P / m); a run with a finite I_s
-    or the normal preload takes the structure path of the core (theta, Theta and the
-    preload's work in the state). ``stop_on_leaving_cavity`` turns leaving the starting
-    cavity's cell from a recorded time into a stop (status left_cavity).
-
-    ``flight`` (docs/model.md s.11) continues a run through separations and impacts
-    instead of stopping it with contact_lost: restitution e in [0, 1], contact resumes
-    after an impact leaving at less than ``resume_speed`` (m/s) or when more than
-    ``impact_cap`` impacts fall within one second. Flight needs an explicit method, the
-    fixed structure, rotation and energy bookkeeping (rotation defaults to on with it).
-    """
-
-    R0: float
-    dR: float
-    A: float
-    Kr: int
-    Ka: int
-    law_r: tuple[float, ...]
-    law_a: tuple[float, ...]
-    law_gamma: tuple[float, ...]
     m: float
     b: float
     g: float
     mu: float
     eps: float
-    R_init: float
-    alpha_init: float
-    Rdot_init: float = 0.0
-    alphadot_init: float = 0.0
-    omega_init: tuple[float, float, float] = (0.0, 0.0, 0.0)
-    t_end: float = 120.0
-    dt: float = 0.002
-    output_interval: float = 0.1
-    rotation: bool | None = None
-    energy: bool = True
-    allow_unstable: bool = False
-    method: str = "rk4"
-    rtol: float = 1e-10
-    atol: float = 1e-12
-    fixed_step: bool = False
-    dense_output: bool = False
-    structure_inertia: float = math.inf
-    confinement: str = "none"
-    confining_force: float = 0.0
-    equilibrium_start: bool = False
-    stop_on_leaving_cavity: bool = False
-    flight: bool = False
-    restitution: float = 0.0
-    resume_speed: float = 1e-4
-    impact_cap: float = 100.0
-    start_height: float = 0.0
-
-    @property
-    def adaptive(self) -> bool:
-        """Whether the step is chosen by error control (adaptive method, not fixed_step)."""
-        return solvers.get(self.method).adaptive and not self.fixed_step
 
     def __post_init__(self) -> None:
-        for name in ("R0", "dR", "m", "b", "eps", "dt", "output_interval", "t_end"):
-            value = getattr(self, name)
-            if not (math.isfinite(value) and value > 0.0):
-                raise ValueError(f"{name} must be finite and > 0, got {value}")
-        for name in ("A", "g", "mu"):
-            value = getattr(self, name)
-            if not (math.isfinite(value) and value >= 0.0):
-                raise ValueError(f"{name} must be finite and >= 0, got {value}")
-        for name in ("Kr", "Ka"):
-            value = getattr(self, name)
-            if int(value) != value or value < 1:
-                raise ValueError(f"{name} must be a positive integer, got {value}")
-        object.__setattr__(self, "law_r", _law_tuple("law_r", self.law_r))
-        object.__setattr__(self, "law_a", _law_tuple("law_a", self.law_a))
-        object.__setattr__(self, "law_gamma", _law_tuple("law_gamma", self.law_gamma))
-        omega = tuple(float(w) for w in self.omega_init)
-        if len(omega) != 3:
-            raise ValueError(f"omega_init needs 3 components, got {self.omega_init}")
-        object.__setattr__(self, "omega_init", omega)
-        solvers.get(self.method)
-        for name in ("rtol", "atol"):
-            value = getattr(self, name)
-            if not (math.isfinite(value) and value > 0.0):
-                raise ValueError(f"{name} must be finite and > 0, got {value}")
-        if not self.adaptive and not self.dense_output:
-            _multiple("output_interval", self.output_interval, self.dt)
-            _multiple("t_end", self.t_end, self.dt)
-        if self.rotation is False and (self.mu > 0.0 or any(omega)):
-            raise ValueError(
-                "rotation=False needs mu = 0 and omega_init = 0: friction or an initial spin "
-                f"couples rotation to the trajectory (mu = {self.mu}, omega_init = {omega})"
-            )
-        if not (self.structure_inertia > 0.0 and not math.isnan(self.structure_inertia)):
-            raise ValueError(f"structure_inertia must be > 0 (inf: fixed), got "
-                             f"{self.structure_inertia}")
-        if self.confinement not in CONFINEMENTS:
-            raise ValueError(f"confinement must be one of {', '.join(CONFINEMENTS)}, got "
-                             f"{self.confinement!r}")
-        P = self.confining_force
-        if not (math.isfinite(P) and P >= 0.0):
-            raise ValueError(f"confining_force must be finite and >= 0, got {P}")
-        if self.confinement == "none" and P != 0.0:
-            raise ValueError(f"confining_force = {P} N needs a confinement (normal or base)")
-        self._check_flight()
-        if self.equilibrium_start and not self.vertical_pull > 0.0:
-            raise ValueError("equilibrium_start needs a pull along -z (g > 0 or a base "
-                             "confinement with P > 0): the equilibrium minimises the height")
-
-    def _check_flight(self) -> None:
-        """Refuse flight settings out of range, or flight where the hybrid loop does not run."""
-        e = self.restitution
-        if not (math.isfinite(e) and 0.0 <= e <= 1.0):
-            raise ValueError(f"restitution must be in [0, 1], got {e}")
-        if not (math.isfinite(self.resume_speed) and self.resume_speed >= 0.0):
-            raise ValueError(f"resume_speed must be finite and >= 0, got {self.resume_speed}")
-        if not (math.isfinite(self.impact_cap) and 1.0 <= self.impact_cap <= MAX_IMPACT_CAP):
-            raise ValueError(f"impact_cap must be between 1 and {MAX_IMPACT_CAP:g} per second, "
-                             f"got {self.impact_cap}")
-        if not (math.isfinite(self.start_height) and self.start_height >= 0.0):
-            raise ValueError(f"start_height must be finite and >= 0, got {self.start_height}")
-        if not self.flight:
-            if self.start_height > 0.0:
-                raise ValueError(f"start_height = {self.start_height} m needs flight")
-            return
-        if self.dense_output:
-            raise ValueError("flight takes its own steps to every event: dense_output is not "
-                             "available with it")
-        if solvers.get(self.method).stepper != solvers.EXPLICIT:
-            raise ValueError(f"flight needs an explicit method (rk4, dopri5, dop853), got "
-                             f"{self.method!r}")
-        if self.structure_free:
-            raise ValueError("flight needs the fixed structure without a normal preload")
-        if self.rotation is False or not self.energy:
-            raise ValueError("flight needs rotation and energy bookkeeping (rotation: None "
-                             "or True, energy: True)")
-
-    @property
-    def structure_free(self) -> bool:
-        """Whether the run takes the structure path (docs/model.md s.9-10): a structure free to
-        yaw (finite I_s) or the normal preload, which needs that path's bookkeeping even on a
-        fixed structure (I_s = inf there, so theta stays 0 exactly)."""
-        return math.isfinite(self.structure_inertia) or self.confinement == "normal"
-
-    @property
-    def vertical_pull(self) -> float:
-        """Acceleration of the pull along -z: gravity g, plus P / m for the base confinement
-        (docs/model.md s.10: a pull toward the base acts as gravity of strength P / m)."""
-        if self.confinement == "base":
-            return self.g + self.confining_force / self.m
-        return self.g
-
-    @property
-    def preload(self) -> float:
-        """The normal preload P (N) along -n; 0 unless confinement is normal."""
-        return self.confining_force if self.confinement == "normal" else 0.0
-
-    @functools.cached_property
-    def equilibrium(self) -> Equilibrium | None:
-        """The static equilibrium of docs/model.md s.8.1 (None unless equilibrium_start)."""
-        if not self.equilibrium_start:
-            return None
-        n, m = self.cavity_cell()
-        return static_equilibrium(self.R0, self.k, self.A, float(self.Ka), self.b,
-                                  law_eval(*self.law_r, 0.0)[0], law_eval(*self.law_a, 0.0)[0],
-                                  law_eval(*self.law_gamma, 0.0)[0], n, m)
-
-    @property
-    def start(self) -> tuple[float, float]:
-        """(R, alpha) the run starts at: the equilibrium when asked for and acceptable, else
-        (R_init, alpha_init)."""
-        eq = self.equilibrium
-        if eq is not None and eq.acceptable:
-            return eq.R, eq.alpha
-        return self.R_init, self.alpha_init
-
-    @property
-    def rotation_integrated(self) -> bool:
-        """Whether the spin and orientation are integrated (auto: mu > 0 or a nonzero spin)."""
-        if self.rotation is None:
-            return self.flight or self.mu > 0.0 or any(w != 0.0 for w in self.omega_init)
-        return bool(self.rotation)
+        _positive(self, "m", "b", "eps")
+        _nonnegative(self, "g", "mu")
 
     @property
     def inertia(self) -> float:
         """Moment of inertia of the homogeneous sphere, I = 2 m b^2 / 5."""
         return contact.inertia(self.m, self.b)
 
+
+@dataclass(frozen=True)
+class Structure:
+    """What carries the membrane (docs/model.md s.9-10): its moment of inertia I_s about z
+    (inf: fixed, EN-02) and a confining force P, ``normal`` (a preload along -n) or ``base``
+    (a pull along -z, gravity of strength g + P / m)."""
+
+    inertia: float = math.inf
+    confinement: str = "none"
+    force: float = 0.0
+
+    def __post_init__(self) -> None:
+        if not (self.inertia > 0.0 and not math.isnan(self.inertia)):
+            raise ValueError(f"inertia must be > 0 (inf: fixed), got {self.inertia}")
+        if self.confinement not in CONFINEMENTS:
+            raise ValueError(f"confinement must be one of {', '.join(CONFINEMENTS)}, got "
+                             f"{self.confinement!r}")
+        _nonnegative(self, "force")
+        if self.confinement == "none" and self.force != 0.0:
+            raise ValueError(f"force = {self.force} N needs a confinement (normal or "
+                             "base)")
+
+    @property
+    def free(self) -> bool:
+        """Whether a run takes the structure path (docs/model.md s.9-10): a structure free to
+        yaw (finite I_s) or the normal preload, which needs that path's bookkeeping even on
+        a fixed structure (I_s = inf there, so theta stays 0 exactly)."""
+        return math.isfinite(self.inertia) or self.confinement == "normal"
+
+    @property
+    def preload(self) -> float:
+        """The normal preload P (N) along -n; 0 unless confinement is normal."""
+        return self.force if self.confinement == "normal" else 0.0
+
+
+@dataclass(frozen=True)
+class Model:
+    """The physical system: the surface's shape and motion, the sphere, the structure.
+    Angles in radians, SI units."""
+
+    surface: Surface
+    motion: Motion
+    sphere: Sphere
+    structure: Structure = Structure()
+
+    def __post_init__(self) -> None:
+        _positive(self.surface, "R0", "dR")
+        _nonnegative(self.surface, "A")
+        for name in ("phi_r", "phi_a", "gamma"):
+            law = getattr(self.motion, name)
+            if not isinstance(law, Law):
+                raise ValueError(f"{name} must be a creatio.model.laws.Law, got {law!r}")
+            if not np.all(np.isfinite(law.coefficients())):
+                raise ValueError(f"{name} has non-finite coefficients: {law}")
+
     @property
     def k(self) -> float:
         """Radial wavenumber k = 2 pi Kr / dR."""
-        return wavenumber(self.Kr, self.dR)
+        return self.surface.k
 
-    def cavity_branch(self) -> int:
-        """Branch n of the cavity R_c = (pi/2 - phi_r + 2 pi n) / k nearest R_init at t = 0."""
-        return cavity_branch(self.R_init, law_eval(*self.law_r, 0.0)[0], self.k)
+    @property
+    def vertical_pull(self) -> float:
+        """Acceleration of the pull along -z: gravity g, plus P / m for the base confinement
+        (docs/model.md s.10: a pull toward the base acts as gravity of strength P / m)."""
+        if self.structure.confinement == "base":
+            return self.sphere.g + self.structure.force / self.sphere.m
+        return self.sphere.g
+
+    def law_matrix(self) -> NDArray[np.float64]:
+        """The three laws' coefficient vectors as the (NLAWS, NLAW) array the compiled core
+        reads (rows LAW_R, LAW_A, LAW_GAMMA of creatio.dynamics.layout)."""
+        lawc = np.empty((NLAWS, NLAW))
+        lawc[LAW_R] = self.motion.phi_r.coefficients()
+        lawc[LAW_A] = self.motion.phi_a.coefficients()
+        lawc[LAW_GAMMA] = self.motion.gamma.coefficients()
+        return lawc
+
+
+@dataclass(frozen=True)
+class Start:
+    """The initial state: contact point (R, alpha) and its rates, the sphere's spin (world
+    frame), whether to start instead at rest at the static equilibrium nearest the bottom of
+    the cavity nearest (R, alpha) (docs/model.md s.8.1), and a dropped start: the centre
+    ``height`` along n above its contact position, at rest, in flight (s.11)."""
+
+    R: float
+    alpha: float
+    Rdot: float = 0.0
+    alphadot: float = 0.0
+    omega: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    equilibrium: bool = False
+    height: float = 0.0
+
+    def __post_init__(self) -> None:
+        omega = tuple(float(w) for w in self.omega)
+        if len(omega) != 3:
+            raise ValueError(f"omega needs 3 components, got {self.omega}")
+        object.__setattr__(self, "omega", omega)
+        _nonnegative(self, "height")
+
+
+# ------------------------------------------------------------------ solver, output, events
+@dataclass(frozen=True)
+class Solver:
+    """How a run is integrated: a method of the registry (creatio.dynamics.solvers.METHODS)
+    at the constant step dt (RK4, or any method with fixed_step) or under local error control
+    to rtol / atol (dt is then the first step); ``dense_output`` samples the output grid from
+    each step's interpolant instead of cutting steps to land on it (a fixed dt need not then
+    divide the interval; the last step lands on t_end). A run stops with status
+    budget_exceeded after ``max_rhs_evals`` right-hand-side evaluations (the budget never
+    changes a step), and prints a line of progress to stderr every ``progress_interval``
+    seconds while it runs (inf: never)."""
+
+    method: str = "rk4"
+    dt: float = 0.002
+    rtol: float = 1e-10
+    atol: float = 1e-12
+    fixed_step: bool = False
+    dense_output: bool = False
+    allow_unstable: bool = False
+    max_rhs_evals: int = MAX_RHS_EVALS
+    progress_interval: float = PROGRESS_INTERVAL
+
+    def __post_init__(self) -> None:
+        solvers.get(self.method)
+        _positive(self, "dt", "rtol", "atol")
+        if int(self.max_rhs_evals) != self.max_rhs_evals or self.max_rhs_evals < 1:
+            raise ValueError(f"max_rhs_evals must be a positive integer, got "
+                             f"{self.max_rhs_evals}")
+        if not self.progress_interval > 0.0:
+            raise ValueError(f"progress_interval must be > 0 s (inf: never), got "
+                             f"{self.progress_interval}")
+
+    @property
+    def adaptive(self) -> bool:
+        """Whether the step is chosen by error control (adaptive method, not fixed_step)."""
+        return solvers.get(self.method).adaptive and not self.fixed_step
+
+
+@dataclass(frozen=True)
+class Output:
+    """What a run records: the span [0, t_end], a history row every ``interval``, and
+    whether rotation (None: when friction or a spin couples it to the path) and the energy
+    bookkeeping are integrated."""
+
+    t_end: float = 120.0
+    interval: float = 0.1
+    rotation: bool | None = None
+    energy: bool = True
+
+    def __post_init__(self) -> None:
+        _positive(self, "t_end", "interval")
+
+
+@dataclass(frozen=True)
+class Events:
+    """What a run does at an event. ``flight`` (docs/model.md s.11) continues it through
+    separations and impacts instead of stopping with contact_lost: restitution e in [0, 1],
+    contact resumes after an impact leaving at less than ``resume_speed`` (m/s) or when more
+    than ``impact_cap`` impacts fall within one second. ``stop_on_leaving_cavity`` turns
+    leaving the starting cavity's cell from a recorded time into a stop (status left_cavity)."""
+
+    flight: bool = False
+    restitution: float = 0.0
+    resume_speed: float = 1e-4
+    impact_cap: float = 100.0
+    stop_on_leaving_cavity: bool = False
+
+    def __post_init__(self) -> None:
+        e = self.restitution
+        if not (math.isfinite(e) and 0.0 <= e <= 1.0):
+            raise ValueError(f"restitution must be in [0, 1], got {e}")
+        _nonnegative(self, "resume_speed")
+        if not (math.isfinite(self.impact_cap) and 1.0 <= self.impact_cap <= MAX_IMPACT_CAP):
+            raise ValueError(f"impact_cap must be between 1 and {MAX_IMPACT_CAP:g} per second, "
+                             f"got {self.impact_cap}")
+
+
+# ----------------------------------------------------------------------------- problem
+@dataclass(frozen=True)
+class SphereProblem:
+    """One sphere on the moving corrugated surface: the model, its start, and how the run is
+    integrated, recorded and continued at events (see the module)."""
+
+    model: Model
+    start: Start
+    solver: Solver = Solver()
+    output: Output = Output()
+    events: Events = Events()
+
+    def __post_init__(self) -> None:
+        sv, out, ev, start = self.solver, self.output, self.events, self.start
+        if not self.adaptive and not sv.dense_output:
+            _multiple("interval", out.interval, sv.dt)
+            _multiple("t_end", out.t_end, sv.dt)
+        mu = self.model.sphere.mu
+        if out.rotation is False and (mu > 0.0 or any(start.omega)):
+            raise ValueError(
+                "rotation=False needs mu = 0 and omega = 0: friction or an initial spin "
+                f"couples rotation to the trajectory (mu = {mu}, omega = {start.omega})"
+            )
+        if start.equilibrium and not self.model.vertical_pull > 0.0:
+            raise ValueError("equilibrium start needs a pull along -z (g > 0 or a base "
+                             "confinement with P > 0): the equilibrium minimises the height")
+        if not ev.flight:
+            if start.height > 0.0:
+                raise ValueError(f"height = {start.height} m (a dropped start) needs flight")
+            return
+        if sv.dense_output:
+            raise ValueError("flight takes its own steps to every event: dense_output is not "
+                             "available with it")
+        if solvers.get(sv.method).stepper != solvers.EXPLICIT:
+            raise ValueError(f"flight needs an explicit method (rk4, dopri5, dop853), got "
+                             f"{sv.method!r}")
+        if self.structure_free:
+            raise ValueError("flight needs the fixed structure without a normal preload")
+        if out.rotation is False or not out.energy:
+            raise ValueError("flight needs rotation and energy bookkeeping (rotation: None "
+                             "or True, energy: True)")
+
+    def replace(self, **changes: Any) -> SphereProblem:
+        """A copy with fields changed, each named by its field name wherever it sits in the
+        tree (names are unique over it): ``p.replace(mu=0.3, method="radau5", t_end=30.0)``;
+        a whole record by its name: ``p.replace(motion=Motion(...))``."""
+        return _replace(self, changes)
+
+    @property
+    def adaptive(self) -> bool:
+        """Whether the step is chosen by error control (adaptive method, not fixed_step)."""
+        return self.solver.adaptive
+
+    @property
+    def structure_free(self) -> bool:
+        """Whether the run takes the structure path of the core (docs/model.md s.9-10)."""
+        return self.model.structure.free
+
+    @property
+    def rotation_integrated(self) -> bool:
+        """Whether the spin and orientation are integrated (auto: mu > 0, a nonzero spin, or
+        flight)."""
+        if self.output.rotation is None:
+            return (self.events.flight or self.model.sphere.mu > 0.0
+                    or any(w != 0.0 for w in self.start.omega))
+        return bool(self.output.rotation)
+
+    @functools.cached_property
+    def equilibrium(self) -> Equilibrium | None:
+        """The static equilibrium of docs/model.md s.8.1 (None unless asked for)."""
+        if not self.start.equilibrium:
+            return None
+        n, m = self.cavity_cell()
+        model, motion = self.model, self.model.motion
+        return static_equilibrium(model.surface.R0, model.k, model.surface.A,
+                                  float(model.surface.Ka), model.sphere.b,
+                                  motion.phi_r.scalar(0.0)[0], motion.phi_a.scalar(0.0)[0],
+                                  motion.gamma.scalar(0.0)[0], n, m)
+
+    @property
+    def start_point(self) -> tuple[float, float]:
+        """(R, alpha) the run starts at: the equilibrium when asked for and acceptable, else
+        the start's (R, alpha)."""
+        eq = self.equilibrium
+        if eq is not None and eq.acceptable:
+            return eq.R, eq.alpha
+        return self.start.R, self.start.alpha
 
     def cavity_cell(self) -> tuple[int, int]:
-        """The cavity (n, m) nearest (R_init, alpha_init) at t = 0: the one whose cell the
-        "carried" check follows (docs/model.md s.8.2) and whose bottom an equilibrium
-        start begins from."""
-        m = cavity_angle_branch(self.alpha_init, law_eval(*self.law_a, 0.0)[0], float(self.Ka))
-        return self.cavity_branch(), m
+        """The cavity (n, m) nearest the start's (R, alpha) at t = 0: the one whose cell the
+        "carried" check follows (docs/model.md s.8.2) and whose bottom an equilibrium start
+        begins from (cavity branch n of R_c = (pi/2 - phi_r + 2 pi n) / k)."""
+        motion = self.model.motion
+        n = cavity_branch(self.start.R, motion.phi_r.scalar(0.0)[0], self.model.k)
+        m = cavity_angle_branch(self.start.alpha, motion.phi_a.scalar(0.0)[0],
+                                float(self.model.surface.Ka))
+        return n, m
 
     def parameter_vector(self) -> NDArray[np.float64]:
-        """Plain parameter array in the layout the compiled core expects."""
+        """The parameter vector the compiled core reads (creatio.dynamics.layout P_*)."""
+        model = self.model
+        surface, sphere, structure = model.surface, model.sphere, model.structure
         p = np.empty(NPAR)
-        p[P_R0] = self.R0
-        p[P_DR] = self.dR
-        p[P_K] = self.k
-        p[P_A] = self.A
-        p[P_KA] = float(self.Ka)
-        p[P_M] = self.m
-        p[P_B] = self.b
-        p[P_G] = self.vertical_pull
-        p[P_MU] = self.mu
-        p[P_EPS] = self.eps
-        p[P_I] = self.inertia
+        p[P_R0] = surface.R0
+        p[P_DR] = surface.dR
+        p[P_K] = model.k
+        p[P_A] = surface.A
+        p[P_KA] = float(surface.Ka)
+        p[P_M] = sphere.m
+        p[P_B] = sphere.b
+        p[P_G] = model.vertical_pull
+        p[P_MU] = sphere.mu
+        p[P_EPS] = sphere.eps
+        p[P_I] = sphere.inertia
         n, m = self.cavity_cell()
         p[P_NCAV] = float(n)
         p[P_MCAV] = float(m)
-        p[P_IS] = self.structure_inertia
-        p[P_INV_IS] = inverse_inertia(self.structure_inertia)
-        p[P_PRELOAD] = self.preload
-        p[P_STOP_LEAVE] = 1.0 if self.stop_on_leaving_cavity else 0.0
+        p[P_IS] = structure.inertia
+        p[P_INV_IS] = inverse_inertia(structure.inertia)
+        p[P_PRELOAD] = structure.preload
+        p[P_STOP_LEAVE] = 1.0 if self.events.stop_on_leaving_cavity else 0.0
         return p
 
     def law_matrix(self) -> NDArray[np.float64]:
-        """The three laws (r, alpha, gamma) as a (3, 6) coefficient array."""
-        return np.array([self.law_r, self.law_a, self.law_gamma], dtype=float)
-
-    def driver_arguments(self) -> tuple[tuple, dict]:
-        """(positional, keyword) arguments of creatio.dynamics.solvers.driver.run: the method,
-        parameters, laws, initial state, a preallocated history table, and the step plan.
-
-        Fixed-step runs take n_steps = t_end / dt steps with a history row every
-        output_interval / dt; adaptive ones, and dense output, write a row per output time.
-        """
-        rot, en = self.rotation_integrated, bool(self.energy)
-        if self.adaptive or self.dense_output:
-            n_steps, stride = math.ceil(self.t_end / self.output_interval * (1 - 1e-12)), 1
-        else:
-            n_steps = _multiple("t_end", self.t_end, self.dt)
-            stride = _multiple("output_interval", self.output_interval, self.dt)
-        out = np.empty((n_steps // stride + 3, NCOL))
-        args = (solvers.get(self.method), self.parameter_vector(), self.law_matrix(),
-                self.initial_state(rot, en), out)
-        kwargs = {
-            "t_end": self.t_end, "interval": self.output_interval, "h0": self.dt,
-            "n_steps": 0 if self.adaptive else n_steps, "stride": stride,
-            "rtol": self.rtol, "atol": self.atol, "fixed": not self.adaptive,
-            "max_steps": MAX_STEPS, "rotation": rot, "energy": en,
-            "free": self.structure_free, "dense": self.dense_output,
-        }
-        return args, kwargs
-
-    def flight_arguments(self) -> tuple[np.ndarray, np.ndarray]:
-        """The hybrid loop's extra arguments: an empty event table sized for the impact cap
-        over the run, and (restitution, resumption speed, impact cap, start height)."""
-        rows = int(3 * self.impact_cap * self.t_end) + 64
-        return (np.full((rows, NEV), math.nan),
-                np.array([self.restitution, self.resume_speed, self.impact_cap,
-                          self.start_height]))
-
-    def compiled_call(self):
-        """A zero-argument call of the compiled run with every argument prepared, for
-        timing the core alone; returns the driver's result tuple."""
-        from creatio.dynamics.solvers.driver import run
-
-        args, kwargs = self.driver_arguments()
-        return lambda: run(*args, **kwargs)
+        """The laws as the compiled core reads them (:meth:`Model.law_matrix`)."""
+        return self.model.law_matrix()
 
     def initial_state(self, rotation: bool, energy: bool) -> NDArray[np.float64]:
-        """Initial state vector for the given specialisation (identity orientation, zero sums).
-
-        Layout (docs/model.md s.4.7): [R, alpha, Rdot, alphadot] + rotation [omega (3), Q (4),
-        cumulative spin] + energy [surface work, friction dissipation] and, on the structure
-        path, + [confinement work] in the energy block and [theta, Theta] last.
-        """
-        R, alpha = self.start
-        y = [R, alpha, self.Rdot_init, self.alphadot_init]
+        """Initial state vector for the given specialisation (identity orientation, zero sums),
+        laid out by creatio.dynamics.layout (docs/model.md s.4.7)."""
+        R, alpha = self.start_point
+        y = np.zeros(state_size(rotation, energy, self.structure_free))
+        y[Y_R] = R
+        y[Y_ALPHA] = alpha
+        y[Y_RDOT] = self.start.Rdot
+        y[Y_ALPHADOT] = self.start.alphadot
         if rotation:
-            y += [*self.omega_init, 1.0, 0.0, 0.0, 0.0, 0.0]
-        if energy:
-            y += [0.0, 0.0, 0.0] if self.structure_free else [0.0, 0.0]
-        if self.structure_free:
-            y += [0.0, 0.0]
-        return np.array(y, dtype=float)
+            y[Y_OMEGA:Y_OMEGA + 3] = self.start.omega
+            y[Y_Q] = 1.0
+        return y
+
+
+#: The problem's tree: which record sits in which field of which record.
+_TREE: dict[type, dict[str, type]] = {
+    SphereProblem: {"model": Model, "start": Start, "solver": Solver, "output": Output,
+                    "events": Events},
+    Model: {"surface": Surface, "motion": Motion, "sphere": Sphere, "structure": Structure},
+}
+
+
+@functools.cache
+def field_names(record: type) -> frozenset[str]:
+    """Every field name in a record's tree, its own and its sub-records'."""
+    names = {f.name for f in fields(record)}
+    for sub in _TREE.get(record, {}).values():
+        names |= field_names(sub)
+    return frozenset(names)
+
+
+def _replace(record: Any, changes: dict[str, Any]) -> Any:
+    """dataclasses.replace over the problem's tree: each change applied in the record that has
+    the field, the records above it rebuilt (and validated) on the way up."""
+    unknown = set(changes) - field_names(type(record))
+    if unknown:
+        raise TypeError(f"{type(record).__name__} has no field {', '.join(sorted(unknown))}")
+    own = {f.name for f in fields(record)}
+    here = {k: v for k, v in changes.items() if k in own}
+    for name, sub in _TREE.get(type(record), {}).items():
+        below = {k: v for k, v in changes.items() if k not in own and k in field_names(sub)}
+        if below and name not in here:
+            here[name] = _replace(getattr(record, name), below)
+    return dataclasses.replace(record, **here) if here else record
 
 
 @dataclass(frozen=True)
@@ -495,12 +578,14 @@ class SimulationResult:
 
 def _start_jets(problem: SphereProblem) -> tuple:
     """The offset jets at the start point and t = 0."""
-    pr, pr1, pr2 = law_eval(*problem.law_r, 0.0)
-    pa, pa1, pa2 = law_eval(*problem.law_a, 0.0)
-    gm, g1, g2 = law_eval(*problem.law_gamma, 0.0)
-    R, alpha = problem.start
-    return offset_jets(R, alpha, problem.R0, problem.k, problem.A, float(problem.Ka),
-                       problem.b, pr, pr1, pr2, pa, pa1, pa2, gm, g1, g2)
+    model = problem.model
+    motion, surface = model.motion, model.surface
+    pr, pr1, pr2 = motion.phi_r.scalar(0.0)
+    pa, pa1, pa2 = motion.phi_a.scalar(0.0)
+    gm, g1, g2 = motion.gamma.scalar(0.0)
+    R, alpha = problem.start_point
+    return offset_jets(R, alpha, surface.R0, model.k, surface.A, float(surface.Ka),
+                       model.sphere.b, pr, pr1, pr2, pa, pa1, pa2, gm, g1, g2)
 
 
 def normal_reaction_at_start(problem: SphereProblem) -> float:
@@ -510,9 +595,10 @@ def normal_reaction_at_start(problem: SphereProblem) -> float:
     s.9 is left out (it vanishes at rest on a fixed structure and is second order in 1/I_s
     otherwise)."""
     _, _, n1, n2, n3, P, Q, Z = _start_jets(problem)
-    a0 = contact.acceleration_at_fixed_rates(P, Q, Z, problem.Rdot_init, problem.alphadot_init)
-    return float(contact.normal_reaction(problem.m, problem.vertical_pull, n1, n2, n3, *a0)
-                 + problem.preload)
+    a0 = contact.acceleration_at_fixed_rates(P, Q, Z, problem.start.Rdot, problem.start.alphadot)
+    model = problem.model
+    return float(contact.normal_reaction(model.sphere.m, model.vertical_pull, n1, n2, n3, *a0)
+                 + model.structure.preload)
 
 
 def contact_radius_at_start(problem: SphereProblem) -> float:
@@ -523,20 +609,21 @@ def contact_radius_at_start(problem: SphereProblem) -> float:
 
 def normal_estimate(problem: SphereProblem) -> float:
     """The a-priori normal reaction of the stability estimate (docs/model.md s.6)."""
-    return contact.normal_estimate(normal_reaction_at_start(problem), problem.m,
-                                   problem.vertical_pull)
+    model = problem.model
+    return contact.normal_estimate(normal_reaction_at_start(problem), model.sphere.m,
+                                   model.vertical_pull)
 
 
 def slip_rate(problem: SphereProblem, N: float, rho: float | None = None) -> float:
     """The slip relaxation rate of this sphere at normal reaction N (1/s); on a free
     structure with the contact at horizontal radius rho (default: the start's), the
     structure's turn adds rho^2 / I_s to the slip mobility (docs/model.md s.6.3)."""
-    inv_Is = inverse_inertia(problem.structure_inertia)
+    sp = problem.model.sphere
+    inv_Is = inverse_inertia(problem.model.structure.inertia)
     if inv_Is == 0.0:
-        return contact.slip_relaxation_rate(problem.mu, N, problem.m, problem.b, problem.eps)
+        return contact.slip_relaxation_rate(sp.mu, N, sp.m, sp.b, sp.eps)
     rho = contact_radius_at_start(problem) if rho is None else rho
-    return contact.slip_relaxation_rate(problem.mu, N, problem.m, problem.b, problem.eps, rho,
-                                        inv_Is)
+    return contact.slip_relaxation_rate(sp.mu, N, sp.m, sp.b, sp.eps, rho, inv_Is)
 
 
 def stability_limit(problem: SphereProblem) -> float:
@@ -552,7 +639,31 @@ def stability_limit(problem: SphereProblem) -> float:
     rho_c^2 / I_s with rho_c the contact point's horizontal radius at the start (simulate
     checks it again with the largest rho_c reached). Returns inf for mu = 0.
     """
-    method = solvers.get(problem.method)
-    if problem.mu == 0.0 or problem.adaptive or method.l_stable:
+    method = solvers.get(problem.solver.method)
+    if problem.model.sphere.mu == 0.0 or problem.adaptive or method.l_stable:
         return math.inf
     return contact.stable_step(method.stability_bound, slip_rate(problem, normal_estimate(problem)))
+
+
+def check_stable(problem: SphereProblem) -> str:
+    """The friction stability rule, in one place (docs/model.md s.6.3): raise
+    UnstableStepError when dt exceeds stability_limit(problem), unless the problem allows it;
+    returns the message ("" when stable), which a run that allows it records as a warning."""
+    limit = stability_limit(problem)
+    dt = problem.solver.dt
+    if not dt > limit:
+        return ""
+    sp = problem.model.sphere
+    name = problem.solver.method.upper()
+    bound = solvers.get(problem.solver.method).stability_bound
+    n_est = normal_estimate(problem)
+    rate = slip_rate(problem, n_est)
+    message = (
+        f"beyond the {name} stability limit of the regularised friction (mu = {sp.mu}, "
+        f"eps = {sp.eps} m/s, m = {sp.m} kg, b = {sp.b} m): the largest stable dt is "
+        f"{limit:.6g} s, dt = {dt} s (slip rate 3.5 mu N / (m eps) = {rate:.4g} 1/s at the "
+        f"a-priori N = {n_est:.4g} N; lambda dt = {rate * dt:.3g}, {name} needs <= {bound:.4g})"
+    )
+    if not problem.solver.allow_unstable:
+        raise UnstableStepError(message)
+    return message

@@ -7,12 +7,13 @@ lazily so that building and validating problems never does.
 from __future__ import annotations
 
 import math
+import sys
 
 import numpy as np
 
 from creatio.dynamics import solvers
 from creatio.dynamics import status as st
-from creatio.dynamics.problem import (
+from creatio.dynamics.layout import (
     COL_ALPHA,
     COL_AZIMUTH,
     COL_CAVITY_R,
@@ -44,66 +45,113 @@ from creatio.dynamics.problem import (
     COL_WORK,
     COL_WORLD_AZIMUTH,
     COL_X,
-    NEV,
-    SimulationResult,
-    SphereProblem,
-    UnstableStepError,
-    normal_estimate,
-    slip_rate,
-    stability_limit,
-)
-from creatio.dynamics.solvers.driver import run
-from creatio.dynamics.solvers.hybrid import FLIGHT, X_MAX_GAP, run_flight
-from creatio.dynamics.sphere import (
     E_E0,
     E_LEFT,
     E_MAX_HZ_DRIFT,
     E_MAX_IS_THETA,
     E_MAX_RHO,
     E_MAX_THETA_RATE,
+    FL_IMPACT_CAP,
+    FL_RESTITUTION,
+    FL_RESUME_SPEED,
+    FL_START_HEIGHT,
+    NCOL,
+    NEV,
+    NFL,
+    X_MAX_GAP,
 )
+from creatio.dynamics.problem import (
+    SimulationResult,
+    SphereProblem,
+    check_stable,
+    slip_rate,
+    stability_limit,
+)
+from creatio.dynamics.progress import budget_message
+from creatio.dynamics.solvers.driver import run
+from creatio.dynamics.solvers.hybrid import FLIGHT, run_flight
 from creatio.model import sphere as contact
+from creatio.model.numerics import steps_in
 
-__all__ = ["simulate"]
+__all__ = ["compiled_call", "simulate"]
+
+
+def _run_arguments(problem: SphereProblem) -> tuple[tuple, dict]:
+    """(positional, keyword) arguments of creatio.dynamics.solvers.driver.run: the method,
+    parameters, laws, initial state, a preallocated history table, and the step plan.
+
+    Fixed-step runs take n_steps = t_end / dt steps with a history row every
+    interval / dt; adaptive ones, and dense output, write a row per output time.
+    """
+    sv, out = problem.solver, problem.output
+    rot, en = problem.rotation_integrated, bool(out.energy)
+    if problem.adaptive or sv.dense_output:
+        n_steps, stride = math.ceil(out.t_end / out.interval * (1 - 1e-12)), 1
+    else:
+        n_steps = steps_in(out.t_end, sv.dt)
+        stride = steps_in(out.interval, sv.dt)
+    table = np.empty((n_steps // stride + 3, NCOL))
+    args = (solvers.get(sv.method), problem.parameter_vector(), problem.law_matrix(),
+            problem.initial_state(rot, en), table)
+    kwargs = {
+        "t_end": out.t_end, "interval": out.interval, "h0": sv.dt,
+        "n_steps": 0 if problem.adaptive else n_steps, "stride": stride,
+        "rtol": sv.rtol, "atol": sv.atol, "fixed": not problem.adaptive,
+        "max_evals": sv.max_rhs_evals, "progress": sv.progress_interval,
+        "rotation": rot, "energy": en,
+        "free": problem.structure_free, "dense": sv.dense_output,
+    }
+    return args, kwargs
+
+
+def _flight_arguments(problem: SphereProblem) -> tuple[np.ndarray, np.ndarray]:
+    """The hybrid loop's extra arguments: an empty event table sized for the impact cap over
+    the run, and the flight settings (creatio.dynamics.layout FL_*)."""
+    ev = problem.events
+    rows = int(3 * ev.impact_cap * problem.output.t_end) + 64
+    fl = np.empty(NFL)
+    fl[FL_RESTITUTION] = ev.restitution
+    fl[FL_RESUME_SPEED] = ev.resume_speed
+    fl[FL_IMPACT_CAP] = ev.impact_cap
+    fl[FL_START_HEIGHT] = problem.start.height
+    return np.full((rows, NEV), math.nan), fl
+
+
+def compiled_call(problem: SphereProblem):
+    """A zero-argument call of the compiled run with every argument prepared, for timing the
+    core alone; returns the driver's result tuple."""
+    args, kwargs = _run_arguments(problem)
+    return lambda: run(*args, **kwargs)
 
 
 def simulate(problem: SphereProblem) -> SimulationResult:
-    """Integrate one sphere run with problem.method; return its histories and extrema.
+    """Integrate one sphere run with its solver; return its histories and extrema.
 
-    Raises UnstableStepError when dt exceeds stability_limit(problem) unless allow_unstable
-    is set (then the run goes ahead and the result carries a warning). A problem with
-    equilibrium_start and no acceptable equilibrium is not run: its result has status
-    no_equilibrium, no steps and empty histories.
+    Raises UnstableStepError when dt exceeds the friction stability limit unless the solver
+    allows it (check_stable: then the run goes ahead and the result carries the warning). A
+    problem with an equilibrium start and no acceptable equilibrium is not run: its result
+    has status no_equilibrium, no steps and empty histories.
     """
     eq = problem.equilibrium
     if eq is not None and not eq.acceptable:
         return _no_equilibrium(problem, eq.reason)
     warnings: list[str] = []
+    unstable = check_stable(problem)
+    if unstable:
+        warnings.append("allow_unstable override: " + unstable)
     limit = stability_limit(problem)
-    name = problem.method.upper()
-    bound = solvers.get(problem.method).stability_bound if math.isfinite(limit) else math.inf
-    if problem.dt > limit:
-        n_est = normal_estimate(problem)
-        rate = slip_rate(problem, n_est)
-        message = (
-            f"dt = {problem.dt} s exceeds the {name} stability limit {limit:.6g} s of the "
-            f"regularised friction (mu = {problem.mu}, eps = {problem.eps} m/s, m = {problem.m} "
-            f"kg, b = {problem.b} m): the largest stable dt is {limit:.6g} s "
-            f"(slip rate 3.5 mu N / (m eps) = {rate:.4g} 1/s at the a-priori N = {n_est:.4g} N; "
-            f"lambda dt = {rate * problem.dt:.3g}, {name} needs <= {bound:.4g})"
-        )
-        if not problem.allow_unstable:
-            raise UnstableStepError(message)
-        warnings.append("allow_unstable override: " + message)
+    sv, sp = problem.solver, problem.model.sphere
+    name = sv.method.upper()
+    bound = solvers.get(sv.method).stability_bound if math.isfinite(limit) else math.inf
     rot = problem.rotation_integrated
-    en = bool(problem.energy)
-    args, kwargs = problem.driver_arguments()
+    en = bool(problem.output.energy)
+    args, kwargs = _run_arguments(problem)
     out = args[4]
     events = np.empty((0, NEV))
     max_height = math.nan
     in_flight = False
-    if problem.flight:
-        ev, fl = problem.flight_arguments()
+    if problem.events.flight:
+        ev, fl = _flight_arguments(problem)
         for key in ("rotation", "energy", "free", "dense"):
             kwargs.pop(key)
         (status, steps, rows, evals, ext, rejected, jacobians, factorisations, stop_time,
@@ -117,21 +165,26 @@ def simulate(problem: SphereProblem) -> SimulationResult:
     else:
         (status, steps, rows, evals, ext, rejected, jacobians, factorisations, stop_time) = run(
             *args, **kwargs)
+    if status == st.BUDGET_EXCEEDED:
+        message = budget_message(float(stop_time), problem.output.t_end, int(steps),
+                                 sv.max_rhs_evals)
+        print(f"creatio: {message}", file=sys.stderr, flush=True)
+        warnings.append(message)
     min_n, max_n, max_slip, max_res, max_track, min_clear, max_bk = (
         float(v) for v in ext[:E_E0]
     )
     free = problem.structure_free
     max_rho = float(ext[E_MAX_RHO]) if free else math.nan
-    if problem.mu > 0.0 and math.isfinite(max_n) and math.isfinite(bound):
+    if sp.mu > 0.0 and math.isfinite(max_n) and math.isfinite(bound):
         # on a free structure, with the largest horizontal radius the contact reached
         # (bounded by the centre's plus b)
         observed = contact.stable_step(
             bound, slip_rate(problem, max_n, max_rho if math.isfinite(max_rho) else None))
-        if problem.dt > observed:
+        if sv.dt > observed:
             warnings.append(
                 f"max N = {max_n:.6g} N during the run puts the {name} stability limit at "
-                f"{observed:.6g} s, below dt = {problem.dt} s (mu = {problem.mu}, "
-                f"eps = {problem.eps} m/s): slip may chatter"
+                f"{observed:.6g} s, below dt = {sv.dt} s (mu = {sp.mu}, "
+                f"eps = {sp.eps} m/s): slip may chatter"
             )
     h = out[:rows]
     nan = np.full(rows, math.nan)
@@ -139,8 +192,8 @@ def simulate(problem: SphereProblem) -> SimulationResult:
     def structure_column(col: int) -> np.ndarray:
         return h[:, col].copy() if free else nan.copy()
 
-    fixed = math.isinf(problem.structure_inertia)
-    start_R, start_alpha = problem.start
+    fixed = math.isinf(problem.model.structure.inertia)
+    start_R, start_alpha = problem.start_point
     return SimulationResult(
         t=h[:, COL_T].copy(),
         X=h[:, COL_X : COL_X + 3].copy(),
@@ -177,10 +230,10 @@ def simulate(problem: SphereProblem) -> SimulationResult:
         rhs_evals=int(evals),
         rotation_integrated=rot,
         energy_integrated=en,
-        dt=problem.dt,
+        dt=sv.dt,
         stability_limit=limit,
         warnings=warnings,
-        method=problem.method,
+        method=sv.method,
         rejected_steps=int(rejected),
         jacobians=int(jacobians),
         lu_factorisations=int(factorisations),
@@ -201,7 +254,7 @@ def simulate(problem: SphereProblem) -> SimulationResult:
         structure_free=free,
         start_R=float(start_R),
         start_alpha=float(start_alpha),
-        flight=problem.flight,
+        flight=problem.events.flight,
         events=events,
         max_flight_height=max_height,
         ends_in_flight=in_flight,
@@ -222,7 +275,7 @@ def _no_equilibrium(problem: SphereProblem, reason: str) -> SimulationResult:
         max_cavity_tracking_error=nan, min_edge_clearance=nan, max_b_kappa=nan,
         status=st.NAMES[st.NO_EQUILIBRIUM], stop_time=0.0, steps=0, rhs_evals=0,
         rotation_integrated=problem.rotation_integrated,
-        energy_integrated=bool(problem.energy), dt=problem.dt,
-        stability_limit=stability_limit(problem), method=problem.method,
+        energy_integrated=bool(problem.output.energy), dt=problem.solver.dt,
+        stability_limit=stability_limit(problem), method=problem.solver.method,
         structure_free=problem.structure_free, equilibrium_message=reason,
     )  # fmt: skip

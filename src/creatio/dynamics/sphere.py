@@ -12,9 +12,8 @@ a third literal flag, ``free``: :func:`rhs_of` resolves it at compile time to th
 :func:`rhs` (the fixed structure of EN-02) or to creatio.dynamics.structure.rhs_structure,
 so a run compiles, and executes, only the right-hand side it uses.
 
-State layout: [R, alpha, Rdot, alphadot] + (rotation) [omega_x, omega_y, omega_z, q0, q1, q2,
-q3, cumulative spin] + (energy) [surface work, friction dissipation (, confinement work on
-the structure path)] + (structure path) [theta, Theta].
+Every position in the state, the parameters, the diagnostics, the extrema and the history
+table is named in creatio.dynamics.layout.
 """
 
 from __future__ import annotations
@@ -23,11 +22,13 @@ import math
 
 import numpy as np
 from numba.core import types
-from numba.extending import overload
+from numba.extending import overload, register_jitable
+from numba.np.unsafe.ndarray import to_fixed_tuple
 
+from creatio.dynamics import layout
 from creatio.dynamics import status as st
 from creatio.dynamics.jit import njit
-from creatio.dynamics.problem import (
+from creatio.dynamics.layout import (
     COL_ALPHA,
     COL_AZIMUTH,
     COL_CAVITY_R,
@@ -59,8 +60,37 @@ from creatio.dynamics.problem import (
     COL_WORK,
     COL_WORLD_AZIMUTH,
     COL_X,
+    D_BK,
+    D_N,
+    D_SLIP,
+    D_X,
+    E_AZ,
+    E_E0,
+    E_HZ0,
+    E_LEFT,
+    E_MAX_BK,
+    E_MAX_HZ_DRIFT,
+    E_MAX_IS_THETA,
+    E_MAX_N,
+    E_MAX_RES,
+    E_MAX_RHO,
+    E_MAX_SLIP,
+    E_MAX_THETA_RATE,
+    E_MAX_TRACK,
+    E_MIN_CLEAR,
+    E_MIN_N,
+    EN_CONFINE,
+    EN_DISSIPATION,
+    EN_WORK,
+    LAW_A,
+    LAW_GAMMA,
+    LAW_R,
+    NDIAG,
+    NEXT,
+    NPAR,
     P_B,
     P_DR,
+    P_EPS,
     P_G,
     P_I,
     P_INV_IS,
@@ -69,14 +99,26 @@ from creatio.dynamics.problem import (
     P_KA,
     P_M,
     P_MCAV,
+    P_MU,
     P_NCAV,
-    P_PRELOAD,
     P_R0,
     P_STOP_LEAVE,
+    ST_RATE,
+    ST_THETA,
+    Y_ALPHA,
+    Y_ALPHADOT,
+    Y_OMEGA,
+    Y_Q,
+    Y_R,
+    Y_RDOT,
+    Y_SPIN,
+    energy_start,
+    structure_start,
 )
 from creatio.dynamics.structure import rhs_structure
 from creatio.dynamics.surface import surface
 from creatio.model.cavity import cavity_cell_offsets, cavity_radius, in_cavity_cell
+from creatio.model.laws import NLAW
 from creatio.model.sphere import (
     acceleration_at_fixed_rates,
     attitude_rates,
@@ -88,16 +130,24 @@ from creatio.model.sphere import (
 )
 from creatio.model.structure import angular_momentum_parts
 
+# The layout's block positions are compiled into the kernels that read them (creatio.dynamics
+# .jit registers the model's scalar formulas the same way); LLVM inlines them and folds the
+# literal flags, so a position costs nothing at run time.
+for _fn in layout.SCALAR_KERNELS:
+    register_jitable(_fn)
 
-@njit(cache=True)
+
+# allocates nothing: compiled without reference counting (a call takes no reference to its
+# arrays, which costs atomic operations every step otherwise)
+@njit(cache=True, _nrt=False)
 def rhs(t, y, dy, pp, lc, rot, en, diag):
-    """Write dy/dt into dy; return (N, |v_s|, X, V, f (rotating frame), phi_r, gamma, b kappa,
-    phi_a).
+    """Write dy/dt into dy; return the diagnostics tuple (creatio.dynamics.layout D_*: N,
+    |v_s|, X, V, f in the rotating frame, phi_r, gamma, b kappa, phi_a).
 
-    pp = (R0, dR, k, A, Ka, m, b, g, mu, eps, I); lc = the 18 law coefficients (r, a, gamma).
+    pp is the parameter tuple (layout P_*), lc the laws' coefficient vectors (layout LAW_*);
     b kappa (the largest principal curvature times b) is computed only when diag is True.
     """
-    return rhs_on(surface(t, y[0], y[1], pp, lc), y, dy, pp, rot, en, diag)
+    return rhs_on(surface(t, y[Y_R], y[Y_ALPHA], pp, lc), y, dy, pp, rot, en, diag)
 
 
 @njit(cache=True, inline="always")
@@ -105,11 +155,15 @@ def rhs_on(sf: tuple, y: np.ndarray, dy: np.ndarray, pp: tuple, rot: bool, en: b
            diag: bool) -> tuple:
     """:func:`rhs` on the surface sf = creatio.dynamics.surface.surface at y's (t, R, alpha),
     so that states sharing (t, R, alpha) share its evaluation."""
-    R0, dR, k, A, Ka, m, b, g, mu, eps, inertia = pp
+    m = pp[P_M]
+    b = pp[P_B]
+    g = pp[P_G]
+    mu = pp[P_MU]
+    eps = pp[P_EPS]
     pr, pa, gm, rho, z, n1, n2, n3, P, Q, Z = sf
-    a = y[1]
-    Rd = y[2]
-    ad = y[3]
+    a = y[Y_ALPHA]
+    Rd = y[Y_RDOT]
+    ad = y[Y_ALPHADOT]
     xR1, xR2, xR3, xa1, xa2, xa3, xt1, xt2, xt3 = centre_tangents(P, Q, Z)
     a01, a02, a03 = acceleration_at_fixed_rates(P, Q, Z, Rd, ad)
     N = normal_reaction(m, g, n1, n2, n3, a01, a02, a03)
@@ -130,9 +184,9 @@ def rhs_on(sf: tuple, y: np.ndarray, dy: np.ndarray, pp: tuple, rot: bool, en: b
     if rot:
         ca = math.cos(a)
         sa = math.sin(a)
-        wx = y[4]
-        wy = y[5]
-        w3 = y[6]
+        wx = y[Y_OMEGA]
+        wy = y[Y_OMEGA + 1]
+        w3 = y[Y_OMEGA + 2]
         w1 = wx * ca + wy * sa
         w2 = wy * ca - wx * sa
         u1 -= b * (w2 * n3 - w3 * n2)
@@ -149,52 +203,48 @@ def rhs_on(sf: tuple, y: np.ndarray, dy: np.ndarray, pp: tuple, rot: bool, en: b
     r1 = f1 / m - a01
     r2 = f2 / m - a02
     r3 = f3 / m - g - a03
-    dy[0] = Rd
-    dy[1] = ad
-    dy[2], dy[3] = tangent_coordinates(xR1, xR2, xR3, xa1, xa2, xa3, r1, r2, r3)
-    ie = 4
+    dy[Y_R] = Rd
+    dy[Y_ALPHA] = ad
+    dy[Y_RDOT], dy[Y_ALPHADOT] = tangent_coordinates(xR1, xR2, xR3, xa1, xa2, xa3, r1, r2, r3)
     if rot:
-        ie = 12
         # I domega/dt = (-b n) x f, rotated back to the world frame
-        s = -b / inertia
+        s = -b / pp[P_I]
         d1 = s * (n2 * f3 - n3 * f2)
         d2 = s * (n3 * f1 - n1 * f3)
-        dy[4] = d1 * ca - d2 * sa
-        dy[5] = d1 * sa + d2 * ca
-        dy[6] = s * (n1 * f2 - n2 * f1)
-        # dQ/dt = 1/2 (0, omega) * Q, world-frame omega
-        dy[7], dy[8], dy[9], dy[10], dy[11] = attitude_rates(
-            y[7], y[8], y[9], y[10], y[4], y[5], y[6])
+        dy[Y_OMEGA] = d1 * ca - d2 * sa
+        dy[Y_OMEGA + 1] = d1 * sa + d2 * ca
+        dy[Y_OMEGA + 2] = s * (n1 * f2 - n2 * f1)
+        # dQ/dt = 1/2 (0, omega) * Q, world-frame omega; the spin integrates |omega|
+        dy[Y_Q], dy[Y_Q + 1], dy[Y_Q + 2], dy[Y_Q + 3], dy[Y_SPIN] = attitude_rates(
+            y[Y_Q], y[Y_Q + 1], y[Y_Q + 2], y[Y_Q + 3], y[Y_OMEGA], y[Y_OMEGA + 1],
+            y[Y_OMEGA + 2])
     if en:
-        dy[ie] = (N * n1 + f1) * ct1 + (N * n3 + f3) * ct3
-        dy[ie + 1] = -(f1 * vs1 + f2 * vs2 + f3 * vs3)
+        ie = energy_start(rot)
+        dy[ie + EN_WORK] = (N * n1 + f1) * ct1 + (N * n3 + f3) * ct3
+        dy[ie + EN_DISSIPATION] = -(f1 * vs1 + f2 * vs2 + f3 * vs3)
     bk = 0.0
     if diag:
         bk = max_curvature_times_b(rho, z, n1, n2, n3, b)
     return N, math.sqrt(slip2), P[0], Q[0], Z[0], V1, V2, V3, f1, f2, f3, pr, gm, bk, pa
 
 
-#: Length of the diagnostics tuple of rhs.
-NDIAG = 15
-
-
-def rhs_of(free, t, y, dy, pp, lc, rot, en, diag, px):
+def rhs_of(free, t, y, dy, pp, lc, rot, en, diag):
     """The right-hand side of the fixed structure (:func:`rhs`) or of the structure path
     (creatio.dynamics.structure.rhs_structure), chosen by the literal flag free at compile
-    time (compiled code only); px = (1 / I_s, normal preload P)."""
+    time (compiled code only)."""
     raise NotImplementedError("called only from compiled code")
 
 
 @overload(rhs_of, prefer_literal=True, inline="always")
-def _rhs_of(free, t, y, dy, pp, lc, rot, en, diag, px):
+def _rhs_of(free, t, y, dy, pp, lc, rot, en, diag):
     """Resolve rhs_of on the literal free: the fixed structure never types the structure path."""
     if not isinstance(free, types.BooleanLiteral):
         return None
     if free.literal_value:
-        def impl(free, t, y, dy, pp, lc, rot, en, diag, px):
-            return rhs_structure(t, y, dy, pp, lc, rot, en, diag, px)
+        def impl(free, t, y, dy, pp, lc, rot, en, diag):
+            return rhs_structure(t, y, dy, pp, lc, rot, en, diag)
     else:
-        def impl(free, t, y, dy, pp, lc, rot, en, diag, px):
+        def impl(free, t, y, dy, pp, lc, rot, en, diag):
             return rhs(t, y, dy, pp, lc, rot, en, diag)
     return impl
 
@@ -203,52 +253,24 @@ def _rhs_of(free, t, y, dy, pp, lc, rot, en, diag, px):
 def store(d, buf):
     """Copy the diagnostics tuple of rhs into buf (an array carries them between steps more
     cheaply than a tuple held in registers across the loop)."""
-    buf[0] = d[0]
-    buf[1] = d[1]
-    buf[2] = d[2]
-    buf[3] = d[3]
-    buf[4] = d[4]
-    buf[5] = d[5]
-    buf[6] = d[6]
-    buf[7] = d[7]
-    buf[8] = d[8]
-    buf[9] = d[9]
-    buf[10] = d[10]
-    buf[11] = d[11]
-    buf[12] = d[12]
-    buf[13] = d[13]
-    buf[14] = d[14]
+    for i in range(NDIAG):
+        buf[i] = d[i]
 
 
 @njit(cache=True)
 def load(buf):
     """The diagnostics tuple stored by :func:`store`."""
-    return (buf[0], buf[1], buf[2], buf[3], buf[4], buf[5], buf[6], buf[7], buf[8], buf[9],
-            buf[10], buf[11], buf[12], buf[13], buf[14])
+    return to_fixed_tuple(buf, NDIAG)
 
 
 @njit(cache=True)
 def pack(p, lawc):
-    """Parameter and law tuples from the plain arrays (unpacked once, outside the loop):
-    pp the surface and sphere, lc the 18 law coefficients, px = (1 / I_s, normal preload P)
-    for the structure path."""
-    pp = (p[0], p[1], p[2], p[3], p[4], p[5], p[6], p[7], p[8], p[9], p[10])
-    lc = (
-        lawc[0, 0], lawc[0, 1], lawc[0, 2], lawc[0, 3], lawc[0, 4], lawc[0, 5],
-        lawc[1, 0], lawc[1, 1], lawc[1, 2], lawc[1, 3], lawc[1, 4], lawc[1, 5],
-        lawc[2, 0], lawc[2, 1], lawc[2, 2], lawc[2, 3], lawc[2, 4], lawc[2, 5],
-    )  # fmt: skip
-    px = (p[P_INV_IS], p[P_PRELOAD])
-    return pp, lc, px
-
-
-# Slots of the running-extrema array shared by the loops (see observe): the first seven are
-# the run's reported extrema, E_E0 and E_AZ carry state between steps; then the first time
-# outside the cavity's cell (NaN while inside) and, on the structure path, H_z(0), the
-# largest |H_z - H_z(0)|, |I_s Theta|, |Theta| and horizontal radius of the centre plus b.
-(E_MIN_N, E_MAX_N, E_MAX_SLIP, E_MAX_RES, E_MAX_TRACK, E_MIN_CLEAR, E_MAX_BK, E_E0, E_AZ,
- E_LEFT, E_HZ0, E_MAX_HZ_DRIFT, E_MAX_IS_THETA, E_MAX_THETA_RATE, E_MAX_RHO) = range(15)
-NEXT = 15
+    """The parameter and law tuples the kernels read, from the plain arrays (unpacked once,
+    outside the loop): pp the parameter vector (layout P_*), lc the three laws' coefficient
+    vectors (layout LAW_*, each laid out by creatio.model.laws L_*)."""
+    lc = (to_fixed_tuple(lawc[LAW_R], NLAW), to_fixed_tuple(lawc[LAW_A], NLAW),
+          to_fixed_tuple(lawc[LAW_GAMMA], NLAW))
+    return to_fixed_tuple(p, NPAR), lc
 
 
 @njit(cache=True)
@@ -264,8 +286,10 @@ def new_extrema(en):
     return ext
 
 
-@njit(cache=True)
-def observe(first, t, y, d, p, ext, out, row, final, sample, rot, en, free):
+# allocates nothing: compiled without reference counting (a call takes no reference to its
+# arrays, which costs atomic operations every step otherwise)
+@njit(cache=True, _nrt=False)
+def observe(first, t, y, d, pp, ext, out, row, final, sample, rot, en, free):
     """Diagnostics of one step start: update extrema, test the stop conditions, write a row.
 
     d is the diagnostic tuple of rhs at (t, y). A row is written when the step is on the
@@ -275,25 +299,25 @@ def observe(first, t, y, d, p, ext, out, row, final, sample, rot, en, free):
     (status, rows written).
     """
     N, slip, X1, X2, X3, V1, V2, V3, f1, f2, f3, pr, gm, bk, pa = d
-    R0 = p[P_R0]
-    dR = p[P_DR]
-    k = p[P_K]
-    m = p[P_M]
-    b = p[P_B]
-    g = p[P_G]
-    inertia = p[P_I]
-    ncav = p[P_NCAV]
-    ie = 12 if rot else 4
+    R0 = pp[P_R0]
+    dR = pp[P_DR]
+    k = pp[P_K]
+    m = pp[P_M]
+    b = pp[P_B]
+    g = pp[P_G]
+    inertia = pp[P_I]
+    ncav = pp[P_NCAV]
+    ie = energy_start(rot)
     two_pi = 2.0 * math.pi
-    R = y[0]
-    a = y[1]
+    R = y[Y_R]
+    a = y[Y_ALPHA]
     # centre's coordinate along the generator e_g (docs/model.md s.1 inverse map); at
     # gamma = 0 it is rho - R0, so clear = min(rho - b - R0, R1 - rho - b)
     sx = (math.sqrt(X1 * X1 + X2 * X2) - R0) * math.cos(gm) + X3 * math.sin(gm)
     clear = min(sx - b, dR - sx - b)
     rc = cavity_radius(pr, k, ncav)
     track = abs(R - rc)
-    du, dv = cavity_cell_offsets(R, a, pr, pa, k, p[P_KA], ncav, p[P_MCAV])
+    du, dv = cavity_cell_offsets(R, a, pr, pa, k, pp[P_KA], ncav, pp[P_MCAV])
     inside = in_cavity_cell(du, dv)
     if not inside and math.isnan(ext[E_LEFT]):
         ext[E_LEFT] = t
@@ -305,11 +329,11 @@ def observe(first, t, y, d, p, ext, out, row, final, sample, rot, en, free):
     if free:
         # structure path (docs/model.md s.9): V is relative to the structure, V_abs adds
         # Theta z^ x X; H_z is frame-invariant; I_s = inf (fixed) makes its part NaN
-        iy = ie + 3 if en else ie
-        theta = y[iy]
-        Th = y[iy + 1]
-        wz = y[6] if rot else 0.0
-        h_s, h_o, h_w = angular_momentum_parts(p[P_IS], Th, m, X1, X2, V1, V2, inertia, wz)
+        iy = structure_start(rot, en)
+        theta = y[iy + ST_THETA]
+        Th = y[iy + ST_RATE]
+        wz = y[Y_OMEGA + 2] if rot else 0.0
+        h_s, h_o, h_w = angular_momentum_parts(pp[P_IS], Th, m, X1, X2, V1, V2, inertia, wz)
         hz = h_s + h_o + h_w
         if first:
             ext[E_HZ0] = hz
@@ -331,19 +355,20 @@ def observe(first, t, y, d, p, ext, out, row, final, sample, rot, en, free):
             Va1 = V1 - Th * X2
             Va2 = V2 + Th * X1
             kin = 0.5 * m * (Va1 * Va1 + Va2 * Va2 + V3 * V3)
-            if p[P_INV_IS] > 0.0:
-                kin += 0.5 * Th * Th / p[P_INV_IS]
+            if pp[P_INV_IS] > 0.0:
+                kin += 0.5 * Th * Th / pp[P_INV_IS]
         else:
             kin = 0.5 * m * (V1 * V1 + V2 * V2 + V3 * V3)
         if rot:
-            kin += 0.5 * inertia * (y[4] * y[4] + y[5] * y[5] + y[6] * y[6])
+            kin += 0.5 * inertia * (y[Y_OMEGA] * y[Y_OMEGA] + y[Y_OMEGA + 1] * y[Y_OMEGA + 1]
+                                    + y[Y_OMEGA + 2] * y[Y_OMEGA + 2])
         pot = m * g * X3
         energy = kin + pot
         if first:
             ext[E_E0] = energy
-        res = energy - ext[E_E0] - y[ie] + y[ie + 1]
+        res = energy - ext[E_E0] - y[ie + EN_WORK] + y[ie + EN_DISSIPATION]
         if free:
-            res -= y[ie + 2]
+            res -= y[ie + EN_CONFINE]
         if abs(res) > ext[E_MAX_RES]:
             ext[E_MAX_RES] = abs(res)
     raw = a + math.atan2(X2, X1)
@@ -378,7 +403,7 @@ def observe(first, t, y, d, p, ext, out, row, final, sample, rot, en, free):
         status = st.EDGE_CROSSED
     elif bk >= 1.0:
         status = st.OFFSET_SINGULAR
-    elif not inside and p[P_STOP_LEAVE] > 0.0:
+    elif not inside and pp[P_STOP_LEAVE] > 0.0:
         status = st.LEFT_CAVITY
     if not (status != st.OK or final or sample):
         return status, 0
@@ -400,15 +425,11 @@ def observe(first, t, y, d, p, ext, out, row, final, sample, rot, en, free):
     out[row, COL_F + 2] = f3
     out[row, COL_SLIP] = slip
     if rot:
-        wx = y[4]
-        wy = y[5]
-        wz = y[6]
-        qn = 1.0 / math.sqrt(y[7] * y[7] + y[8] * y[8] + y[9] * y[9] + y[10] * y[10])
-        q0 = y[7] * qn
-        q1 = y[8] * qn
-        q2 = y[9] * qn
-        q3 = y[10] * qn
-        spin = y[11]
+        wx = y[Y_OMEGA]
+        wy = y[Y_OMEGA + 1]
+        wz = y[Y_OMEGA + 2]
+        q0, q1, q2, q3 = unit_quaternion(y[Y_Q], y[Y_Q + 1], y[Y_Q + 2], y[Y_Q + 3])
+        spin = y[Y_SPIN]
     else:
         wx = 0.0
         wy = 0.0
@@ -418,6 +439,39 @@ def observe(first, t, y, d, p, ext, out, row, final, sample, rot, en, free):
         q2 = 0.0
         q3 = 0.0
         spin = 0.0
+    write_attitude(out, row, wx, wy, wz, q0, q1, q2, q3, spin)
+    out[row, COL_AZIMUTH] = az
+    out[row, COL_KINETIC] = kin
+    out[row, COL_POTENTIAL] = pot
+    out[row, COL_ENERGY] = energy
+    out[row, COL_WORK] = y[ie + EN_WORK] if en else math.nan
+    out[row, COL_DISSIPATION] = y[ie + EN_DISSIPATION] if en else math.nan
+    out[row, COL_RESIDUAL] = res
+    out[row, COL_CAVITY_R] = rc
+    out[row, COL_CELL_U] = du
+    out[row, COL_CELL_V] = dv
+    if free:
+        out[row, COL_THETA] = theta
+        out[row, COL_THETA_RATE] = Th
+        out[row, COL_HZ_STRUCTURE] = h_s
+        out[row, COL_HZ_ORBITAL] = h_o
+        out[row, COL_HZ_SPIN] = h_w
+        out[row, COL_CONFINE] = y[ie + EN_CONFINE] if en else math.nan
+        out[row, COL_WORLD_AZIMUTH] = az + theta
+    return status, 1
+
+
+@njit(cache=True, inline="always")
+def unit_quaternion(q0, q1, q2, q3):
+    """Q normalised for reporting (docs/model.md s.4.6: never inside the right-hand side)."""
+    qn = 1.0 / math.sqrt(q0 * q0 + q1 * q1 + q2 * q2 + q3 * q3)
+    return q0 * qn, q1 * qn, q2 * qn, q3 * qn
+
+
+@njit(cache=True, inline="always")
+def write_attitude(out, row, wx, wy, wz, q0, q1, q2, q3, spin):
+    """The history row's rotation columns: omega, |omega|, the spin, the unit quaternion and
+    the image of the body marker (0, 0, 1)."""
     out[row, COL_OMEGA] = wx
     out[row, COL_OMEGA + 1] = wy
     out[row, COL_OMEGA + 2] = wz
@@ -430,25 +484,6 @@ def observe(first, t, y, d, p, ext, out, row, final, sample, rot, en, free):
     out[row, COL_MARKER] = 2.0 * (q1 * q3 + q0 * q2)
     out[row, COL_MARKER + 1] = 2.0 * (q2 * q3 - q0 * q1)
     out[row, COL_MARKER + 2] = q0 * q0 - q1 * q1 - q2 * q2 + q3 * q3
-    out[row, COL_AZIMUTH] = az
-    out[row, COL_KINETIC] = kin
-    out[row, COL_POTENTIAL] = pot
-    out[row, COL_ENERGY] = energy
-    out[row, COL_WORK] = y[ie] if en else math.nan
-    out[row, COL_DISSIPATION] = y[ie + 1] if en else math.nan
-    out[row, COL_RESIDUAL] = res
-    out[row, COL_CAVITY_R] = rc
-    out[row, COL_CELL_U] = du
-    out[row, COL_CELL_V] = dv
-    if free:
-        out[row, COL_THETA] = theta
-        out[row, COL_THETA_RATE] = Th
-        out[row, COL_HZ_STRUCTURE] = h_s
-        out[row, COL_HZ_ORBITAL] = h_o
-        out[row, COL_HZ_SPIN] = h_w
-        out[row, COL_CONFINE] = y[ie + 2] if en else math.nan
-        out[row, COL_WORLD_AZIMUTH] = az + theta
-    return status, 1
 
 
 @njit(cache=True)
@@ -459,31 +494,37 @@ def evaluate(
 
     Returns (dy/dt, N, |v_s|, b kappa); used for a-priori estimates and tests.
     """
-    pp, lc, px = pack(p, lawc)
+    pp, lc = pack(p, lawc)
     dy = np.empty(y.size)
-    N, slip, X1, X2, X3, V1, V2, V3, f1, f2, f3, pr, gm, bk, pa = rhs(
-        t, y, dy, pp, lc, True, True, True
-    )
-    return dy, N, slip, bk
+    d = rhs(t, y, dy, pp, lc, True, True, True)
+    return dy, d[D_N], d[D_SLIP], d[D_BK]
 
 
 @njit(cache=True)
 def evaluate_structure(p, lawc, y, t):
     """:func:`evaluate` on the structure path: a full (rotation + energy) state with theta,
     Theta last; returns (dy/dt, N, |v_s|, b kappa)."""
-    pp, lc, px = pack(p, lawc)
+    pp, lc = pack(p, lawc)
     dy = np.empty(y.size)
-    d = rhs_structure(t, y, dy, pp, lc, True, True, True, px)
-    return dy, d[0], d[1], d[13]
+    d = rhs_structure(t, y, dy, pp, lc, True, True, True)
+    return dy, d[D_N], d[D_SLIP], d[D_BK]
 
 
 @njit(cache=True)
 def derivative(p, lawc, t, y, rot, en):
     """dy/dt of one state (the right-hand side every integrator uses), as a new array."""
-    pp, lc, px = pack(p, lawc)
+    pp, lc = pack(p, lawc)
     dy = np.empty(y.size)
     rhs(t, y, dy, pp, lc, rot, en, False)
     return dy
+
+
+@njit(cache=True, inline="always")
+def world_centre(d, a):
+    """The centre of diagnostics d turned from the rotating frame at alpha to the world."""
+    ca = math.cos(a)
+    sa = math.sin(a)
+    return d[D_X] * ca - d[D_X + 1] * sa, d[D_X] * sa + d[D_X + 1] * ca, d[D_X + 2]
 
 
 @njit(cache=True)
@@ -493,16 +534,12 @@ def centre_positions(p, lawc, t, states, rot, en):
     The same formula the loops write into the histories (rotating-frame X turned by alpha),
     so an error measured from states equals the one measured from a loop's histories.
     """
-    pp, lc, px = pack(p, lawc)
+    pp, lc = pack(p, lawc)
     n = t.size
     X = np.empty((n, 3))
     dy = np.empty(states.shape[1])
     for i in range(n):
         y = states[i]
         d = rhs(t[i], y, dy, pp, lc, rot, en, False)
-        ca = math.cos(y[1])
-        sa = math.sin(y[1])
-        X[i, 0] = d[2] * ca - d[3] * sa
-        X[i, 1] = d[2] * sa + d[3] * ca
-        X[i, 2] = d[4]
+        X[i, 0], X[i, 1], X[i, 2] = world_centre(d, y[Y_ALPHA])
     return X

@@ -8,9 +8,10 @@ into the rotating frame by the angle theta + alpha where the slip needs it, and 
 is turned back by the same angle (docs/model.md s.9.2, project choice). The 4 x 4 system in
 (qddot, theta'', N) is solved by creatio.model.structure.free_structure_solve.
 
-State: the layout of creatio.dynamics.sphere, with the energy block [surface work, friction
-dissipation, confinement work] and [theta, Theta] last. The diagnostics tuple is that of
-creatio.dynamics.sphere.rhs, with V the centre's velocity relative to the structure.
+State: the layout of creatio.dynamics.layout, with the energy block [surface work, friction
+dissipation, confinement work] and the structure block [theta, Theta] last. The diagnostics
+tuple is that of creatio.dynamics.sphere.rhs, with V the centre's velocity relative to the
+structure.
 """
 
 from __future__ import annotations
@@ -20,6 +21,30 @@ import math
 import numpy as np
 
 from creatio.dynamics.jit import njit
+from creatio.dynamics.layout import (
+    EN_CONFINE,
+    EN_DISSIPATION,
+    EN_WORK,
+    P_B,
+    P_EPS,
+    P_G,
+    P_I,
+    P_INV_IS,
+    P_M,
+    P_MU,
+    P_PRELOAD,
+    ST_RATE,
+    ST_THETA,
+    Y_ALPHA,
+    Y_ALPHADOT,
+    Y_OMEGA,
+    Y_Q,
+    Y_R,
+    Y_RDOT,
+    Y_SPIN,
+    energy_start,
+    structure_start,
+)
 from creatio.dynamics.surface import surface
 from creatio.model.sphere import (
     acceleration_at_fixed_rates,
@@ -34,31 +59,38 @@ from creatio.model.structure import confinement_power, free_structure_solve
 __all__ = ["rhs_structure", "rhs_structure_on"]
 
 
-@njit(cache=True)
-def rhs_structure(t, y, dy, pp, lc, rot, en, diag, px):
+# allocates nothing: compiled without reference counting (a call takes no reference to its
+# arrays, which costs atomic operations every step otherwise)
+@njit(cache=True, _nrt=False)
+def rhs_structure(t, y, dy, pp, lc, rot, en, diag):
     """Write dy/dt into dy on the structure path; return the diagnostics tuple of
     creatio.dynamics.sphere.rhs (N, |v_s|, X, V_rel, f, phi_r, gamma, b kappa, phi_a).
 
-    px = (1 / I_s, P): the structure's inverse inertia (0: fixed) and the normal preload.
+    The parameters pp include the structure's inverse inertia 1 / I_s (0: fixed) and the
+    normal preload P.
     """
-    return rhs_structure_on(surface(t, y[0], y[1], pp, lc), y, dy, pp, rot, en, diag, px)
+    return rhs_structure_on(surface(t, y[Y_R], y[Y_ALPHA], pp, lc), y, dy, pp, rot, en, diag)
 
 
 @njit(cache=True, inline="always")
 def rhs_structure_on(sf: tuple, y: np.ndarray, dy: np.ndarray, pp: tuple, rot: bool,
-                     en: bool, diag: bool, px: tuple) -> tuple:
+                     en: bool, diag: bool) -> tuple:
     """:func:`rhs_structure` on the surface sf = creatio.dynamics.surface.surface at y's
     (t, R, alpha), so that states sharing (t, R, alpha) share its evaluation."""
-    R0, dR, k, A, Ka, m, b, g, mu, eps, inertia = pp
-    inv_is, P = px
+    m = pp[P_M]
+    b = pp[P_B]
+    g = pp[P_G]
+    mu = pp[P_MU]
+    eps = pp[P_EPS]
+    inv_is = pp[P_INV_IS]
+    P = pp[P_PRELOAD]
     pr, pa, gm, rho, z, n1, n2, n3, P_, Q, Z = sf
-    a = y[1]
-    Rd = y[2]
-    ad = y[3]
-    ie = 12 if rot else 4
-    iy = ie + 3 if en else ie
-    th = y[iy]
-    Th = y[iy + 1]
+    a = y[Y_ALPHA]
+    Rd = y[Y_RDOT]
+    ad = y[Y_ALPHADOT]
+    iy = structure_start(rot, en)
+    th = y[iy + ST_THETA]
+    Th = y[iy + ST_RATE]
     xR1, xR2, xR3, xa1, xa2, xa3, xt1, xt2, xt3 = centre_tangents(P_, Q, Z)
     a01, a02, a03 = acceleration_at_fixed_rates(P_, Q, Z, Rd, ad)
     X1 = P_[0]
@@ -77,9 +109,9 @@ def rhs_structure_on(sf: tuple, y: np.ndarray, dy: np.ndarray, pp: tuple, rot: b
     if rot:
         ca = math.cos(th + a)
         sa = math.sin(th + a)
-        wx = y[4]
-        wy = y[5]
-        w3 = y[6]
+        wx = y[Y_OMEGA]
+        wy = y[Y_OMEGA + 1]
+        w3 = y[Y_OMEGA + 2]
         w1 = wx * ca + wy * sa
         w2 = wy * ca - wx * sa
         u1 -= b * (w2 * n3 - w3 * n2)
@@ -106,25 +138,27 @@ def rhs_structure_on(sf: tuple, y: np.ndarray, dy: np.ndarray, pp: tuple, rot: b
     r1 = b1 + thdd * X2 + f1 / m
     r2 = b2 - thdd * X1 + f2 / m
     r3 = b3 + f3 / m
-    dy[0] = Rd
-    dy[1] = ad
-    dy[2], dy[3] = tangent_coordinates(xR1, xR2, xR3, xa1, xa2, xa3, r1, r2, r3)
+    dy[Y_R] = Rd
+    dy[Y_ALPHA] = ad
+    dy[Y_RDOT], dy[Y_ALPHADOT] = tangent_coordinates(xR1, xR2, xR3, xa1, xa2, xa3, r1, r2, r3)
     if rot:
         # I domega/dt = (-b n) x f, turned from the rotating frame to the world by theta + a
-        s = -b / inertia
+        s = -b / pp[P_I]
         d1 = s * (n2 * f3 - n3 * f2)
         d2 = s * (n3 * f1 - n1 * f3)
-        dy[4] = d1 * ca - d2 * sa
-        dy[5] = d1 * sa + d2 * ca
-        dy[6] = s * (n1 * f2 - n2 * f1)
-        dy[7], dy[8], dy[9], dy[10], dy[11] = attitude_rates(
-            y[7], y[8], y[9], y[10], y[4], y[5], y[6])
+        dy[Y_OMEGA] = d1 * ca - d2 * sa
+        dy[Y_OMEGA + 1] = d1 * sa + d2 * ca
+        dy[Y_OMEGA + 2] = s * (n1 * f2 - n2 * f1)
+        dy[Y_Q], dy[Y_Q + 1], dy[Y_Q + 2], dy[Y_Q + 3], dy[Y_SPIN] = attitude_rates(
+            y[Y_Q], y[Y_Q + 1], y[Y_Q + 2], y[Y_Q + 3], y[Y_OMEGA], y[Y_OMEGA + 1],
+            y[Y_OMEGA + 2])
     if en:
-        dy[ie] = (N * n1 + f1) * ct1 + (N * n3 + f3) * ct3
-        dy[ie + 1] = -(f1 * vs1 + f2 * vs2 + f3 * vs3)
-        dy[ie + 2] = confinement_power(P, n1, n3, ct1, ct3)
-    dy[iy] = Th
-    dy[iy + 1] = thdd
+        ie = energy_start(rot)
+        dy[ie + EN_WORK] = (N * n1 + f1) * ct1 + (N * n3 + f3) * ct3
+        dy[ie + EN_DISSIPATION] = -(f1 * vs1 + f2 * vs2 + f3 * vs3)
+        dy[ie + EN_CONFINE] = confinement_power(P, n1, n3, ct1, ct3)
+    dy[iy + ST_THETA] = Th
+    dy[iy + ST_RATE] = thdd
     bk = 0.0
     if diag:
         bk = max_curvature_times_b(rho, z, n1, n2, n3, b)

@@ -1,29 +1,44 @@
 """The surface under the sphere at one time and contact point, for the compiled right-hand sides.
 
 Everything the right-hand sides need that depends on (t, R, alpha) alone: the three time laws
-and the offset jets of creatio.model.offset. Split from the rest so that evaluations at the
-same (t, R, alpha), such as the Jacobian's velocity columns, compute it once.
+(:func:`phases`) and the offset jets of creatio.model.offset. Split from the rest so that
+evaluations at the same (t, R, alpha), such as the Jacobian's velocity columns, compute it
+once, and so that a phase which is not a law of time could enter here alone.
 """
 
 from __future__ import annotations
 
 from creatio.dynamics.jit import njit
+from creatio.dynamics.layout import LAW_A, LAW_GAMMA, LAW_R, P_A, P_B, P_K, P_KA, P_R0
 from creatio.model.laws import law_eval
 from creatio.model.offset import offset_jets
 
-__all__ = ["surface"]
+__all__ = ["phases", "surface"]
+
+
+#: The law evaluation, inlined where the right-hand sides call it: LLVM keeps it an out-of-line
+#: call (three per right-hand side) once it holds more than one step kind.
+_law = njit(cache=True, inline="always")(law_eval)
+
+
+@njit(cache=True, inline="always")
+def phases(t: float, lc: tuple) -> tuple:
+    """(phi_r, phi_r', phi_r'', phi_a, phi_a', phi_a'', gamma, gamma', gamma'') at time t, from
+    the law coefficient vectors lc (rows LAW_R, LAW_A, LAW_GAMMA of the law matrix)."""
+    pr, pr1, pr2 = _law(lc[LAW_R], t)
+    pa, pa1, pa2 = _law(lc[LAW_A], t)
+    gm, g1, g2 = _law(lc[LAW_GAMMA], t)
+    return pr, pr1, pr2, pa, pa1, pa2, gm, g1, g2
 
 
 @njit(cache=True, inline="always")
 def surface(t: float, R: float, a: float, pp: tuple, lc: tuple) -> tuple:
     """(phi_r, phi_a, gamma, rho, z, n_rho, n_alpha, n_z, P, Q, Z) at time t and (R, alpha):
     the law values and the offset jets (creatio.model.offset.offset_jets), in the rotating
-    frame; pp and lc as in creatio.dynamics.sphere.rhs."""
-    R0, dR, k, A, Ka, m, b, g, mu, eps, inertia = pp
-    pr, pr1, pr2 = law_eval(lc[0], lc[1], lc[2], lc[3], lc[4], lc[5], t)
-    pa, pa1, pa2 = law_eval(lc[6], lc[7], lc[8], lc[9], lc[10], lc[11], t)
-    gm, g1, g2 = law_eval(lc[12], lc[13], lc[14], lc[15], lc[16], lc[17], t)
+    frame; pp the parameter tuple (creatio.dynamics.layout P_*), lc the laws."""
+    pr, pr1, pr2, pa, pa1, pa2, gm, g1, g2 = phases(t, lc)
     rho, z, n1, n2, n3, P, Q, Z = offset_jets(
-        R, a, R0, k, A, Ka, b, pr, pr1, pr2, pa, pa1, pa2, gm, g1, g2
+        R, a, pp[P_R0], pp[P_K], pp[P_A], pp[P_KA], pp[P_B], pr, pr1, pr2, pa, pa1, pa2, gm, g1,
+        g2
     )
     return pr, pa, gm, rho, z, n1, n2, n3, P, Q, Z

@@ -27,7 +27,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from creatio.model.laws import LawKind
+from creatio.model.laws import L_AMPLITUDE, L_DELTA, L_PHI0, L_RATE, LawKind
 from creatio.model.surface import Frame, Motion, Surface, Wave
 
 __all__ = [
@@ -217,7 +217,8 @@ def converge_quadrature(surface: Surface, motion: Motion, t: ArrayLike, sigma: f
 
 def _flat(motion: Motion) -> bool:
     """Whether the inclination law is identically zero (every coefficient 0)."""
-    return bool(np.all(motion.gamma.coefficients()[[0, 1, 2, 4]] == 0.0))
+    c = motion.gamma.coefficients()
+    return bool(np.all(c[[L_PHI0, L_RATE, L_DELTA, L_AMPLITUDE]] == 0.0))
 
 
 def annulus_kinetic_energy(surface: Surface, motion: Motion, t: ArrayLike, sigma: float

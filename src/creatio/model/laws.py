@@ -4,18 +4,24 @@ Every law is one case of the general form (angles in radians, t in seconds)
 
     phi(t) = phi0 + rate * t + delta * s(clip(t / T, 0, 1)) + amplitude * sin(omega * t)
 
-where s(tau) = 10 tau^3 - 15 tau^4 + 6 tau^5 is the quintic smooth step
-(s(0) = 0, s(1) = 1, s' and s'' vanish at both ends, so clamping keeps the law C2).
-The kinds of docs/model.md s.2 are the special cases:
+where s is the step of the law's kind, travelled over one cycle of length T: the quintic
+smooth step s(tau) = 10 tau^3 - 15 tau^4 + 6 tau^5 (s(0) = 0, s(1) = 1, s' and s'' vanish at
+both ends, so clamping keeps the law C2), or for the cosine ramp s(tau) = (1 - cos(pi tau)) / 2
+(s' vanishes at both ends, s'' does not: the clamped law is C1). The kinds of docs/model.md
+s.2 are the special cases:
 
-* constant:  phi0
-* linear:    phi0 + rate t
-* quintic:   phi0 + delta s(t / T)           (starts and stops at zero speed)
-* sinusoid:  phi0 + amplitude sin(omega t)   (the inclination law gamma0 + G sin(Omega t))
+* constant:     phi0
+* linear:       phi0 + rate t
+* quintic:      phi0 + delta s(t / T)          (starts and stops at zero speed)
+* cosine_ramp:  phi0 + delta (1 - cos(pi t / T)) / 2 on [0, T], held after
+* sinusoid:     phi0 + amplitude sin(omega t)  (the inclination law gamma0 + G sin(Omega t))
 
-The six coefficients (phi0, rate, delta, T, amplitude, omega) are the plain-number
-form that the compiled dynamics core evaluates; ``Law.coefficients`` returns them, and
-:func:`law_eval` evaluates them at one time in scalar code (docs/model.md s.2).
+A law's plain-number form is its coefficient vector (:meth:`Law.coefficients`, laid out by
+the L_* indices below): the six coefficients of the general form and the kind's code, which
+says which step delta travels along. :func:`law_eval` evaluates that vector at one time in
+scalar code, which the compiled dynamics core (creatio.dynamics) compiles as it is; a new
+kind is its step here, its code, and the coefficients its config uses
+(creatio.studies.schema).
 """
 
 from __future__ import annotations
@@ -27,7 +33,23 @@ from enum import StrEnum
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-__all__ = ["Law", "LawKind", "LawValue", "law_eval", "quintic_step"]
+__all__ = [
+    "KIND_CODES",
+    "L_AMPLITUDE",
+    "L_DELTA",
+    "L_KIND",
+    "L_OMEGA",
+    "L_PHI0",
+    "L_RATE",
+    "L_T",
+    "NLAW",
+    "Law",
+    "LawKind",
+    "LawValue",
+    "cosine_step",
+    "law_eval",
+    "quintic_step",
+]
 
 
 class LawKind(StrEnum):
@@ -37,6 +59,17 @@ class LawKind(StrEnum):
     linear = "linear"
     quintic = "quintic"
     sinusoid = "sinusoid"
+    cosine_ramp = "cosine_ramp"
+
+
+#: The coefficient vector of a law: the terms of the general form, then the kind's code.
+(L_PHI0, L_RATE, L_DELTA, L_T, L_AMPLITUDE, L_OMEGA, L_KIND) = range(7)
+NLAW = 7
+
+#: The code of each kind in the coefficient vector (its position in LawKind).
+KIND_CODES: dict[LawKind, int] = {kind: code for code, kind in enumerate(LawKind)}
+#: The cosine ramp's code: delta travels the cosine step instead of the quintic one.
+COSINE_RAMP = KIND_CODES[LawKind.cosine_ramp]
 
 
 @dataclass(frozen=True)
@@ -56,6 +89,19 @@ def quintic_step(tau: ArrayLike) -> tuple[NDArray, NDArray, NDArray]:
     s = x * x * x * (10.0 - 15.0 * x + 6.0 * x * x)
     ds = np.where(inside, 30.0 * x * x * (1.0 - x) ** 2, 0.0)
     dds = np.where(inside, 60.0 * x * (1.0 - x) * (1.0 - 2.0 * x), 0.0)
+    return s, ds, dds
+
+
+def cosine_step(tau: ArrayLike) -> tuple[NDArray, NDArray, NDArray]:
+    """Return s, ds/dtau, d2s/dtau2 of the cosine step (1 - cos(pi tau)) / 2 on the closed
+    interval [0, 1], held outside it. Its second derivative jumps by pi^2 / 2 at both ends;
+    there the ramp's own one-sided value is taken (docs/model.md s.2)."""
+    tau = np.asarray(tau, dtype=float)
+    inside = (tau >= 0.0) & (tau <= 1.0)
+    x = np.pi * np.clip(tau, 0.0, 1.0)
+    s = 0.5 - 0.5 * np.cos(x)
+    ds = np.where(inside, 0.5 * np.pi * np.sin(x), 0.0)
+    dds = np.where(inside, 0.5 * np.pi * np.pi * np.cos(x), 0.0)
     return s, ds, dds
 
 
@@ -91,20 +137,40 @@ class Law:
         return cls(phi0=phi0, delta=delta, T=T, kind=LawKind.quintic)
 
     @classmethod
+    def cosine_ramp(cls, phi0: float, delta: float, T: float) -> Law:
+        """phi(t) = phi0 + delta (1 - cos(pi t / T)) / 2 over one cycle of length T."""
+        return cls(phi0=phi0, delta=delta, T=T, kind=LawKind.cosine_ramp)
+
+    @classmethod
     def sinusoid(cls, phi0: float, amplitude: float, omega: float) -> Law:
         """phi(t) = phi0 + amplitude sin(omega t)."""
         return cls(phi0=phi0, amplitude=amplitude, omega=omega, kind=LawKind.sinusoid)
 
     def coefficients(self) -> NDArray[np.float64]:
-        """The six plain numbers (phi0, rate, delta, T, amplitude, omega) of the general form."""
-        return np.array(
-            [self.phi0, self.rate, self.delta, self.T, self.amplitude, self.omega], dtype=float
-        )
+        """The coefficient vector (phi0, rate, delta, T, amplitude, omega, kind code)."""
+        c = np.empty(NLAW)
+        c[L_PHI0] = self.phi0
+        c[L_RATE] = self.rate
+        c[L_DELTA] = self.delta
+        c[L_T] = self.T
+        c[L_AMPLITUDE] = self.amplitude
+        c[L_OMEGA] = self.omega
+        c[L_KIND] = KIND_CODES[self.kind]
+        return c
+
+    def scalar(self, t: float) -> tuple[float, float, float]:
+        """Value, first and second derivative at one time t, by the compiled formula
+        (:func:`law_eval`)."""
+        return law_eval(self.coefficients(), t)
+
+    def step(self, tau: ArrayLike) -> tuple[NDArray, NDArray, NDArray]:
+        """s, ds/dtau, d2s/dtau2 of the step this law's delta travels along."""
+        return cosine_step(tau) if self.kind is LawKind.cosine_ramp else quintic_step(tau)
 
     def __call__(self, t: ArrayLike) -> LawValue:
         """Evaluate value, first and second derivative at times t (any shape)."""
         t = np.asarray(t, dtype=float)
-        s, ds, dds = quintic_step(t / self.T)
+        s, ds, dds = self.step(t / self.T)
         wt = self.omega * t
         sin_wt, cos_wt = np.sin(wt), np.cos(wt)
         value = self.phi0 + self.rate * t + self.delta * s + self.amplitude * sin_wt
@@ -124,21 +190,39 @@ class Law:
         return lo - swing, hi + swing
 
 
-def law_eval(
-    phi0: float, rate: float, delta: float, T: float, amplitude: float, omega: float, t: float
-) -> tuple[float, float, float]:
-    """Value, first and second time derivative of the general law at one time t.
+def law_eval(c, t: float) -> tuple[float, float, float]:
+    """Value, first and second time derivative at one time t of the law whose coefficient
+    vector (:meth:`Law.coefficients`, a tuple or an array) is c.
 
     Scalar code with no NumPy, so the dynamics layer compiles this very function into its
-    loops (creatio.dynamics.kernels); terms with a zero coefficient are skipped (no
+    loops (creatio.dynamics.jit registers it); terms with a zero coefficient are skipped (no
     trigonometry for a law without a sinusoid). Agrees with :class:`Law` to rounding.
     """
-    value = phi0 + rate * t
+    rate = c[L_RATE]
+    delta = c[L_DELTA]
+    amplitude = c[L_AMPLITUDE]
+    value = c[L_PHI0] + rate * t
     d1 = rate
     d2 = 0.0
     if delta != 0.0:
+        T = c[L_T]
         tau = t / T
-        if tau <= 0.0:
+        if c[L_KIND] == COSINE_RAMP:
+            # the closed interval [0, 1]: at its ends the ramp's one-sided acceleration
+            if tau < 0.0:
+                s = 0.0
+                ds = 0.0
+                dds = 0.0
+            elif tau > 1.0:
+                s = 1.0
+                ds = 0.0
+                dds = 0.0
+            else:
+                x = math.pi * tau
+                s = 0.5 - 0.5 * math.cos(x)
+                ds = 0.5 * math.pi * math.sin(x)
+                dds = 0.5 * math.pi * math.pi * math.cos(x)
+        elif tau <= 0.0:
             s = 0.0
             ds = 0.0
             dds = 0.0
@@ -155,6 +239,7 @@ def law_eval(
         d1 += delta * ds / T
         d2 += delta * dds / (T * T)
     if amplitude != 0.0:
+        omega = c[L_OMEGA]
         sw = math.sin(omega * t)
         cw = math.cos(omega * t)
         value += amplitude * sw

@@ -27,7 +27,7 @@ import xarray as xr
 
 from creatio.model.cavity import classify_inclination
 from creatio.model.surface import Frame, Motion
-from creatio.scenes.plan import RunNeed, needs
+from creatio.scenes.needs import RunNeed, needs
 from creatio.scenes.schema import Readout
 from creatio.studies.schema import GeometryConfig, vary
 
@@ -76,7 +76,7 @@ def run_need(base: Any, need: RunNeed) -> tuple[xr.Dataset, dict[str, Any]]:
     t0 = time.perf_counter()
     ds = run(cfg, cfg.solver.dt)
     seconds = time.perf_counter() - t0
-    rot, en = problem.rotation_integrated, bool(problem.energy)
+    rot, en = problem.rotation_integrated, bool(problem.output.energy)
     info = {
         "outputs": list(need.outputs),
         "rotation_integrated": rot,

@@ -5,7 +5,7 @@ A sphere scene may declare axes, ``scene.axes: {sphere: {mu: "range(0, 0.41, 0.0
 family is the Cartesian product of the axes; each member is the scene's config with the
 axis keys set in every study it shows (``sphere.mu`` reaches ``bases.en02`` and
 ``bases.en02r`` of ``compare``), planned from what the page draws exactly as the scene
-itself (:func:`creatio.scenes.plan.needs`: frame times only, no energy, no dt / 2 partner).
+itself (:func:`creatio.scenes.needs.needs`: frame times only, no energy, no dt / 2 partner).
 The page gets a slider per axis and a chart of each member's headline figures (:data:`FIGURES`).
 
 The family is computed the way ``snakemake sweep`` computes points
@@ -467,7 +467,7 @@ def compute_member(m: Member) -> Any:
     import numpy as np
 
     from creatio.scenes.compute import run_need, sphere_scene
-    from creatio.scenes.plan import needs
+    from creatio.scenes.needs import needs
 
     computed = {need.study: run_need(m.obj.bases[need.study], need) for need in needs(m)}
     ds = sphere_scene(m, computed=computed)

@@ -147,13 +147,14 @@ def structure_dataset(prob: SphereProblem, res: SimulationResult) -> xr.Dataset:
     figures = run_scalars(ds)
     rho0 = figures["initial_radius"]
     rotation = float(np.degrees(th[-1] - th[0])) if th.size else math.nan
+    structure = prob.model.structure
     ds.attrs.update({
-        "structure_inertia": prob.structure_inertia,
-        "confinement": prob.confinement,
-        "confining_force": prob.confining_force,
+        "structure_inertia": structure.inertia,
+        "confinement": structure.confinement,
+        "confining_force": structure.force,
         "structure_rotation": rotation,
         "structure_rotation_point_mass": point_mass_rotation(
-            prob.m, rho0, prob.structure_inertia, figures["angular_displacement"]),
+            prob.model.sphere.m, rho0, structure.inertia, figures["angular_displacement"]),
         "angular_displacement": figures["angular_displacement"],
         "world_angular_displacement": (float(ds.world_azimuth.values[-1]
                                              - ds.world_azimuth.values[0])

@@ -346,7 +346,7 @@ def _run(cfg: DynamicConfig, dt: float) -> tuple[SimulationResult | None, str]:
     """simulate() at dt with the energy bookkeeping off; (None, message) if dt is unstable."""
     from creatio.dynamics import simulate
 
-    problem = dataclasses.replace(cfg.sphere_problem(dt), energy=False)
+    problem = cfg.sphere_problem(dt).replace(energy=False)
     try:
         return simulate(problem), ""
     except UnstableStepError as error:

@@ -11,14 +11,13 @@ is bisected with flight (where the sphere no longer comes back to its cavity) an
 
 from __future__ import annotations
 
-import dataclasses
 import math
 
 import numpy as np
 import xarray as xr
 
 from creatio.dynamics import SimulationResult, SphereProblem, simulate
-from creatio.dynamics.solvers.hybrid import (
+from creatio.dynamics.layout import (
     EV_ALPHA,
     EV_HEIGHT,
     EV_IMPACT,
@@ -34,7 +33,7 @@ from creatio.dynamics.solvers.hybrid import (
 )
 from creatio.model.cavity import in_cavity_cell
 from creatio.studies.beyond import output_grid, run_dataset, stack
-from creatio.studies.schema import En02fConfig
+from creatio.studies.schema import En02fConfig, with_cycle
 
 __all__ = ["HISTORIES", "cycle_boundary", "event_figures", "run", "run_drop"]
 
@@ -117,7 +116,7 @@ def _returns(prob: SphereProblem) -> bool:
     """Whether a run completes with the sphere in its starting cavity: with flight, back in
     its cell and in contact at the end; without, simply status ok (contact never lost)."""
     res = simulate(prob)
-    if not prob.flight:
+    if not prob.events.flight:
         return res.status == "ok"
     return bool(event_figures(res)["ends_in_cavity"])
 
@@ -130,12 +129,10 @@ def cycle_boundary(cfg: En02fConfig, dt: float, restitution: float, flight: bool
     sweep has no such pair."""
     probs = {T: p for T, e, p in cfg.run_problems(dt) if e == restitution}
     base = next(iter(probs.values()))
-    base = dataclasses.replace(base, flight=flight)
+    base = base.replace(flight=flight)
 
     def at(T: float) -> SphereProblem:
-        laws = {n: (*getattr(base, n)[:3], T, *getattr(base, n)[4:])
-                for n in ("law_r", "law_a", "law_gamma")}
-        return dataclasses.replace(base, **laws, t_end=T)
+        return base.replace(motion=with_cycle(base.model.motion, T), t_end=T)
 
     verdict = {T: _returns(at(T)) for T in sorted(probs)}
     pairs = [(a, b) for a, b in zip(sorted(verdict), sorted(verdict)[1:], strict=False)
@@ -218,11 +215,11 @@ def run_drop(cfg: En02fConfig) -> xr.Dataset:
     ds = ds.assign(_event_table([res]))
     kind = res.events[:, EV_KIND]
     imp = res.events[kind == EV_IMPACT]
-    h, g, e = prob.start_height, prob.g, prob.restitution
+    h, g, e = prob.start.height, prob.model.sphere.g, prob.events.restitution
     first = float(imp[0, EV_T]) if len(imp) else math.nan
     heights = imp[:, EV_HEIGHT]
     # apexes clearly above the located-event resolution (the run resumes contact below)
-    heights = heights[heights > 1e3 * prob.resume_speed ** 2 / (2 * g)]
+    heights = heights[heights > 1e3 * prob.events.resume_speed ** 2 / (2 * g)]
     ratios = heights[1:] / heights[:-1] if heights.size > 1 else np.empty(0)
     ds.attrs.update(event_figures(res))
     ds.attrs.update({

@@ -18,7 +18,6 @@ import xarray as xr
 
 from creatio.dynamics import simulate
 from creatio.model.equilibrium import equilibrium_limit
-from creatio.model.laws import law_eval
 from creatio.studies.beyond import output_grid, run_dataset, stack
 from creatio.studies.schema import En02gConfig
 
@@ -36,7 +35,8 @@ def run(cfg: En02gConfig, dt: float) -> xr.Dataset:
     constant, oscillating = [], []
     for kind, _, prob in cfg.run_problems(dt):
         ds = run_dataset(prob, simulate(prob))
-        g = np.array([law_eval(*prob.law_gamma, float(t))[0] for t in ds.time.values])
+        gamma = prob.model.motion.gamma
+        g = np.array([gamma.scalar(float(t))[0] for t in ds.time.values])
         ds["inclination_t"] = ("time", np.degrees(g), {"long_name": "inclination gamma(t)",
                                                        "units": "degree"})
         (constant if kind == "constant" else oscillating).append(ds)
@@ -51,8 +51,10 @@ def run(cfg: En02gConfig, dt: float) -> xr.Dataset:
         out = out.merge(o.rename({v: f"oscillating_{v}" for v in o.data_vars}))
     first = cfg.run_problems(dt)[0][2]
     n, m = first.cavity_cell()
-    limit = equilibrium_limit(first.R0, first.k, first.A, float(first.Ka), first.b,
-                              law_eval(*first.law_r, 0.0)[0], law_eval(*first.law_a, 0.0)[0],
+    model = first.model
+    surface, motion = model.surface, model.motion
+    limit = equilibrium_limit(surface.R0, model.k, surface.A, float(surface.Ka), model.sphere.b,
+                              motion.phi_r.scalar(0.0)[0], motion.phi_a.scalar(0.0)[0],
                               n, m)
     out.attrs.update({
         "dt": dt,

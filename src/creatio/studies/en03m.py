@@ -78,7 +78,7 @@ def probe(cfg: En03mConfig, kind: Confinement, inertia: float, force: float, dt:
     if res.t.size:
         angle = math.degrees(res.azimuth[-1] - res.azimuth[0])
         lag = math.degrees(res.azimuth[-1] - pattern(prob, res.t[-1:])[0])
-    return Probe(float(force), prob.dt, res.status, res.status == "ok" and res.carried,
+    return Probe(float(force), prob.solver.dt, res.status, res.status == "ok" and res.carried,
                  res.stop_time, res.left_cavity_time, angle, lag)
 
 
@@ -129,7 +129,7 @@ def run(cfg: En03mConfig, dt: float) -> xr.Dataset:
             force = st.figure_factor * P_min if math.isfinite(P_min) else st.fallback_force
             prob = cfg.force_problem(kind, inertia, force, dt)
             ds = structure_dataset(prob, simulate(prob))
-            ds.attrs["dt"] = prob.dt
+            ds.attrs["dt"] = prob.solver.dt
             figures.append(ds)
             searches[(kind, inertia)] = (probes, lo, hi, P_min, force)
     grid = output_grid(st.duration, cfg.solver.output_interval)

@@ -21,7 +21,6 @@ of the studies it works on under ``bases``.
 
 from __future__ import annotations
 
-import dataclasses
 import math
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
@@ -38,7 +37,7 @@ from creatio.model.cavity import (
     cavity_branch,
     cavity_radius,
 )
-from creatio.model.laws import LawKind, law_eval
+from creatio.model.laws import Law, LawKind
 from creatio.model.numerics import steps_in
 from creatio.model.oscillation import StillCavity, regularised_rolling, still_cavity
 from creatio.model.sphere import inertia
@@ -277,7 +276,7 @@ def actuation_problem(base: DynamicConfig, sample_interval: float, dt: float | N
                       ) -> SphereProblem:
     """The base study's own problem (at dt, default its solver's), its histories sampled every
     sample_interval: for a fixed step the steps, and so the trajectory, are the base's."""
-    return dataclasses.replace(base.sphere_problem(dt), output_interval=sample_interval)
+    return base.sphere_problem(dt).replace(interval=sample_interval)
 
 
 def _time_integral(y: np.ndarray, t: np.ndarray) -> float:
@@ -529,15 +528,16 @@ def still_problem(base: DynamicConfig, direction: str, amplitude: float, mu: flo
     R_c, a_c = _bottom(base)
     prob = base.sphere_problem()
     T = base.phases.T
-    frozen = {name: (float(law_eval(*getattr(prob, name), 0.0)[0]), 0.0, 0.0, T, 0.0, 0.0)
-              for name in ("law_r", "law_a", "law_gamma")}
+    motion = prob.model.motion
+    frozen = Motion(*(Law(phi0=float(law.scalar(0.0)[0]), T=T)
+                      for law in (motion.phi_r, motion.phi_a, motion.gamma)))
     rho_c = base.geometry.R0 + R_c
-    return dataclasses.replace(
-        prob, **frozen, mu=float(mu),
-        R_init=R_c + (amplitude if direction == "R" else 0.0),
-        alpha_init=a_c + (amplitude / rho_c if direction == "alpha" else 0.0),
-        Rdot_init=0.0, alphadot_init=0.0, t_end=float(duration),
-        output_interval=prob.dt, dense_output=False)
+    return prob.replace(
+        motion=frozen, mu=float(mu),
+        R=R_c + (amplitude if direction == "R" else 0.0),
+        alpha=a_c + (amplitude / rho_c if direction == "alpha" else 0.0),
+        Rdot=0.0, alphadot=0.0, t_end=float(duration),
+        interval=prob.solver.dt, dense_output=False)
 
 
 @dataclass(frozen=True)

@@ -21,7 +21,6 @@ the batch files (creatio.pipeline.points).
 
 from __future__ import annotations
 
-import dataclasses
 import math
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
@@ -320,12 +319,11 @@ def sampled_problem(cfg: DynamicConfig, interval: float, t_end: float) -> Sphere
     """The config's run to t_end, rows every `interval` from each step's dense output, the
     trajectory only (what a camera sees); a fixed step beyond the friction stability limit
     refined to dt / ceil(dt / limit) (so a fit can try any mu and eps)."""
-    prob = dataclasses.replace(cfg.sphere_problem(), dense_output=True,
-                               output_interval=interval, t_end=t_end, energy=False,
-                               rotation=None, allow_unstable=False)
-    limit = stability_limit(prob)
-    if prob.dt > limit:
-        prob = dataclasses.replace(prob, dt=prob.dt / math.ceil(prob.dt / limit * (1 + 1e-12)))
+    prob = cfg.sphere_problem().replace(dense_output=True, interval=interval, t_end=t_end,
+                                        energy=False, rotation=None, allow_unstable=False)
+    dt, limit = prob.solver.dt, stability_limit(prob)
+    if dt > limit:
+        prob = prob.replace(dt=dt / math.ceil(dt / limit * (1 + 1e-12)))
     return prob
 
 

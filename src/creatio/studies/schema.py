@@ -17,13 +17,20 @@ from dataclasses import dataclass, field, fields, is_dataclass
 from enum import Enum, StrEnum
 from typing import Any
 
-from creatio.dynamics import SphereProblem, stability_limit
-from creatio.dynamics.problem import MAX_IMPACT_CAP
+from creatio.dynamics import problem as core
+from creatio.dynamics.problem import (
+    MAX_IMPACT_CAP,
+    MAX_RHS_EVALS,
+    SphereProblem,
+    UnstableStepError,
+    check_stable,
+    stability_limit,
+)
 from creatio.dynamics.solvers import METHODS
 from creatio.errors import ConfigError
 from creatio.model.laws import Law, LawKind
 from creatio.model.numerics import steps_in
-from creatio.model.surface import Surface
+from creatio.model.surface import Motion, Surface
 
 __all__ = [
     "AngleUnit",
@@ -178,6 +185,12 @@ class Output(StrEnum):
     energy = "energy"
 
 
+def with_cycle(motion: Motion, T: float) -> Motion:
+    """The motion with every law's cycle length set to T (EN-02F's cycle sweep)."""
+    return Motion(*(dataclasses.replace(law, T=T)
+                    for law in (motion.phi_r, motion.phi_a, motion.gamma)))
+
+
 def require(ok: bool, key: str, value: Any, rule: str) -> None:
     """Raise ConfigError(key, value, rule) unless ok."""
     if not ok:
@@ -205,12 +218,14 @@ _USED = {
     LawKind.linear: {"phi0", "rate"},
     LawKind.quintic: {"phi0", "delta"},
     LawKind.sinusoid: {"phi0", "amplitude", "omega"},
+    LawKind.cosine_ramp: {"phi0", "delta"},
 }
 
 
 @dataclass
 class LawConfig:
-    """A time law: phi0 + rate t + delta s(t/T) + amplitude sin(omega t), by kind."""
+    """A time law: phi0 + rate t + delta s(t/T) + amplitude sin(omega t), by kind (s the
+    kind's step: quintic or cosine_ramp)."""
 
     kind: LawKind = LawKind.constant
     phi0: float = 0.0
@@ -282,7 +297,7 @@ class GeometryConfig:
         return Surface(self.R0, self.dR, self.A, self.Kr, self.Ka)
 
 
-_NO_CYCLE = (LawKind.constant, LawKind.linear, LawKind.sinusoid)  # quintic needs phases.T
+_NO_CYCLE = (LawKind.constant, LawKind.linear, LawKind.sinusoid)  # a step needs phases.T
 
 
 @dataclass
@@ -349,7 +364,8 @@ class SolverConfig:
     that order gives when the global error is proportional to the tolerance), and their
     datasets are still named by dt and dt / refine. dense_output samples the output grid from
     each step's interpolant instead of cutting steps to land on it (then a fixed dt need not
-    divide output_interval).
+    divide output_interval). max_rhs_evals is each run's budget of right-hand-side
+    evaluations: a run that spends it stops with status budget_exceeded.
     """
 
     method: Method = Method.rk4
@@ -361,6 +377,7 @@ class SolverConfig:
     atol: float = 1e-10
     fixed_step: bool = False
     dense_output: bool = False
+    max_rhs_evals: int = MAX_RHS_EVALS
 
     @property
     def adaptive(self) -> bool:
@@ -368,8 +385,11 @@ class SolverConfig:
         return METHODS[str(self.method)].adaptive and not self.fixed_step
 
     def check(self, path: str) -> None:
-        """dt > 0, refine >= 2, tolerances > 0, output_interval a multiple of a fixed dt."""
+        """dt > 0, refine >= 2, tolerances > 0, a budget >= 1, output_interval a multiple of a
+        fixed dt."""
         require(self.dt > 0.0, f"{path}.dt", self.dt, "must be > 0")
+        require(self.max_rhs_evals >= 1, f"{path}.max_rhs_evals", self.max_rhs_evals,
+                "must be a positive integer (right-hand-side evaluations per run)")
         require(self.refine >= 2, f"{path}.refine", self.refine, "must be an integer >= 2")
         require(math.isfinite(self.rtol) and self.rtol > 0.0, f"{path}.rtol", self.rtol,
                  "must be finite and > 0")
@@ -643,52 +663,83 @@ class DynamicConfig:
 
     def _check_stability(self) -> None:
         """Refuse a fixed dt beyond the explicit scheme's limit for the regularised friction
-        (docs/model.md s.6); adaptive and L-stable methods have no such limit. Building
-        the runs' problems is the last check: a value the rules above let through but a
-        problem refuses is named by its config key, never a bare ValueError."""
+        (docs/model.md s.6.3) in any run of the study, with the rule and message of
+        creatio.dynamics.problem.check_stable; adaptive and L-stable methods have no limit.
+        Building the runs' problems is the last check: a value the rules above let through
+        but a problem refuses is named by its config key, never a bare ValueError."""
         try:
-            limit = self.step_limit()
+            problems = self.stability_problems()
         except ValueError as e:
-            field_name = str(e).split()[0].split("=")[0].rstrip(":")
-            key = _PROBLEM_KEYS.get(field_name, "study")
-            value: Any = self
-            for part in key.split("."):
-                value = getattr(value, part, None)
-            raise ConfigError(key, plain_value(value), f"the run refuses it: {e}") from None
-        if self.solver.dt > limit and not self.solver.allow_unstable:
-            raise ConfigError(
-                "solver.dt",
-                self.solver.dt,
-                f"beyond the {str(self.solver.method).upper()} stability limit of the "
-                f"regularised friction (sphere.mu = "
-                f"{self.sphere.mu}, sphere.eps = {self.sphere.eps}): the largest stable dt is "
-                f"{limit:.6g} s; set solver.allow_unstable=true to run anyway (with a warning)",
-            )
+            raise self._refused(e) from None
+        for problem in problems:
+            try:
+                check_stable(problem)
+            except UnstableStepError as e:
+                raise ConfigError("solver.dt", self.solver.dt, f"{e}; set solver.allow_unstable"
+                                  "=true to run anyway (with a warning)") from None
+
+    def _refused(self, e: ValueError) -> ConfigError:
+        """A problem's ValueError as a ConfigError naming the config key of the field its
+        message begins with (_PROBLEM_KEYS)."""
+        field_name = str(e).split()[0].split("=")[0].rstrip(":")
+        key = _PROBLEM_KEYS.get(field_name, "study")
+        value: Any = self
+        for part in key.split("."):
+            value = getattr(value, part, None)
+        return ConfigError(key, plain_value(value), f"the run refuses it: {e}")
 
     def sphere_problem(self, dt: float | None = None) -> SphereProblem:
-        """The numeric-core problem of this config (at timestep dt, default solver.dt)."""
-        g, ph, sp, sv, st = self.geometry, self.phases, self.sphere, self.solver, self.study
-        law_r, law_a, law_g = (tuple(law.coefficients()) for law in ph.laws())
-        dt = sv.dt if dt is None else dt
+        """The numeric-core problem of this config at timestep dt (default solver.dt), built
+        once per process for a given config and dt: validation checks the problem the run
+        then uses."""
+        dt = self.solver.dt if dt is None else float(dt)
+        key = (repr(self), dt)
+        problem = _PROBLEMS.get(key)
+        if problem is None:
+            if len(_PROBLEMS) >= _MAX_PROBLEMS:
+                _PROBLEMS.clear()
+            problem = _PROBLEMS[key] = self._build_problem(dt)
+        return problem
+
+    def _build_problem(self, dt: float) -> SphereProblem:
+        """The problem of this config at timestep dt: model, start, solver, output, events."""
+        ph, sp, sv, st = self.phases, self.sphere, self.solver, self.study
         rtol, atol = sv.tolerances(dt)
         return SphereProblem(
-            R0=g.R0, dR=g.dR, A=g.A, Kr=g.Kr, Ka=g.Ka,
-            law_r=law_r, law_a=law_a, law_gamma=law_g,
-            m=sp.m, b=sp.b, g=sp.g, mu=sp.mu, eps=sp.eps,
-            R_init=st.initial.R, alpha_init=math.radians(st.initial.alpha_deg),
-            Rdot_init=st.initial.Rdot, alphadot_init=st.initial.alphadot,
-            t_end=st.duration, dt=dt,
-            output_interval=sv.output_interval, allow_unstable=sv.allow_unstable,
-            method=str(sv.method), rtol=rtol, atol=atol, fixed_step=sv.fixed_step,
-            dense_output=sv.dense_output,
-            rotation=True if Output.rotation in st.outputs else None,
-            energy=Output.energy in st.outputs,
+            model=core.Model(self.geometry.surface(), Motion(*ph.laws()),
+                             core.Sphere(sp.m, sp.b, sp.g, sp.mu, sp.eps), self.run_structure()),
+            start=core.Start(st.initial.R, math.radians(st.initial.alpha_deg),
+                             st.initial.Rdot, st.initial.alphadot),
+            solver=core.Solver(str(sv.method), dt, rtol, atol, sv.fixed_step, sv.dense_output,
+                               sv.allow_unstable, sv.max_rhs_evals),
+            output=core.Output(st.duration, sv.output_interval,
+                               True if Output.rotation in st.outputs else None,
+                               Output.energy in st.outputs),
+            events=self.run_events(),
         )
 
+    def run_structure(self) -> core.Structure:
+        """The structure of the runs: fixed, as in EN-02 (EN-03 sets its own)."""
+        return core.Structure()
+
+    def run_events(self) -> core.Events:
+        """What the runs do at events: stop at contact loss (EN-02F sets flight)."""
+        return core.Events()
+
+    def stability_problems(self) -> list[SphereProblem]:
+        """The runs whose fixed step the friction stability rule bounds (at solver.dt)."""
+        return [self.sphere_problem()]
+
     def step_limit(self) -> float:
-        """Largest stable fixed step (s) of this configuration's explicit scheme (inf without
-        friction, for an adaptive method and for radau5)."""
-        return stability_limit(self.sphere_problem())
+        """Largest stable fixed step (s) of this configuration's explicit scheme over its runs
+        (inf without friction, for an adaptive method and for radau5)."""
+        return min((stability_limit(p) for p in self.stability_problems()), default=math.inf)
+
+
+#: Problems built by DynamicConfig.sphere_problem, by (config, dt): a run and its validation
+#: share one construction (bounded: a sweep builds a problem per point).
+_PROBLEMS: dict[tuple[str, float], SphereProblem] = {}
+_MAX_PROBLEMS = 256
 
 
 #: The config key behind each field of a run's SphereProblem (the first word of its
@@ -696,13 +747,14 @@ class DynamicConfig:
 _PROBLEM_KEYS = {
     "R0": "geometry.R0", "dR": "geometry.dR", "A": "geometry.A", "Kr": "geometry.Kr",
     "Ka": "geometry.Ka", "m": "sphere.m", "b": "sphere.b", "eps": "sphere.eps",
-    "g": "sphere.g", "mu": "sphere.mu", "dt": "solver.dt",
-    "output_interval": "solver.output_interval", "t_end": "study.duration",
-    "rtol": "solver.rtol", "atol": "solver.atol", "law_r": "phases.r", "law_a": "phases.a",
-    "law_gamma": "phases.gamma", "rotation": "study.outputs", "equilibrium_start": "sphere.g",
-    "structure_inertia": "structure.inertia", "confinement": "structure.confinement",
-    "confining_force": "structure.force", "restitution": "flight.restitution",
-    "resume_speed": "flight.resume_speed", "impact_cap": "flight.impact_cap",
+    "g": "sphere.g", "mu": "sphere.mu", "dt": "solver.dt", "rtol": "solver.rtol",
+    "atol": "solver.atol", "max_rhs_evals": "solver.max_rhs_evals",
+    "interval": "solver.output_interval", "t_end": "study.duration",
+    "phi_r": "phases.r", "phi_a": "phases.a", "gamma": "phases.gamma",
+    "rotation": "study.outputs", "equilibrium": "sphere.g", "inertia": "structure.inertia",
+    "confinement": "structure.confinement", "force": "structure.force",
+    "restitution": "flight.restitution", "resume_speed": "flight.resume_speed",
+    "impact_cap": "flight.impact_cap", "height": "study.drop.height",
 }
 
 
@@ -764,10 +816,9 @@ class StructureConfig:
         require(self.confinement is not Confinement.none or self.force == 0.0, f"{path}.force",
                 self.force, f"needs {path}.confinement=normal or base")
 
-    def problem_fields(self) -> dict[str, Any]:
-        """The SphereProblem fields of this structure."""
-        return {"structure_inertia": float(self.inertia), "confinement": self.confinement.value,
-                "confining_force": float(self.force)}
+    def to_structure(self) -> core.Structure:
+        """The numeric-core structure."""
+        return core.Structure(float(self.inertia), self.confinement.value, float(self.force))
 
 
 @dataclass
@@ -832,18 +883,17 @@ class En02gConfig(DynamicConfig):
         osc = self.study.oscillation
         out = []
         for g in self.study.inclinations_deg:
-            law = (math.radians(g), 0.0, 0.0, T, 0.0, 0.0)
-            out.append(("constant", float(g), dataclasses.replace(
-                base, law_gamma=law, equilibrium_start=True)))
+            law = Law(phi0=math.radians(g), T=T, kind=LawKind.constant)
+            out.append(("constant", float(g), base.replace(gamma=law, equilibrium=True)))
         for g0 in osc.gamma0_deg:
-            law = (math.radians(g0), 0.0, 0.0, T, math.radians(osc.amplitude_deg), osc.omega)
-            out.append(("oscillating", float(g0), dataclasses.replace(
-                base, law_gamma=law, equilibrium_start=True)))
+            law = Law(phi0=math.radians(g0), T=T, amplitude=math.radians(osc.amplitude_deg),
+                      omega=osc.omega, kind=LawKind.sinusoid)
+            out.append(("oscillating", float(g0), base.replace(gamma=law, equilibrium=True)))
         return out
 
-    def step_limit(self) -> float:
-        """The smallest stability limit over every run of the study."""
-        return min(stability_limit(p) for _, _, p in self.run_problems())
+    def stability_problems(self) -> list[SphereProblem]:
+        """Every run of the study."""
+        return [p for _, _, p in self.run_problems()]
 
 
 class ContactLoss(StrEnum):
@@ -875,11 +925,10 @@ class FlightConfig:
                 f"must be between 1 and {MAX_IMPACT_CAP:g} per second (the event table holds "
                 "3 x impact_cap x duration rows)")
 
-    def problem_fields(self, restitution: float | None = None) -> dict[str, Any]:
-        """The SphereProblem fields of these settings (restitution overridden if given)."""
-        e = self.restitution if restitution is None else restitution
-        return {"flight": self.contact_loss is ContactLoss.flight, "restitution": float(e),
-                "resume_speed": float(self.resume_speed), "impact_cap": float(self.impact_cap)}
+    def to_events(self) -> core.Events:
+        """The numeric-core events of these settings."""
+        return core.Events(self.contact_loss is ContactLoss.flight, float(self.restitution),
+                           float(self.resume_speed), float(self.impact_cap))
 
 
 @dataclass
@@ -963,30 +1012,31 @@ class En02fConfig(DynamicConfig):
     def run_problems(self, dt: float | None = None
                      ) -> list[tuple[float, float, SphereProblem]]:
         """(T, e, problem) of every run: one cycle of length T, restitution e."""
-        base = dataclasses.replace(self.sphere_problem(dt), **self.flight.problem_fields())
+        base = self.sphere_problem(dt)
         out = []
         for T in self.study.cycles_s:
-            laws = {name: (*getattr(base, name)[:3], float(T), *getattr(base, name)[4:])
-                    for name in ("law_r", "law_a", "law_gamma")}
+            motion = with_cycle(base.model.motion, float(T))
             for e in self.study.restitutions:
-                out.append((float(T), float(e), dataclasses.replace(
-                    base, **laws, t_end=float(T), restitution=float(e))))
+                out.append((float(T), float(e), base.replace(motion=motion, t_end=float(T),
+                                                            restitution=float(e))))
         return out
 
     def drop_problem(self) -> SphereProblem:
         """The drop test: A = 0 and still phases, dropped from study.drop.height, flight on."""
         d = self.study.drop
-        still = (0.0, 0.0, 0.0, 1.0, 0.0, 0.0)
-        return dataclasses.replace(
-            self.sphere_problem(d.dt), A=0.0, law_r=still, law_a=still, law_gamma=still,
-            t_end=d.duration, output_interval=d.output_interval(),
-            method="rk4", fixed_step=False,
-            **self.flight.problem_fields(d.restitution) | {"flight": True},
-            start_height=d.height)
+        still = Law.constant(0.0)
+        return self.sphere_problem(d.dt).replace(
+            A=0.0, motion=Motion(still, still, still), t_end=d.duration,
+            interval=d.output_interval(), method="rk4", fixed_step=False,
+            flight=True, restitution=float(d.restitution), height=d.height)
 
-    def step_limit(self) -> float:
-        """The smallest stability limit over every run of the study."""
-        return min(stability_limit(p) for _, _, p in self.run_problems())
+    def run_events(self) -> core.Events:
+        """Flight as configured (flight.contact_loss)."""
+        return self.flight.to_events()
+
+    def stability_problems(self) -> list[SphereProblem]:
+        """Every (T, e) run of the study."""
+        return [p for _, _, p in self.run_problems()]
 
 
 @dataclass
@@ -1019,22 +1069,20 @@ class En03Config(DynamicConfig):
         self.structure.check("structure")
         super().check()
 
-    def sphere_problem(self, dt: float | None = None) -> SphereProblem:
-        """The single run: the sphere study's problem on this structure."""
-        return dataclasses.replace(super().sphere_problem(dt), **self.structure.problem_fields())
+    def run_structure(self) -> core.Structure:
+        """The single run's structure (structure.inertia, confinement, force)."""
+        return self.structure.to_structure()
 
     def sweep_problems(self, dt: float | None = None) -> list[tuple[float, SphereProblem]]:
         """(I_s, problem) of the inertia sweep, then of the limit check (limit_inertia and
         the fixed structure, inf)."""
         base = self.sphere_problem(dt)
         inertias = [*self.study.inertia_sweep, self.study.limit_inertia, math.inf]
-        return [(float(v), dataclasses.replace(base, structure_inertia=float(v)))
-                for v in inertias]
+        return [(float(v), base.replace(inertia=float(v))) for v in inertias]
 
-    def step_limit(self) -> float:
-        """The smallest stability limit over every run (the smallest I_s sets it)."""
-        problems = [self.sphere_problem()] + [p for _, p in self.sweep_problems()]
-        return min(stability_limit(p) for p in problems)
+    def stability_problems(self) -> list[SphereProblem]:
+        """The single run and the inertia sweep (the smallest I_s sets the limit)."""
+        return [self.sphere_problem()] + [p for _, p in self.sweep_problems()]
 
 
 @dataclass
@@ -1099,14 +1147,14 @@ class En03mConfig(DynamicConfig):
         """The run of one confinement, structure inertia and force P at timestep dt (default
         solver.dt), its fixed step refined to stay inside the friction stability limit:
         dt / ceil(dt / limit) for a fixed-step explicit method (docs/studies.md EN-03M)."""
-        p = dataclasses.replace(self.sphere_problem(dt), structure_inertia=float(inertia),
-                                confinement=confinement.value, confining_force=float(force),
-                                stop_on_leaving_cavity=stop_on_leaving)
-        limit = stability_limit(p)
-        if p.dt > limit and not p.allow_unstable:
-            p = dataclasses.replace(p, dt=p.dt / math.ceil(p.dt / limit * (1.0 + 1e-12)))
+        p = self.sphere_problem(dt).replace(
+            structure=core.Structure(float(inertia), confinement.value, float(force)),
+            stop_on_leaving_cavity=stop_on_leaving)
+        dt, limit = p.solver.dt, stability_limit(p)
+        if dt > limit and not p.solver.allow_unstable:
+            p = p.replace(dt=dt / math.ceil(dt / limit * (1.0 + 1e-12)))
         return p
 
-    def step_limit(self) -> float:
-        """inf: the study refines the step of each run to its own limit (force_problem)."""
-        return math.inf
+    def stability_problems(self) -> list[SphereProblem]:
+        """None: the study refines the step of each run to its own limit (force_problem)."""
+        return []

@@ -13,8 +13,6 @@ import xarray as xr
 
 from creatio.dynamics import SimulationResult, SphereProblem, simulate
 from creatio.model.cavity import pattern_angle
-from creatio.model.laws import Law
-from creatio.model.surface import Motion, Surface
 from creatio.studies.schema import DynamicConfig
 
 __all__ = ["COMPONENTS", "pattern", "result_dataset", "run"]
@@ -25,9 +23,7 @@ COMPONENTS = ["x", "y", "z"]
 def pattern(prob: SphereProblem, t: np.ndarray) -> np.ndarray:
     """Pattern angle (rad) of a problem's phases at times t, measured from the initial
     contact angle alpha_init (docs/model.md s.3.1)."""
-    surface = Surface(prob.R0, prob.dR, prob.A, prob.Kr, prob.Ka)
-    laws = (Law(*prob.law_r[:6]), Law(*prob.law_a[:6]), Law(*prob.law_gamma[:6]))
-    return pattern_angle(surface, Motion(*laws), t, prob.alpha_init)[0]
+    return pattern_angle(prob.model.surface, prob.model.motion, t, prob.start.alpha)[0]
 
 
 def run(cfg: DynamicConfig, dt: float) -> xr.Dataset:
@@ -41,7 +37,7 @@ def result_dataset(prob: SphereProblem, res: SimulationResult) -> xr.Dataset:
     cavity-cell check (docs/model.md s.8.2) as ``left_cavity_time`` (NaN: never left) and
     ``carried``."""
     t = res.t
-    dt = prob.dt
+    dt = prob.solver.dt
     # The pattern angle starts at the initial contact angle and turns at -phi_a' / Ka.
     pattern_t = pattern(prob, t)
     rho = np.hypot(res.X[:, 0], res.X[:, 1])
@@ -93,7 +89,7 @@ def result_dataset(prob: SphereProblem, res: SimulationResult) -> xr.Dataset:
     }
     ds = xr.Dataset(data, coords=coords)
     if prob.adaptive:
-        ds.attrs.update({"rtol": prob.rtol, "atol": prob.atol})
+        ds.attrs.update({"rtol": prob.solver.rtol, "atol": prob.solver.atol})
     ds.attrs.update({
         "dt": dt,
         "method": res.method,

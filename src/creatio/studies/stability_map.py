@@ -27,7 +27,6 @@ shortened runs of the map break at the same dt).
 
 from __future__ import annotations
 
-import dataclasses
 import logging
 import math
 import time
@@ -266,15 +265,15 @@ def base_problem(cfg: StabilityMapConfig, axis: str, value: float,
     duration = cfg.study.duration if duration is None else duration
     varied = vary(cfg.base, {AXES[axis]["key"]: float(value), "study.duration": float(duration),
                              "solver.allow_unstable": True})
-    return dataclasses.replace(varied.sphere_problem(), energy=False, allow_unstable=True)
+    return varied.sphere_problem().replace(energy=False, allow_unstable=True)
 
 
 def reference(problem: SphereProblem, spec: ReferenceConfig) -> SimulationResult:
     """Reference run of the problem's configuration with an error-controlled method."""
     from creatio.dynamics import simulate
 
-    ref = simulate(dataclasses.replace(problem, fixed_step=False, method=spec.method,
-                                       rtol=spec.rtol, atol=spec.atol))
+    ref = simulate(problem.replace(fixed_step=False, method=spec.method, rtol=spec.rtol,
+                                   atol=spec.atol))
     if ref.status != "ok":
         raise RuntimeError(f"reference {spec.label()} stopped with status {ref.status}")
     return ref
@@ -293,7 +292,7 @@ def scheme_problem(problem: SphereProblem, method: str) -> SphereProblem:
     if method not in METHODS or METHODS[method].l_stable:
         raise ValueError(f"method must be an explicit method of {', '.join(METHODS)}, "
                          f"got {method!r}")
-    return dataclasses.replace(problem, method=method, fixed_step=METHODS[method].adaptive)
+    return problem.replace(method=method, fixed_step=METHODS[method].adaptive)
 
 
 def probe(problem: SphereProblem, n: int, ref: SimulationResult, tol: float, chatter: float,
@@ -301,8 +300,8 @@ def probe(problem: SphereProblem, n: int, ref: SimulationResult, tol: float, cha
     """Run the problem's scheme at dt = output_interval / n and judge it against ref."""
     from creatio.dynamics import simulate
 
-    dt = problem.output_interval / n
-    res = simulate(dataclasses.replace(problem, dt=dt))
+    dt = problem.output.interval / n
+    res = simulate(problem.replace(dt=dt))
     error = _distance(res.X, ref.X)
     chattered = not math.isfinite(res.max_slip_speed) or (
         res.max_slip_speed > chatter * ref.max_slip_speed
@@ -321,7 +320,7 @@ def locate_break(
     one, and the n of that first broken dt (None when no dt up to output_interval breaks;
     the good n is None when even the smallest dt tried breaks)."""
     est = stability_limit(problem)
-    interval = problem.output_interval
+    interval = problem.output.interval
     factors = np.geomspace(span[0], span[1], samples)
     ns = sorted({max(1, round(interval / (f * est))) for f in factors}, reverse=True)
     done: dict[int, Probe] = {}
@@ -365,8 +364,9 @@ def locate_break(
 def linear_limit(problem: SphereProblem, n_max: float) -> float:
     """Linear stability limit of the slip mode at normal reaction n_max, without margin:
     the scheme's real stability bound over the slip relaxation rate at n_max."""
-    rate = slip_relaxation_rate(problem.mu, n_max, problem.m, problem.b, problem.eps)
-    return stable_step(METHODS[problem.method].stability_bound, rate)
+    sp = problem.model.sphere
+    rate = slip_relaxation_rate(sp.mu, n_max, sp.m, sp.b, sp.eps)
+    return stable_step(METHODS[problem.solver.method].stability_bound, rate)
 
 
 def _locate(cfg: StabilityMapConfig, problem: SphereProblem, ref: SimulationResult,
@@ -455,8 +455,8 @@ def stability_map(cfg: StabilityMapConfig, axis: str) -> xr.Dataset:
             linear[i, j] = linear_limit(prob, ref.max_N)
             runs[m, j] = located = _locate(cfg, prob, ref)
             probes, good_n, bad_n = located
-            good = base.output_interval / good_n if good_n else math.nan
-            bad = base.output_interval / bad_n if bad_n else math.nan
+            good = base.output.interval / good_n if good_n else math.nan
+            bad = base.output.interval / bad_n if bad_n else math.nan
             log.info("%s=%g %s: estimate %.4g s, good %.4g s, broken %.4g s (%d runs, %.2f s)",
                      axis, v, m, estimate[i, j], good, bad, len(probes),
                      time.perf_counter() - t0)
@@ -577,8 +577,8 @@ def duration_check(
         for m in cfg.study.methods:
             _, good_n, bad_n = _locate(cfg, scheme_problem(base, m), ref)
             out[m][float(d)] = (
-                base.output_interval / good_n if good_n else math.nan,
-                base.output_interval / bad_n if bad_n else math.nan,
+                base.output.interval / good_n if good_n else math.nan,
+                base.output.interval / bad_n if bad_n else math.nan,
             )
     return out
 

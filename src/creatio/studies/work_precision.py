@@ -30,10 +30,10 @@ first-call times.
 
 from __future__ import annotations
 
-import dataclasses
 import json
 import math
 import os
+import pickle
 import platform
 import sys
 import time
@@ -324,7 +324,7 @@ def settings(study: WorkPrecisionStudy, base: SphereProblem) -> list[Setting]:
     (an adaptive one by rtol, then at its fixed steps if it has any; a fixed-step one by
     dt = output_interval / n), the full-state rows, the mu = 0 pair at the base's own
     solver, the peers (scipy, SUNDIALS)."""
-    output_interval = base.output_interval
+    output_interval = base.output.interval
     out: list[Setting] = []
     full = study.full_state
     for name, method in METHODS.items():
@@ -348,11 +348,12 @@ def settings(study: WorkPrecisionStudy, base: SphereProblem) -> list[Setting]:
         out += [Setting("full", f"{fixed}-full", name, "dt", output_interval / n)
                 for n in grid.steps_per_output]
     if study.minimal_state:
-        kind, value = ("rtol", base.rtol) if base.adaptive else ("dt", base.dt)
-        name = base.method if base.adaptive or not METHODS[base.method].adaptive \
-            else f"{base.method}-fixed"
-        out += [Setting("mu0", f"{name}-mu0", base.method, kind, value),
-                Setting("mu0", f"{name}-mu0-full", base.method, kind, value)]
+        sv = base.solver
+        kind, value = ("rtol", sv.rtol) if base.adaptive else ("dt", sv.dt)
+        name = sv.method if base.adaptive or not METHODS[sv.method].adaptive \
+            else f"{sv.method}-fixed"
+        out += [Setting("mu0", f"{name}-mu0", sv.method, kind, value),
+                Setting("mu0", f"{name}-mu0-full", sv.method, kind, value)]
     for name, rtols in study.peers.items():
         out += [Setting("peer", peer_label(name), name, "rtol", float(v))
                 for v in _thin(rtols, study.quick)]
@@ -364,17 +365,17 @@ def native_problem(base: SphereProblem, s: Setting, atol_ratio: float) -> Sphere
     no friction, trajectory alone or full diagnostics, at the base's own solver)."""
     if s.group == "mu0":
         full = s.method.endswith("-full")
-        return dataclasses.replace(base, mu=0.0, rotation=full, energy=full)
+        return base.replace(mu=0.0, rotation=full, energy=full)
     energy = s.group == "full"
     if s.kind == "dt":
-        prob = dataclasses.replace(base, method=s.solver, dt=s.value, allow_unstable=True,
-                                   fixed_step=METHODS[s.solver].adaptive, energy=energy,
-                                   dense_output=s.dense)
+        prob = base.replace(method=s.solver, dt=s.value, allow_unstable=True,
+                            fixed_step=METHODS[s.solver].adaptive, energy=energy,
+                            dense_output=s.dense)
         if s.newton_rtol is None:
             return prob
-        return dataclasses.replace(prob, rtol=s.newton_rtol, atol=s.newton_rtol * atol_ratio)
-    return dataclasses.replace(base, method=s.solver, rtol=s.value, atol=s.value * atol_ratio,
-                               fixed_step=False, energy=energy, dense_output=s.dense)
+        return prob.replace(rtol=s.newton_rtol, atol=s.newton_rtol * atol_ratio)
+    return base.replace(method=s.solver, rtol=s.value, atol=s.value * atol_ratio,
+                        fixed_step=False, energy=energy, dense_output=s.dense)
 
 
 # -------------------------------------------------------------------------------- running
@@ -388,7 +389,7 @@ def errors(X: np.ndarray, ref: np.ndarray) -> tuple[float, float]:
 
 def base_problem(cfg: WorkPrecisionConfig, base: str) -> SphereProblem:
     """A base study's problem, trajectory only (energy off; rotation as friction needs)."""
-    return dataclasses.replace(cfg.bases[base].sphere_problem(), energy=False)
+    return cfg.bases[base].sphere_problem().replace(energy=False)
 
 
 def reference(base: SphereProblem, ref: ReferenceConfig) -> tuple[np.ndarray, dict[str, Any]]:
@@ -396,14 +397,14 @@ def reference(base: SphereProblem, ref: ReferenceConfig) -> tuple[np.ndarray, di
     independent adaptive method and of a fine fixed step with them."""
     from creatio.dynamics import simulate
 
-    dt = base.output_interval / ref.fixed_steps_per_output
+    dt = base.output.interval / ref.fixed_steps_per_output
     runs = {
-        "reference": dataclasses.replace(base, method=ref.method, rtol=ref.rtol, atol=ref.atol,
-                                         fixed_step=False),
-        "check_adaptive": dataclasses.replace(base, method=ref.check_method, rtol=ref.check_rtol,
-                                              atol=ref.check_atol, fixed_step=False),
-        "check_fixed": dataclasses.replace(base, method=ref.fixed_method, dt=dt,
-                                           fixed_step=METHODS[ref.fixed_method].adaptive),
+        "reference": base.replace(method=ref.method, rtol=ref.rtol, atol=ref.atol,
+                                  fixed_step=False),
+        "check_adaptive": base.replace(method=ref.check_method, rtol=ref.check_rtol,
+                                       atol=ref.check_atol, fixed_step=False),
+        "check_fixed": base.replace(method=ref.fixed_method, dt=dt,
+                                    fixed_step=METHODS[ref.fixed_method].adaptive),
     }
     res = {k: simulate(p) for k, p in runs.items()}
     for k, r in res.items():
@@ -425,8 +426,8 @@ def stability_limits(base: SphereProblem) -> dict[str, float | None]:
     (None: no limit, L-stable or frictionless)."""
     out: dict[str, float | None] = {}
     for name, method in METHODS.items():
-        fixed = dataclasses.replace(base, method=name, fixed_step=method.adaptive,
-                                    dt=base.output_interval)  # the limit does not depend on dt
+        # the limit does not depend on dt
+        fixed = base.replace(method=name, fixed_step=method.adaptive, dt=base.output.interval)
         lim = stability_limit(fixed)
         out[name] = lim if math.isfinite(lim) else None
     return out
@@ -463,10 +464,10 @@ def prepare_native(base: SphereProblem, s: Setting, ref: np.ndarray, study: Work
                    ) -> Run:
     """The first core call (JIT compile or cache load included), then a simulate() run for
     the error and the work counters (its wall time sets the repeat count)."""
-    from creatio.dynamics import simulate
+    from creatio.dynamics import compiled_call, simulate
 
     prob = native_problem(base, s, study.atol_ratio)
-    call = _timed(prob.compiled_call())
+    call = _timed(compiled_call(prob))
     first = call()
     t0 = time.perf_counter()
     res = simulate(prob)
@@ -477,7 +478,8 @@ def prepare_native(base: SphereProblem, s: Setting, ref: np.ndarray, study: Work
         err, fin = errors(res.X, ref) if res.status == "ok" else (math.inf, math.inf)
     record = {"error_m": err, "final_error_m": fin, "rhs_evals": res.rhs_evals,
               "steps": res.steps, "status": res.status,
-              "state_size": prob.initial_state(prob.rotation_integrated, prob.energy).size,
+              "state_size": prob.initial_state(prob.rotation_integrated,
+                                               prob.output.energy).size,
               "rejected_steps": res.rejected_steps, "jacobians": res.jacobians,
               "lu_factorisations": res.lu_factorisations}
     return Run(s, call, first, _repeat_count(warm, study.repeats, study.budget_s), record)
@@ -516,13 +518,12 @@ def round_robin(runs: Sequence[Run]) -> np.ndarray:
 
 
 COLD = """
-import dataclasses, json, sys, time
-from creatio.dynamics import SphereProblem, simulate
-spec = json.loads(sys.stdin.read())
-base = SphereProblem(**spec["problem"])
-for method in spec["methods"]:
+import pickle, sys, time
+from creatio.dynamics import simulate
+base, methods = pickle.loads(sys.stdin.buffer.read())
+for method in methods:
     t0 = time.perf_counter()
-    simulate(dataclasses.replace(base, method=method))
+    simulate(base.replace(method=method))
     print(method, time.perf_counter() - t0)
 """
 
@@ -536,21 +537,22 @@ def jit_times(base: SphereProblem, jit: JitConfig) -> dict[str, float]:
 
     from creatio.dynamics import simulate
 
-    short = dataclasses.replace(base, t_end=jit.t_end)
+    short = base.replace(t_end=jit.t_end)
     out: dict[str, float] = {}
     if jit.cold:
-        spec = {"problem": dataclasses.asdict(short), "methods": list(jit.methods)}
+        spec = pickle.dumps((short, list(jit.methods)))
         with tempfile.TemporaryDirectory() as cache:
-            env = dict(os.environ, NUMBA_CACHE_DIR=cache)
-            proc = subprocess.run([sys.executable, "-c", COLD], input=json.dumps(spec), env=env,
-                                  capture_output=True, text=True, check=True)
-        for line in proc.stdout.splitlines():
+            # an empty cache, whichever variable names it (creatio.dynamics.jit reads both)
+            env = dict(os.environ, NUMBA_CACHE_DIR=cache, CREATIO_NUMBA_CACHE=cache)
+            proc = subprocess.run([sys.executable, "-c", COLD], input=spec, env=env,
+                                  capture_output=True, check=True)
+        for line in proc.stdout.decode().splitlines():
             if line.strip():
                 name, value = line.split()
                 out[f"cold_compile_{name}_s"] = float(value)
     for name in jit.methods:
         t0 = time.perf_counter()
-        simulate(dataclasses.replace(short, method=name))
+        simulate(short.replace(method=name))
         out[f"this_process_first_{name}_s"] = time.perf_counter() - t0
     return out
 

@@ -16,6 +16,7 @@ from __future__ import annotations
 import functools
 import math
 from dataclasses import dataclass, field
+from typing import NamedTuple
 
 import numpy as np
 from numpy.typing import NDArray
@@ -23,16 +24,42 @@ from numpy.typing import NDArray
 from creatio.dynamics.solvers import tableaus as tb
 from creatio.model.numerics import real_stability_bound, rk_stability_polynomial
 
-__all__ = ["EXPLICIT", "METHODS", "RADAU", "ROSENBROCK", "Method", "Tableau", "get"]
+__all__ = ["EXPLICIT", "METHODS", "RADAU", "ROSENBROCK", "STEPPERS", "DriverTableau", "Method",
+           "Tableau", "get"]
 
-#: Stepper kinds of the compiled driver.
+#: Stepper kinds of the compiled driver, and their names (each a module of this package with
+#: the stepper contract: workspace, step, dense).
 EXPLICIT = 0
 RADAU = 1
 ROSENBROCK = 2
+STEPPERS = {EXPLICIT: "explicit", RADAU: "radau", ROSENBROCK: "rosenbrock"}
 
 #: Error estimators of an explicit tableau: none, one embedded pair (RMS norm), or Hairer's
 #: combined 5th/3rd-order estimate of DOP853.
 NO_ESTIMATE, EMBEDDED, COMBINED_5_3 = 0, 1, 2
+
+
+class DriverTableau(NamedTuple):
+    """An explicit tableau as the compiled stepper reads it (creatio.dynamics.solvers
+    .explicit): A and b as their nonzeros (row st of A is a_idx/a_val[a_ptr[st]:a_ptr[st +
+    1]], b in its summation order), the error weights e and e3 over the stages and the
+    end-of-step derivative, the estimator kind and order, and the dense output: extra stages
+    (c_extra, a_extra) and the polynomial weights dense (stages x degree)."""
+
+    c: NDArray[np.float64]
+    a_ptr: NDArray[np.int64]
+    a_idx: NDArray[np.int64]
+    a_val: NDArray[np.float64]
+    b_idx: NDArray[np.int64]
+    b_val: NDArray[np.float64]
+    b_divisor: float
+    e: NDArray[np.float64]
+    e3: NDArray[np.float64]
+    estimator: int
+    error_order: int
+    c_extra: NDArray[np.float64]
+    a_extra: NDArray[np.float64]
+    dense: NDArray[np.float64]
 
 
 @dataclass(frozen=True)
@@ -155,20 +182,20 @@ class Method:
         return self.tableau.dense_order
 
     @functools.cached_property
-    def driver_tableau(self) -> tuple:
-        """The tableau argument of the compiled driver (a one-stage stand-in for Radau):
-        (c, a_ptr, a_idx, a_val, b_idx, b_val, b_divisor, e, e3, estimator, error_order,
-        c_extra, a_extra, dense)."""
+    def driver_tableau(self) -> DriverTableau:
+        """The tableau argument of the compiled driver (a one-stage stand-in, never read, for
+        an implicit method, so every entry point has one signature)."""
         error_order = int(self.error_order or 0)
         if self.tableau is None:
             one, none = np.zeros(1), np.zeros(1, dtype=np.int64)
-            return (one, np.zeros(2, dtype=np.int64), none, one, none, one, 1.0, np.zeros(2),
-                    np.zeros(2), NO_ESTIMATE, error_order, np.zeros(0), np.zeros((0, 2)),
-                    np.zeros((2, 1)))
+            return DriverTableau(one, np.zeros(2, dtype=np.int64), none, one, none, one, 1.0,
+                                 np.zeros(2), np.zeros(2), NO_ESTIMATE, error_order, np.zeros(0),
+                                 np.zeros((0, 2)), np.zeros((2, 1)))
         c, a_ptr, a_idx, a_val, b_idx, b_val, e, e3 = self.tableau.arrays()
         c_extra, a_extra, dense = self.tableau.dense_arrays()
-        return (c, a_ptr, a_idx, a_val, b_idx, b_val, float(self.tableau.b_divisor), e, e3,
-                int(self.tableau.estimator), error_order, c_extra, a_extra, dense)
+        return DriverTableau(c, a_ptr, a_idx, a_val, b_idx, b_val, float(self.tableau.b_divisor),
+                             e, e3, int(self.tableau.estimator), error_order, c_extra, a_extra,
+                             dense)
 
     @functools.cached_property
     def stability_bound(self) -> float:

@@ -32,7 +32,7 @@ import numpy as np
 
 from creatio.dynamics import status as st
 from creatio.dynamics.jit import njit
-from creatio.dynamics.problem import (
+from creatio.dynamics.layout import (
     COL_ALPHA,
     COL_AZIMUTH,
     COL_CAVITY_R,
@@ -42,47 +42,95 @@ from creatio.dynamics.problem import (
     COL_ENERGY,
     COL_F,
     COL_KINETIC,
-    COL_MARKER,
     COL_N,
-    COL_OMEGA,
     COL_POTENTIAL,
-    COL_Q,
     COL_R,
     COL_RESIDUAL,
     COL_SLIP,
     COL_SPEED,
-    COL_SPIN,
-    COL_SPIN_RATE,
     COL_T,
     COL_V,
     COL_WORK,
     COL_X,
-    NEV,
-    P_DR,
-    P_KA,
-    P_MCAV,
-    P_NCAV,
-    P_R0,
-)
-from creatio.dynamics.solvers.driver import _next_h
-from creatio.dynamics.solvers.explicit import error_norm, step_factor
-from creatio.dynamics.sphere import (
+    D_N,
+    D_V,
+    D_X,
     E_AZ,
     E_E0,
     E_MAX_RES,
     E_MIN_CLEAR,
+    EV_ALPHA,
+    EV_CONTACT,
+    EV_HEIGHT,
+    EV_IMPACT,
+    EV_KIND,
+    EV_LOSS,
+    EV_R,
+    EV_SEPARATION,
+    EV_T,
+    EV_VN,
+    EV_VN_AFTER,
+    EV_X,
+    F_DISSIPATION,
+    F_OMEGA,
+    F_Q,
+    F_SPIN,
+    F_V,
+    F_WORK,
+    F_X,
+    FL_IMPACT_CAP,
+    FL_RESTITUTION,
+    FL_RESUME_SPEED,
+    FL_START_HEIGHT,
+    LAW_A,
+    LAW_GAMMA,
+    LAW_R,
+    NF,
+    NFX,
+    NROT,
+    P_A,
+    P_B,
+    P_DR,
+    P_G,
+    P_I,
+    P_K,
+    P_KA,
+    P_M,
+    P_MCAV,
+    P_MU,
+    P_NCAV,
+    P_R0,
+    X_FLIGHT_GAP,
+    X_FOOT_A,
+    X_FOOT_R,
+    X_MAX_GAP,
+    Y_ALPHA,
+    Y_ALPHADOT,
+    Y_OMEGA,
+    Y_R,
+    Y_RDOT,
+    energy_start,
+    state_size,
+)
+from creatio.dynamics.progress import CLOCK_MASK, tick
+from creatio.dynamics.solvers.explicit import error_norm, next_step, stages, step_factor
+from creatio.dynamics.sphere import (
     new_extrema,
     observe,
     pack,
     rhs,
+    unit_quaternion,
+    world_centre,
+    write_attitude,
 )
+from creatio.dynamics.surface import phases
 from creatio.model.cavity import cavity_cell_offsets, cavity_radius
 from creatio.model.flight import foot_point, impact
 from creatio.model.laws import law_eval
 from creatio.model.offset import offset_jets
 from creatio.model.sphere import attitude_rates, centre_tangents, tangent_coordinates
 
-__all__ = ["CONTACT", "EVENT_KINDS", "EVENT_TOL", "FLIGHT", "NEV", "run_flight"]
+__all__ = ["CONTACT", "EVENT_TOL", "FLIGHT", "run_flight"]
 
 #: Phases of the hybrid loop.
 CONTACT, FLIGHT = 0, 1
@@ -95,116 +143,74 @@ EVENT_TOL = 1e-11
 MAX_STALLED_EVENTS = 1000
 STALL_TIME = 1e-9
 
-#: Event kinds, as written into the event table (column EV_KIND).
-EV_SEPARATION, EV_IMPACT, EV_CONTACT = 0, 1, 2
-EVENT_KINDS = ("separation", "impact", "contact")
-
-#: Columns of the event table: time, kind, relative normal velocity before (v_n-) and after
-#: (v_n+), energy lost, centre (3, world), foot point (R, alpha), and for an impact the
-#: height (largest gap) of the flight it ends.
-(EV_T, EV_KIND, EV_VN, EV_VN_AFTER, EV_LOSS, EV_X, EV_R, EV_ALPHA, EV_HEIGHT) = (
-    0, 1, 2, 3, 4, 5, 8, 9, 10)
-
-#: Sizes of the contact and flight states.
-NC = 14
-NF = 16
-
-# Flight extrema: largest gap of the run and of the current flight, foot point (R, alpha)
-X_MAX_GAP, X_FLIGHT_GAP, X_FOOT_R, X_FOOT_A = range(4)
+#: Size of the contact state (rotation and energy always on, fixed structure); its rotation
+#: and energy blocks are carried into the flight state (creatio.dynamics.layout F_*) as they are.
+NC = state_size(True, True, False)
+#: How many entries the contact and flight states share: the rotation and energy blocks.
+NCARRY = NROT + 2
+assert energy_start(True) == Y_OMEGA + NROT and F_OMEGA + NCARRY == NF
 
 
 @njit(cache=True)
 def _flight_rhs(y, dy, g):
     """dy/dt of the flight state: X' = V, V' = (0, 0, -g), omega constant, Q and the spin
     integrated, the work and dissipation constant."""
-    dy[0] = y[3]
-    dy[1] = y[4]
-    dy[2] = y[5]
-    dy[3] = 0.0
-    dy[4] = 0.0
-    dy[5] = -g
-    dy[6] = 0.0
-    dy[7] = 0.0
-    dy[8] = 0.0
-    dy[9], dy[10], dy[11], dy[12], dy[13] = attitude_rates(
-        y[9], y[10], y[11], y[12], y[6], y[7], y[8])
-    dy[14] = 0.0
-    dy[15] = 0.0
+    dy[F_X] = y[F_V]
+    dy[F_X + 1] = y[F_V + 1]
+    dy[F_X + 2] = y[F_V + 2]
+    dy[F_V] = 0.0
+    dy[F_V + 1] = 0.0
+    dy[F_V + 2] = -g
+    dy[F_OMEGA] = 0.0
+    dy[F_OMEGA + 1] = 0.0
+    dy[F_OMEGA + 2] = 0.0
+    dy[F_Q], dy[F_Q + 1], dy[F_Q + 2], dy[F_Q + 3], dy[F_SPIN] = attitude_rates(
+        y[F_Q], y[F_Q + 1], y[F_Q + 2], y[F_Q + 3], y[F_OMEGA], y[F_OMEGA + 1],
+        y[F_OMEGA + 2])
+    dy[F_WORK] = 0.0
+    dy[F_DISSIPATION] = 0.0
 
 
-@njit(cache=True)
-def _f(phase, t, y, dy, pp, lc):
-    """The right-hand side of the phase (contact: creatio.dynamics.sphere.rhs)."""
+@njit(cache=True, inline="always")
+def _f(phase, t, y, dy, pp, lc, rot, en, diag):
+    """The right-hand side of the phase, in the signature the explicit stepper calls
+    (creatio.dynamics.solvers.explicit.stages): contact, creatio.dynamics.sphere.rhs (the
+    hybrid loop always integrates rotation and energy, rot = en = True); flight, X'' = g."""
     if phase == CONTACT:
-        rhs(t, y, dy, pp, lc, True, True, False)
+        rhs(t, y, dy, pp, lc, rot, en, diag)
     else:
-        _flight_rhs(y, dy, pp[7])
+        _flight_rhs(y, dy, pp[P_G])
 
 
 @njit(cache=True)
 def _step(phase, t, h, t_next, y, ynew, K, work, kst, tab, pp, lc, estimate, rtol, atol):
-    """One explicit Runge-Kutta step of size h from (t, y) into ynew, in the driver's
-    summation order (so a contact step is the driver's step bit for bit); with estimate, the
-    scaled error norm of the step (0 otherwise)."""
-    c, a_ptr, a_idx, a_val, b_idx, b_val, b_divisor, e, e3, estimator, error_order = tab[:11]
+    """One explicit Runge-Kutta step of size h from (t, y) into ynew: the driver's stepper
+    (creatio.dynamics.solvers.explicit.stages), so a contact step is the driver's step bit
+    for bit; with estimate, the scaled error norm of the step (0 otherwise)."""
     n = y.size
-    s = c.size
-    _f(phase, t, y, kst, pp, lc)
+    _f(phase, t, y, kst, pp, lc, True, True, False)
     for j in range(n):
         K[0, j] = kst[j]
-    for stg in range(1, s):
-        p0 = a_ptr[stg]
-        p1 = a_ptr[stg + 1]
-        if p1 == p0:
-            for j in range(n):
-                work[j] = y[j]
-        else:
-            q = a_idx[p0]
-            v = a_val[p0]
-            for j in range(n):
-                work[j] = v * K[q, j]
-            for pq in range(p0 + 1, p1):
-                q = a_idx[pq]
-                v = a_val[pq]
-                for j in range(n):
-                    work[j] += v * K[q, j]
-            for j in range(n):
-                work[j] = y[j] + h * work[j]
-        ts = t_next if c[stg] == 1.0 else t + c[stg] * h
-        _f(phase, ts, work, kst, pp, lc)
-        for j in range(n):
-            K[stg, j] = kst[j]
-    q = b_idx[0]
-    v = b_val[0]
-    for j in range(n):
-        ynew[j] = v * K[q, j]
-    for pq in range(1, b_idx.size):
-        q = b_idx[pq]
-        v = b_val[pq]
-        for j in range(n):
-            ynew[j] += v * K[q, j]
-    hb = h / b_divisor
-    for j in range(n):
-        ynew[j] = y[j] + hb * ynew[j]
+    stages(_f, phase, tab.c, tab.a_ptr, tab.a_idx, tab.a_val, tab.b_idx, tab.b_val,
+           tab.b_divisor, t, h, t_next, y, ynew, K, work, kst, pp, lc, True, True)
     if not estimate:
         return 0.0
-    _f(phase, t_next, ynew, kst, pp, lc)
+    _f(phase, t_next, ynew, kst, pp, lc, True, True, False)
+    s = tab.c.size
     for j in range(n):
         K[s, j] = kst[j]
-    return error_norm(K, y, ynew, h, e, e3, estimator, rtol, atol)
+    return error_norm(K, y, ynew, h, tab.e, tab.e3, tab.estimator, rtol, atol)
 
 
 @njit(cache=True)
 def _foot(t, y, pp, lc, R, a):
     """Foot point of the flight state's centre at t from the guess (R, alpha): (found, R,
     alpha, gap, v_n, n (3), c_t (3))."""
-    R0, dR, k, A, Ka, m, b, g, mu, eps, inertia = pp
-    pr, pr1, pr2 = law_eval(lc[0], lc[1], lc[2], lc[3], lc[4], lc[5], t)
-    pa, pa1, pa2 = law_eval(lc[6], lc[7], lc[8], lc[9], lc[10], lc[11], t)
-    gm, g1, g2 = law_eval(lc[12], lc[13], lc[14], lc[15], lc[16], lc[17], t)
+    pr, pr1, pr2, pa, pa1, pa2, gm, g1, g2 = phases(t, lc)
     found, Rs, As, gap, n1, n2, n3, c1, c2, c3 = foot_point(
-        y[0], y[1], y[2], R, a, R0, k, A, Ka, b, pr, pr1, pr2, pa, pa1, pa2, gm, g1, g2)
-    vn = (y[3] - c1) * n1 + (y[4] - c2) * n2 + (y[5] - c3) * n3
+        y[F_X], y[F_X + 1], y[F_X + 2], R, a, pp[P_R0], pp[P_K], pp[P_A], pp[P_KA], pp[P_B],
+        pr, pr1, pr2, pa, pa1, pa2, gm, g1, g2)
+    vn = (y[F_V] - c1) * n1 + (y[F_V + 1] - c2) * n2 + (y[F_V + 2] - c3) * n3
     return found, Rs, As, gap, vn, n1, n2, n3, c1, c2, c3
 
 
@@ -214,7 +220,7 @@ def _event_value(which, t, y, pp, lc, R, a):
     relative normal velocity v_n (flight); NaN where the foot point is not found."""
     if which == 0:
         dy = np.empty(y.size)
-        return rhs(t, y, dy, pp, lc, True, True, False)[0]
+        return rhs(t, y, dy, pp, lc, True, True, False)[D_N]
     found, Rs, As, gap, vn, n1, n2, n3, c1, c2, c3 = _foot(t, y, pp, lc, R, a)
     if not found:
         return math.nan
@@ -268,39 +274,36 @@ def _to_flight(t, yc, yf, pp, lc):
     spin, orientation and the sums carried); returns the centre's world position."""
     dy = np.empty(NC)
     d = rhs(t, yc, dy, pp, lc, True, True, False)
-    ca = math.cos(yc[1])
-    sa = math.sin(yc[1])
-    yf[0] = d[2] * ca - d[3] * sa
-    yf[1] = d[2] * sa + d[3] * ca
-    yf[2] = d[4]
-    yf[3] = d[5] * ca - d[6] * sa
-    yf[4] = d[5] * sa + d[6] * ca
-    yf[5] = d[7]
-    for j in range(10):
-        yf[6 + j] = yc[4 + j]
+    a = yc[Y_ALPHA]
+    yf[F_X], yf[F_X + 1], yf[F_X + 2] = world_centre(d, a)
+    ca = math.cos(a)
+    sa = math.sin(a)
+    yf[F_V] = d[D_V] * ca - d[D_V + 1] * sa
+    yf[F_V + 1] = d[D_V] * sa + d[D_V + 1] * ca
+    yf[F_V + 2] = d[D_V + 2]
+    for j in range(NCARRY):
+        yf[F_OMEGA + j] = yc[Y_OMEGA + j]
 
 
 @njit(cache=True)
 def _to_contact(t, yf, yc, pp, lc, R, a):
     """The contact state at foot point (R, alpha) nearest flight state yf: qdot from
     (J^T J) qdot = J^T (V - X_t), which drops the residual normal velocity."""
-    R0, dR, k, A, Ka, m, b, g, mu, eps, inertia = pp
-    pr, pr1, pr2 = law_eval(lc[0], lc[1], lc[2], lc[3], lc[4], lc[5], t)
-    pa, pa1, pa2 = law_eval(lc[6], lc[7], lc[8], lc[9], lc[10], lc[11], t)
-    gm, g1, g2 = law_eval(lc[12], lc[13], lc[14], lc[15], lc[16], lc[17], t)
+    pr, pr1, pr2, pa, pa1, pa2, gm, g1, g2 = phases(t, lc)
     rho, z, n1, n2, n3, P, Q, Z = offset_jets(
-        R, a, R0, k, A, Ka, b, pr, pr1, pr2, pa, pa1, pa2, gm, g1, g2)
+        R, a, pp[P_R0], pp[P_K], pp[P_A], pp[P_KA], pp[P_B], pr, pr1, pr2, pa, pa1, pa2, gm, g1,
+        g2)
     xR1, xR2, xR3, xa1, xa2, xa3, xt1, xt2, xt3 = centre_tangents(P, Q, Z)
     ca = math.cos(a)
     sa = math.sin(a)
-    u1 = yf[3] * ca + yf[4] * sa - xt1
-    u2 = -yf[3] * sa + yf[4] * ca - xt2
-    u3 = yf[5] - xt3
-    yc[0] = R
-    yc[1] = a
-    yc[2], yc[3] = tangent_coordinates(xR1, xR2, xR3, xa1, xa2, xa3, u1, u2, u3)
-    for j in range(10):
-        yc[4 + j] = yf[6 + j]
+    u1 = yf[F_V] * ca + yf[F_V + 1] * sa - xt1
+    u2 = -yf[F_V] * sa + yf[F_V + 1] * ca - xt2
+    u3 = yf[F_V + 2] - xt3
+    yc[Y_R] = R
+    yc[Y_ALPHA] = a
+    yc[Y_RDOT], yc[Y_ALPHADOT] = tangent_coordinates(xR1, xR2, xR3, xa1, xa2, xa3, u1, u2, u3)
+    for j in range(NCARRY):
+        yc[Y_OMEGA + j] = yf[F_OMEGA + j]
 
 
 @njit(cache=True)
@@ -313,15 +316,12 @@ def _energy(m, inertia, g, V1, V2, V3, w1, w2, w3, X3):
 @njit(cache=True)
 def _contact_energy(t, yc, pp, lc):
     """Mechanical energy and world centre of a contact state."""
-    m = pp[5]
-    g = pp[7]
-    inertia = pp[10]
     dy = np.empty(NC)
     d = rhs(t, yc, dy, pp, lc, True, True, False)
-    E = _energy(m, inertia, g, d[5], d[6], d[7], yc[4], yc[5], yc[6], d[4])
-    ca = math.cos(yc[1])
-    sa = math.sin(yc[1])
-    return E, d[2] * ca - d[3] * sa, d[2] * sa + d[3] * ca, d[4], d[0]
+    E = _energy(pp[P_M], pp[P_I], pp[P_G], d[D_V], d[D_V + 1], d[D_V + 2], yc[Y_OMEGA],
+                yc[Y_OMEGA + 1], yc[Y_OMEGA + 2], d[D_X + 2])
+    X1, X2, X3 = world_centre(d, yc[Y_ALPHA])
+    return E, X1, X2, X3, d[D_N]
 
 
 @njit(cache=True)
@@ -343,34 +343,39 @@ def _record(ev, nev, t, kind, vn, vn_after, loss, X1, X2, X3, R, a, height):
 
 
 @njit(cache=True)
-def _observe_flight(first, t, y, fx, gap, p, pp, lc, ext, out, row, final, sample):
+def _observe_flight(first, t, y, fx, gap, pp, lc, ext, out, row, final, sample):
     """Diagnostics of a flight state: energy residual, edge clearance, azimuth and the
     flight's height; a history row on the output grid (N = 0, no friction, slip NaN, R and
     alpha of the foot point). Returns (status, rows written)."""
-    R0 = p[P_R0]
-    dR = p[P_DR]
-    m = pp[5]
-    b = pp[6]
-    g = pp[7]
-    k = pp[2]
-    inertia = pp[10]
-    X1 = y[0]
-    X2 = y[1]
-    X3 = y[2]
-    kin = 0.5 * m * (y[3] * y[3] + y[4] * y[4] + y[5] * y[5]) + 0.5 * inertia * (
-        y[6] * y[6] + y[7] * y[7] + y[8] * y[8])
+    R0 = pp[P_R0]
+    dR = pp[P_DR]
+    m = pp[P_M]
+    b = pp[P_B]
+    g = pp[P_G]
+    k = pp[P_K]
+    inertia = pp[P_I]
+    X1 = y[F_X]
+    X2 = y[F_X + 1]
+    X3 = y[F_X + 2]
+    V1 = y[F_V]
+    V2 = y[F_V + 1]
+    V3 = y[F_V + 2]
+    wx = y[F_OMEGA]
+    wy = y[F_OMEGA + 1]
+    wz = y[F_OMEGA + 2]
+    kin = 0.5 * m * (V1 * V1 + V2 * V2 + V3 * V3) + 0.5 * inertia * (wx * wx + wy * wy + wz * wz)
     pot = m * g * X3
     energy = kin + pot
     if first:
         ext[E_E0] = energy
-    res = energy - ext[E_E0] - y[14] + y[15]
+    res = energy - ext[E_E0] - y[F_WORK] + y[F_DISSIPATION]
     if abs(res) > ext[E_MAX_RES]:
         ext[E_MAX_RES] = abs(res)
     if gap > fx[X_FLIGHT_GAP]:
         fx[X_FLIGHT_GAP] = gap
     if gap > fx[X_MAX_GAP]:
         fx[X_MAX_GAP] = gap
-    gm = law_eval(lc[12], lc[13], lc[14], lc[15], lc[16], lc[17], t)[0]
+    gm = law_eval(lc[LAW_GAMMA], t)[0]
     sx = (math.sqrt(X1 * X1 + X2 * X2) - R0) * math.cos(gm) + X3 * math.sin(gm)
     clear = min(sx - b, dR - sx - b)
     if clear < ext[E_MIN_CLEAR]:
@@ -395,51 +400,33 @@ def _observe_flight(first, t, y, fx, gap, p, pp, lc, ext, out, row, final, sampl
         status = st.EDGE_CROSSED
     if not (status != st.OK or final or sample):
         return status, 0
-    pr = law_eval(lc[0], lc[1], lc[2], lc[3], lc[4], lc[5], t)[0]
-    pa = law_eval(lc[6], lc[7], lc[8], lc[9], lc[10], lc[11], t)[0]
-    ncav = p[P_NCAV]
-    du, dv = cavity_cell_offsets(R, a, pr, pa, k, p[P_KA], ncav, p[P_MCAV])
+    pr = law_eval(lc[LAW_R], t)[0]
+    pa = law_eval(lc[LAW_A], t)[0]
+    ncav = pp[P_NCAV]
+    du, dv = cavity_cell_offsets(R, a, pr, pa, k, pp[P_KA], ncav, pp[P_MCAV])
     out[row, COL_T] = t
     out[row, COL_X] = X1
     out[row, COL_X + 1] = X2
     out[row, COL_X + 2] = X3
     out[row, COL_R] = R
     out[row, COL_ALPHA] = a
-    out[row, COL_V] = y[3]
-    out[row, COL_V + 1] = y[4]
-    out[row, COL_V + 2] = y[5]
-    out[row, COL_SPEED] = math.sqrt(y[3] * y[3] + y[4] * y[4] + y[5] * y[5])
+    out[row, COL_V] = V1
+    out[row, COL_V + 1] = V2
+    out[row, COL_V + 2] = V3
+    out[row, COL_SPEED] = math.sqrt(V1 * V1 + V2 * V2 + V3 * V3)
     out[row, COL_N] = 0.0
     out[row, COL_F] = 0.0
     out[row, COL_F + 1] = 0.0
     out[row, COL_F + 2] = 0.0
     out[row, COL_SLIP] = math.nan
-    wx = y[6]
-    wy = y[7]
-    wz = y[8]
-    qn = 1.0 / math.sqrt(y[9] * y[9] + y[10] * y[10] + y[11] * y[11] + y[12] * y[12])
-    q0 = y[9] * qn
-    q1 = y[10] * qn
-    q2 = y[11] * qn
-    q3 = y[12] * qn
-    out[row, COL_OMEGA] = wx
-    out[row, COL_OMEGA + 1] = wy
-    out[row, COL_OMEGA + 2] = wz
-    out[row, COL_SPIN_RATE] = math.sqrt(wx * wx + wy * wy + wz * wz)
-    out[row, COL_SPIN] = y[13]
-    out[row, COL_Q] = q0
-    out[row, COL_Q + 1] = q1
-    out[row, COL_Q + 2] = q2
-    out[row, COL_Q + 3] = q3
-    out[row, COL_MARKER] = 2.0 * (q1 * q3 + q0 * q2)
-    out[row, COL_MARKER + 1] = 2.0 * (q2 * q3 - q0 * q1)
-    out[row, COL_MARKER + 2] = q0 * q0 - q1 * q1 - q2 * q2 + q3 * q3
+    q0, q1, q2, q3 = unit_quaternion(y[F_Q], y[F_Q + 1], y[F_Q + 2], y[F_Q + 3])
+    write_attitude(out, row, wx, wy, wz, q0, q1, q2, q3, y[F_SPIN])
     out[row, COL_AZIMUTH] = az
     out[row, COL_KINETIC] = kin
     out[row, COL_POTENTIAL] = pot
     out[row, COL_ENERGY] = energy
-    out[row, COL_WORK] = y[14]
-    out[row, COL_DISSIPATION] = y[15]
+    out[row, COL_WORK] = y[F_WORK]
+    out[row, COL_DISSIPATION] = y[F_DISSIPATION]
     out[row, COL_RESIDUAL] = res
     out[row, COL_CAVITY_R] = cavity_radius(pr, k, ncav)
     out[row, COL_CELL_U] = du
@@ -448,27 +435,94 @@ def _observe_flight(first, t, y, fx, gap, p, pp, lc, ext, out, row, final, sampl
 
 
 @njit(cache=True)
+def _drop(height, yc, yf, fx, pp, lc):
+    """A dropped start: the flight state of the centre `height` along n above its contact
+    position in yc, at rest, and its foot point."""
+    _to_flight(0.0, yc, yf, pp, lc)
+    found, Rs, As, gap, vn, n1, n2, n3, c1, c2, c3 = _foot(0.0, yf, pp, lc, yc[Y_R],
+                                                            yc[Y_ALPHA])
+    yf[F_X] += height * n1
+    yf[F_X + 1] += height * n2
+    yf[F_X + 2] += height * n3
+    fx[X_FOOT_R] = Rs
+    fx[X_FOOT_A] = As
+
+
+@njit(cache=True)
+def _separate(t, yc, yf, fx, ev, nev, pp, lc):
+    """A separation at t: the flight state of contact state yc, its foot point, the event row
+    nev; False when the foot point is not found (nothing recorded)."""
+    _to_flight(t, yc, yf, pp, lc)
+    found, Rs, As, gap, vn, n1, n2, n3, c1, c2, c3 = _foot(t, yf, pp, lc, yc[Y_R], yc[Y_ALPHA])
+    if not found:
+        return False
+    fx[X_FOOT_R] = Rs
+    fx[X_FOOT_A] = As
+    fx[X_FLIGHT_GAP] = 0.0
+    _record(ev, nev, t, EV_SEPARATION, vn, vn, 0.0, yf[F_X], yf[F_X + 1], yf[F_X + 2], Rs, As,
+            math.nan)
+    return True
+
+
+@njit(cache=True)
+def _impact(t, yf, yc, fx, ext, ev, nev, forced, fl, pp, lc, Rs, As, n1, n2, n3, c1, c2, c3):
+    """An impact at t at the foot point (Rs, As) with normal n and membrane velocity c: the
+    impact law (creatio.model.flight.impact) on the flight state, its loss taken off the
+    energy reference, the event row; contact resumes (into yc, with its own event row) when
+    e = 0, the rebound is slower than the resumption speed, or the impact cap forces it.
+    Returns (whether contact resumed, the event count)."""
+    m = pp[P_M]
+    g = pp[P_G]
+    inertia = pp[P_I]
+    V1, V2, V3 = yf[F_V], yf[F_V + 1], yf[F_V + 2]
+    w1, w2, w3 = yf[F_OMEGA], yf[F_OMEGA + 1], yf[F_OMEGA + 2]
+    E0 = _energy(m, inertia, g, V1, V2, V3, w1, w2, w3, yf[F_X + 2])
+    V1, V2, V3, w1, w2, w3, vm, vp, jn_, jt_ = impact(
+        V1, V2, V3, w1, w2, w3, n1, n2, n3, c1, c2, c3, m, inertia, pp[P_B],
+        fl[FL_RESTITUTION], pp[P_MU])
+    yf[F_V] = V1
+    yf[F_V + 1] = V2
+    yf[F_V + 2] = V3
+    yf[F_OMEGA] = w1
+    yf[F_OMEGA + 1] = w2
+    yf[F_OMEGA + 2] = w3
+    E1 = _energy(m, inertia, g, V1, V2, V3, w1, w2, w3, yf[F_X + 2])
+    ext[E_E0] -= E0 - E1
+    nev = _record(ev, nev, t, EV_IMPACT, vm, vp, E0 - E1, yf[F_X], yf[F_X + 1], yf[F_X + 2],
+                  Rs, As, fx[X_FLIGHT_GAP])
+    if fl[FL_RESTITUTION] == 0.0 or abs(vp) < fl[FL_RESUME_SPEED] or forced:
+        _to_contact(t, yf, yc, pp, lc, Rs, As)
+        Ec, X1, X2, X3, N = _contact_energy(t, yc, pp, lc)
+        ext[E_E0] -= E1 - Ec
+        nev = _record(ev, nev, t, EV_CONTACT, vp, 0.0, E1 - Ec, X1, X2, X3, Rs, As, math.nan)
+        return True, nev
+    fx[X_FLIGHT_GAP] = 0.0
+    return False, nev
+
+
+@njit(cache=True)
 def _drive_flight(p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, atol, fixed,
-                  max_steps, tab, out, fl, ev):
+                  max_evals, progress, tab, out, fl, ev):
     """Integrate the hybrid contact/flight model from t = 0 to t_end (see the module).
 
     fl = (restitution e, resumption speed, impacts per second cap, start height: > 0 starts
     in flight that far above the initial contact position); ev the event table
     (rows beyond its size are counted, not written). Returns the driver's tuple (status,
     steps, rows, rhs_evals, extrema, rejected, jacobians, lu, stop_time) plus the event
-    count, the flight extrema and the final phase.
+    count, the flight extrema and the final phase. The evaluation budget max_evals and the
+    progress lines (every `progress` seconds) are the driver's.
     """
-    pp, lc, px = pack(p, lawc)
-    R0, dR, k, A, Ka, m, b, g, mu, eps, inertia = pp
-    e_rest = fl[0]
-    v_resume = fl[1]
-    cap = fl[2]
+    pp, lc = pack(p, lawc)
+    cap = fl[FL_IMPACT_CAP]
     icap = max(1, int(cap))
     ring = np.full(icap, -math.inf)
     n_imp = 0
-    s = tab[0].size
+    s = tab.c.size
     yc = y0.copy()
     yf = np.zeros(NF)
+    clock = np.zeros(2)
+    tries = np.int64(0)
+    top_wrote = 0
     yt_c = np.empty(NC)
     yt_f = np.empty(NF)
     Kc = np.empty((s + 1, NC))
@@ -480,7 +534,7 @@ def _drive_flight(p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, atol,
     ya = np.empty(NF)
     dy = np.empty(NC)
     ext = new_extrema(True)
-    fx = np.zeros(4)
+    fx = np.zeros(NFX)
     nev = np.int64(0)
     evals = np.int64(0)
     n_rej = np.int64(0)
@@ -495,39 +549,27 @@ def _drive_flight(p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, atol,
     kg = 0
     on_grid = True
     h = h0 if fixed else min(h0, interval)
-    error_order = tab[10]
+    error_order = tab.error_order
     final = n_steps == 0 if fixed else t_end <= 0.0
     sample = True
     first = True
     transition = True  # the state may need an event at once (the start, after an event)
-    if fl[3] > 0.0:
-        # a dropped start: the centre fl[3] above its contact position, at rest, in flight
-        _to_flight(0.0, yc, yf, pp, lc)
-        found, Rs, As, gap, vn, n1, n2, n3, c1, c2, c3 = _foot(0.0, yf, pp, lc, yc[0], yc[1])
-        yf[0] += fl[3] * n1
-        yf[1] += fl[3] * n2
-        yf[2] += fl[3] * n3
-        fx[X_FOOT_R] = Rs
-        fx[X_FOOT_A] = As
+    height = fl[FL_START_HEIGHT]
+    if height > 0.0:
+        _drop(height, yc, yf, fx, pp, lc)
         phase = FLIGHT
     while True:
+        top_wrote = 0
         # instantaneous transitions at the current state
         while transition and status == st.OK:
             transition = False
             if phase == CONTACT:
                 Ec, X1, X2, X3, N = _contact_energy(t, yc, pp, lc)
                 if N <= 0.0:
-                    _to_flight(t, yc, yf, pp, lc)
-                    found, Rs, As, gap, vn, n1, n2, n3, c1, c2, c3 = _foot(
-                        t, yf, pp, lc, yc[0], yc[1])
-                    if not found:
+                    if not _separate(t, yc, yf, fx, ev, nev, pp, lc):
                         status = st.FOOT_POINT_FAILED
                         break
-                    fx[X_FOOT_R] = Rs
-                    fx[X_FOOT_A] = As
-                    fx[X_FLIGHT_GAP] = 0.0
-                    nev = _record(ev, nev, t, EV_SEPARATION, vn, vn, 0.0, yf[0], yf[1],
-                                  yf[2], Rs, As, math.nan)
+                    nev += 1
                     phase = FLIGHT
             else:
                 found, Rs, As, gap, vn, n1, n2, n3, c1, c2, c3 = _foot(
@@ -538,40 +580,21 @@ def _drive_flight(p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, atol,
                 fx[X_FOOT_R] = Rs
                 fx[X_FOOT_A] = As
                 if gap <= 0.0 and vn < 0.0:
-                    E0 = _energy(m, inertia, g, yf[3], yf[4], yf[5], yf[6], yf[7], yf[8], yf[2])
-                    V1, V2, V3, w1, w2, w3, vm, vp, jn_, jt_ = impact(
-                        yf[3], yf[4], yf[5], yf[6], yf[7], yf[8], n1, n2, n3, c1, c2, c3, m,
-                        inertia, b, e_rest, mu)
-                    yf[3] = V1
-                    yf[4] = V2
-                    yf[5] = V3
-                    yf[6] = w1
-                    yf[7] = w2
-                    yf[8] = w3
-                    E1 = _energy(m, inertia, g, V1, V2, V3, w1, w2, w3, yf[2])
-                    ext[E_E0] -= E0 - E1
-                    nev = _record(ev, nev, t, EV_IMPACT, vm, vp, E0 - E1, yf[0], yf[1], yf[2],
-                                  Rs, As, fx[X_FLIGHT_GAP])
                     forced = t - ring[n_imp % icap] < 1.0
                     ring[n_imp % icap] = t
                     n_imp += 1
-                    if e_rest == 0.0 or abs(vp) < v_resume or forced:
-                        _to_contact(t, yf, yc, pp, lc, Rs, As)
-                        Ec, X1, X2, X3, N = _contact_energy(t, yc, pp, lc)
-                        ext[E_E0] -= E1 - Ec
-                        nev = _record(ev, nev, t, EV_CONTACT, vp, 0.0, E1 - Ec, X1, X2, X3,
-                                      Rs, As, math.nan)
+                    resumed, nev = _impact(t, yf, yc, fx, ext, ev, nev, forced, fl, pp, lc, Rs,
+                                           As, n1, n2, n3, c1, c2, c3)
+                    if resumed:
                         phase = CONTACT
                         transition = True
-                    else:
-                        fx[X_FLIGHT_GAP] = 0.0
         if status != st.OK:
             break
         # observe the state (extrema, stops, history row)
         if phase == CONTACT:
             d = rhs(t, yc, dy, pp, lc, True, True, True)
             evals += 1
-            status, wrote = observe(first, t, yc, d, p, ext, out, rows, final, sample, True,
+            status, wrote = observe(first, t, yc, d, pp, ext, out, rows, final, sample, True,
                                     True, False)
         else:
             found, Rs, As, gap, vn, n1, n2, n3, c1, c2, c3 = _foot(
@@ -581,10 +604,11 @@ def _drive_flight(p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, atol,
             if not found:
                 status = st.FOOT_POINT_FAILED
                 break
-            status, wrote = _observe_flight(first, t, yf, fx, gap, p, pp, lc, ext, out, rows,
+            status, wrote = _observe_flight(first, t, yf, fx, gap, pp, lc, ext, out, rows,
                                             final, sample)
         first = False
         rows += wrote
+        top_wrote = wrote
         if status != st.OK or final:
             break
         # one step towards the next grid (fixed) or output (adaptive) time
@@ -604,10 +628,13 @@ def _drive_flight(p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, atol,
         m_split = 1
         h_use = h0
         t_next = t_target
-        if steps >= max_steps:
-            status = st.STEP_FAILED
-            break
         while not accepted:
+            if evals >= max_evals:
+                status = st.BUDGET_EXCEEDED
+                break
+            tries += 1
+            if tries & CLOCK_MASK == 1 and progress < math.inf:
+                tick(clock, t, t_end, steps, evals, max_evals, progress)
             if fixed:
                 h_use = h0 if on_grid else t_target - t
                 _step(phase, t, h_use, t_next, y, yn, K, work, kst, tab, pp, lc, False, rtol,
@@ -615,7 +642,7 @@ def _drive_flight(p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, atol,
                 evals += s
                 accepted = True
             else:
-                if steps >= max_steps or h < 1e-12 * max(1.0, t_end) or not math.isfinite(h):
+                if h < 1e-12 * max(1.0, t_end) or not math.isfinite(h):
                     status = st.STEP_FAILED
                     break
                 remaining = t_target - t
@@ -630,7 +657,7 @@ def _drive_flight(p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, atol,
                 ok, factor = step_factor(err, error_order, rejected)
                 if ok:
                     accepted = True
-                    h = _next_h(h, h_use, factor, m_split)
+                    h = next_step(h, h_use, factor, m_split)
                 else:
                     h = h_use * factor
                     rejected = True
@@ -699,14 +726,17 @@ def _drive_flight(p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, atol,
                 jn += 1
             final = hit and t_target >= t_end
             sample = hit
-    if status == st.STEP_FAILED or status == st.FOOT_POINT_FAILED:
-        # record the state where the run gave up, so the stop is visible in histories
+    gave_up = (status == st.STEP_FAILED or status == st.FOOT_POINT_FAILED
+               or status == st.BUDGET_EXCEEDED)
+    if gave_up and top_wrote == 0:
+        # record the state where the run gave up, so the stop is visible in the histories
+        # (unless that state's row was just written)
         if phase == CONTACT:
             d = rhs(t, yc, dy, pp, lc, True, True, True)
-            _, wrote = observe(first, t, yc, d, p, ext, out, rows, True, True, True, True,
+            _, wrote = observe(first, t, yc, d, pp, ext, out, rows, True, True, True, True,
                                False)
         else:
-            _, wrote = _observe_flight(first, t, yf, fx, 0.0, p, pp, lc, ext, out, rows,
+            _, wrote = _observe_flight(first, t, yf, fx, 0.0, pp, lc, ext, out, rows,
                                        True, True)
         rows += wrote
     return status, steps, rows, evals, ext, n_rej, 0, 0, t, nev, fx, phase
@@ -715,8 +745,8 @@ def _drive_flight(p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, atol,
 def run_flight(method, p: np.ndarray, lawc: np.ndarray, y0: np.ndarray, out: np.ndarray,
                ev: np.ndarray, fl: np.ndarray, *, t_end: float, interval: float, h0: float,
                n_steps: int, stride: int, rtol: float, atol: float, fixed: bool,
-               max_steps: int) -> tuple:
+               max_evals: int, progress: float) -> tuple:
     """Run an explicit `method` through the hybrid loop; see _drive_flight for the result."""
     return _drive_flight(p, lawc, y0, float(t_end), float(interval), float(h0), int(n_steps),
-                         int(stride), float(rtol), float(atol), bool(fixed), int(max_steps),
-                         method.driver_tableau, out, fl, ev)
+                         int(stride), float(rtol), float(atol), bool(fixed), int(max_evals),
+                         float(progress), method.driver_tableau, out, fl, ev)

@@ -10,7 +10,8 @@ follow scipy.integrate's Radau (solve_collocation_system, predict_factor), so na
 scipy runs take comparable steps.
 
 What a step carries to the next lives in a small float array (RS_*) and the work arrays of
-:func:`workspace`; :func:`step` is one try at one step.
+:func:`workspace`; :func:`step` is one try at one step, under the stepper contract of
+creatio.dynamics.solvers.driver.
 """
 
 from __future__ import annotations
@@ -20,6 +21,7 @@ import math
 import numpy as np
 
 from creatio.dynamics.jit import njit
+from creatio.dynamics.layout import NQ, Y_OMEGA, Y_Q, structure_start
 from creatio.dynamics.solvers import tableaus as tb
 from creatio.dynamics.solvers.explicit import (
     ACCEPTED,
@@ -85,7 +87,7 @@ def workspace(n):
 
 
 @njit(cache=True)
-def jacobian(t, y, f, jac, work, tmp, pp, lc, rot, en, free, px):
+def jacobian(t, y, f, jac, work, tmp, pp, lc, rot, en, free):
     """Jacobian df/dy into jac; returns the right-hand-side evaluations it cost.
 
     Only (R, alpha, Rdot, alphadot, omega) drive the dynamics, and on the structure path
@@ -103,37 +105,39 @@ def jacobian(t, y, f, jac, work, tmp, pp, lc, rot, en, free, px):
             jac[i, j] = 0.0
     for j in range(n):
         work[j] = y[j]
-    active = 7 if rot else 4
-    # the feedback columns: 0 .. active - 1, then theta and Theta on the structure path
+    # the feedback columns: the coordinates and rates, omega, then theta and Theta on the
+    # structure path
+    active = Y_OMEGA + 3 if rot else NQ
     n_cols = active + 2 if free else active
     for jj in range(n_cols):
-        j = jj if jj < active else n - n_cols + jj
+        j = jj if jj < active else structure_start(rot, en) + jj - active
         delta = 1.4901161193847656e-08 * max(abs(y[j]), 1.0)
         work[j] = y[j] + delta
         delta = work[j] - y[j]
-        rhs_of(free, t, work, tmp, pp, lc, rot, en, False, px)
+        rhs_of(free, t, work, tmp, pp, lc, rot, en, False)
         for i in range(n):
             jac[i, j] = (tmp[i] - f[i]) / delta
         work[j] = y[j]
     if rot:
-        wx = 0.5 * y[4]
-        wy = 0.5 * y[5]
-        wz = 0.5 * y[6]
-        # rows dQ/dt (7..10) against columns Q (7..10), from creatio.dynamics.sphere.rhs:
+        wx = 0.5 * y[Y_OMEGA]
+        wy = 0.5 * y[Y_OMEGA + 1]
+        wz = 0.5 * y[Y_OMEGA + 2]
+        # rows dQ/dt against columns Q, from creatio.model.sphere.attitude_rates:
         # dq0 = -(wx q1 + wy q2 + wz q3)/2, dq1 = (q0 wx + wy q3 - wz q2)/2,
         # dq2 = (q0 wy + wz q1 - wx q3)/2, dq3 = (q0 wz + wx q2 - wy q1)/2
-        jac[7, 8] = -wx
-        jac[7, 9] = -wy
-        jac[7, 10] = -wz
-        jac[8, 7] = wx
-        jac[8, 9] = -wz
-        jac[8, 10] = wy
-        jac[9, 7] = wy
-        jac[9, 8] = wz
-        jac[9, 10] = -wx
-        jac[10, 7] = wz
-        jac[10, 8] = -wy
-        jac[10, 9] = wx
+        q0, q1, q2, q3 = Y_Q, Y_Q + 1, Y_Q + 2, Y_Q + 3
+        jac[q0, q1] = -wx
+        jac[q0, q2] = -wy
+        jac[q0, q3] = -wz
+        jac[q1, q0] = wx
+        jac[q1, q2] = -wz
+        jac[q1, q3] = wy
+        jac[q2, q0] = wy
+        jac[q2, q1] = wz
+        jac[q2, q3] = -wx
+        jac[q3, q0] = wz
+        jac[q3, q1] = -wy
+        jac[q3, q2] = wx
     return n_cols
 
 
@@ -158,7 +162,7 @@ def _predict(t, h, y, rs, Z0, Qold, yold):
 
 @njit(cache=True)
 def _newton(t, h, y, rtol, atol, newton_tol, lur, pivr, luc, pivc, Z0, Z, W, F, rreal, rcplx,
-            work, tmp, pp, lc, rot, en, free, px):
+            work, tmp, pp, lc, rot, en, free):
     """Simplified Newton on W = TI Z; returns (converged, iterations, rate, evaluations)."""
     n = y.size
     for i in range(3):
@@ -178,7 +182,7 @@ def _newton(t, h, y, rtol, atol, newton_tol, lur, pivr, luc, pivc, Z0, Z, W, F, 
         for i in range(3):
             for j in range(n):
                 work[j] = y[j] + Z[i, j]
-            rhs_of(free, t + _RC[i] * h, work, tmp, pp, lc, rot, en, False, px)
+            rhs_of(free, t + _RC[i] * h, work, tmp, pp, lc, rot, en, False)
             for j in range(n):
                 F[i, j] = tmp[j]
                 if not math.isfinite(tmp[j]):
@@ -244,9 +248,9 @@ def _factor(h, n_iter, rate, en_err, rs, fixed):
 
 @njit(cache=True)
 def step(stepper, t, t_next, h, y, f, ynew, fnew, dbuf, ws, tol, fixed, rejected, pp, lc, rot,
-         en, free, px):
-    """One try at the step t -> t_next = t + h (the driver's implicit stepper; `stepper` is
-    its kind, which the driver dispatches on at compile time).
+         en, free):
+    """One try at the step t -> t_next = t + h (the driver's implicit-stepper contract;
+    `stepper` is its kind, which the driver dispatches on at compile time).
 
     Returns (outcome, factor, rhs evaluations, jacobians, LU factorisations, whether fnew and
     dbuf hold the end-of-step evaluation): ACCEPTED (ynew, fnew and the diagnostics dbuf
@@ -261,7 +265,7 @@ def step(stepper, t, t_next, h, y, f, ynew, fnew, dbuf, ws, tol, fixed, rejected
     n_lu = 0
     newton_tol = max(10.0 * _EPS / rtol, min(0.03, math.sqrt(rtol))) if rtol > 0 else 0.03
     if rs[RS_HAVE_JAC] == 0.0:
-        evals += jacobian(t, y, f, jac, work, tmp, pp, lc, rot, en, free, px)
+        evals += jacobian(t, y, f, jac, work, tmp, pp, lc, rot, en, free)
         n_jac += 1
         rs[RS_HAVE_JAC] = 1.0
         rs[RS_CURRENT_JAC] = 1.0
@@ -288,12 +292,12 @@ def step(stepper, t, t_next, h, y, f, ynew, fnew, dbuf, ws, tol, fixed, rejected
                 break
         converged, n_iter, rate, ev = _newton(t, h, y, rtol, atol, newton_tol, lur, pivr, luc,
                                               pivc, Z0, Z, W, F, rreal, rcplx, work, tmp, pp,
-                                              lc, rot, en, free, px)
+                                              lc, rot, en, free)
         evals += ev
         if not converged:
             if rs[RS_CURRENT_JAC] > 0.0:
                 break
-            evals += jacobian(t, y, f, jac, work, tmp, pp, lc, rot, en, free, px)
+            evals += jacobian(t, y, f, jac, work, tmp, pp, lc, rot, en, free)
             n_jac += 1
             rs[RS_CURRENT_JAC] = 1.0
             rs[RS_LU_H] = -1.0
@@ -314,7 +318,7 @@ def step(stepper, t, t_next, h, y, f, ynew, fnew, dbuf, ws, tol, fixed, rejected
         if rejected and en_err > 1.0:
             for j in range(n):
                 work[j] = y[j] + err[j]
-            rhs_of(free, t, work, rreal, pp, lc, rot, en, False, px)
+            rhs_of(free, t, work, rreal, pp, lc, rot, en, False)
             evals += 1
             for j in range(n):
                 err[j] = rreal[j] + tmp[j]
@@ -326,10 +330,10 @@ def step(stepper, t, t_next, h, y, f, ynew, fnew, dbuf, ws, tol, fixed, rejected
     if en_err > 1.0 and not fixed:
         rs[RS_LU_H] = -1.0
         return ERROR_REJECTED, factor, evals, n_jac, n_lu, False
-    store(rhs_of(free, t_next, ynew, fnew, pp, lc, rot, en, True, px), dbuf)
+    store(rhs_of(free, t_next, ynew, fnew, pp, lc, rot, en, True), dbuf)
     evals += 1
     if recompute:
-        evals += jacobian(t_next, ynew, fnew, jac, work, tmp, pp, lc, rot, en, free, px)
+        evals += jacobian(t_next, ynew, fnew, jac, work, tmp, pp, lc, rot, en, free)
         n_jac += 1
         rs[RS_CURRENT_JAC] = 1.0
         rs[RS_LU_H] = -1.0
@@ -350,13 +354,13 @@ def step(stepper, t, t_next, h, y, f, ynew, fnew, dbuf, ws, tol, fixed, rejected
 
 
 @njit(cache=True)
-def dense(ws, t, yout):
-    """Dense output at t inside the last accepted step: its collocation polynomial
-    y_old + Q (x, x^2, x^3), x = (t - t_old) / h, which matches the stage values (order 3)."""
+def dense(ws, tg, yout):
+    """Dense output at tg inside the last accepted step: its collocation polynomial
+    y_old + Q (x, x^2, x^3), x = (tg - t_old) / h, which matches the stage values (order 3)."""
     rs = ws[0]
     Qold = ws[10]
     yold = ws[11]
-    x = (t - rs[RS_T_OLD]) / rs[RS_H_PREV]
+    x = (tg - rs[RS_T_OLD]) / rs[RS_H_PREV]
     x2 = x * x
     x3 = x2 * x
     for j in range(yold.size):

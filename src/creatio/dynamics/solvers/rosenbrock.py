@@ -68,10 +68,10 @@ def workspace(n):
 
 @njit(cache=True)
 def step(stepper, t, t_next, h, y, f, ynew, fnew, dbuf, ws, tol, fixed, rejected, pp, lc, rot,
-         en, free, px):
-    """One try at the step t -> t_next = t + h (the driver's implicit-kind stepper; same
-    contract as creatio.dynamics.solvers.radau.step): (outcome, factor, rhs evaluations,
-    jacobians, LU factorisations, whether fnew and dbuf hold the end-of-step evaluation)."""
+         en, free):
+    """One try at the step t -> t_next = t + h (the driver's implicit-stepper contract, as
+    creatio.dynamics.solvers.radau.step): (outcome, factor, rhs evaluations, jacobians, LU
+    factorisations, whether fnew and dbuf hold the end-of-step evaluation)."""
     rs, jac, lu, piv, U, dfdt, work, tmp, hermite = ws
     rtol, atol = tol
     n = y.size
@@ -80,9 +80,9 @@ def step(stepper, t, t_next, h, y, f, ynew, fnew, dbuf, ws, tol, fixed, rejected
     n_lu = 0
     if rs[RS_JAC_T] != t:
         # J and df/dt at the step's start (kept for a retry from the same point)
-        evals += jacobian(t, y, f, jac, work, tmp, pp, lc, rot, en, free, px)
+        evals += jacobian(t, y, f, jac, work, tmp, pp, lc, rot, en, free)
         dt_ = 1.4901161193847656e-08 * max(1e-5, abs(t))
-        rhs_of(free, t + dt_, y, tmp, pp, lc, rot, en, False, px)
+        rhs_of(free, t + dt_, y, tmp, pp, lc, rot, en, False)
         evals += 1
         for j in range(n):
             dfdt[j] = (tmp[j] - f[j]) / dt_
@@ -111,7 +111,7 @@ def step(stepper, t, t_next, h, y, f, ynew, fnew, dbuf, ws, tol, fixed, rejected
                 for q in range(i):
                     acc += _A[i, q] * U[q, j]
                 work[j] = acc
-            rhs_of(free, t + _ALPHA[i] * h, work, tmp, pp, lc, rot, en, False, px)
+            rhs_of(free, t + _ALPHA[i] * h, work, tmp, pp, lc, rot, en, False)
             evals += 1
         hg = h * _GAMMAS[i]
         for j in range(n):
@@ -144,7 +144,7 @@ def step(stepper, t, t_next, h, y, f, ynew, fnew, dbuf, ws, tol, fixed, rejected
         factor = 1.0
     elif not ok:
         return ERROR_REJECTED, factor, evals, n_jac, n_lu, False
-    store(rhs_of(free, t_next, ynew, fnew, pp, lc, rot, en, True, px), dbuf)
+    store(rhs_of(free, t_next, ynew, fnew, pp, lc, rot, en, True), dbuf)
     evals += 1
     for j in range(n):
         hermite[0, j] = y[j]
@@ -157,17 +157,17 @@ def step(stepper, t, t_next, h, y, f, ynew, fnew, dbuf, ws, tol, fixed, rejected
 
 
 @njit(cache=True)
-def dense(ws, t, yout):
-    """Dense output at t inside the last accepted step: the cubic Hermite polynomial through
+def dense(ws, tg, yout):
+    """Dense output at tg inside the last accepted step: the cubic Hermite polynomial through
     both ends' states and derivatives (order 3)."""
     rs = ws[0]
     hermite = ws[8]
-    h = rs[RS_H_OLD]
-    x = (t - rs[RS_T_OLD]) / h
+    h_old = rs[RS_H_OLD]
+    x = (tg - rs[RS_T_OLD]) / h_old
     h00 = (1.0 + 2.0 * x) * (1.0 - x) ** 2
     h10 = x * (1.0 - x) ** 2
     h01 = x * x * (3.0 - 2.0 * x)
     h11 = x * x * (x - 1.0)
     for j in range(yout.size):
-        yout[j] = (h00 * hermite[0, j] + h * h10 * hermite[1, j] + h01 * hermite[2, j]
-                   + h * h11 * hermite[3, j])
+        yout[j] = (h00 * hermite[0, j] + h_old * h10 * hermite[1, j] + h01 * hermite[2, j]
+                   + h_old * h11 * hermite[3, j])

@@ -6,6 +6,7 @@ import math
 
 import pytest
 
+from creatio.dynamics import UnstableStepError, check_stable
 from creatio.errors import ConfigError
 from creatio.pipeline.config import resolve
 from creatio.pipeline.run import run_study
@@ -70,12 +71,18 @@ def test_en02r_transport_follows_the_cavity(en02r):
 
 
 def test_unstable_dt_is_refused_at_validation_and_allowed_with_a_warning():
-    """mu = 0.6 puts the friction limit near 1.08 ms: dt = 2 ms is refused, unless allowed."""
+    """mu = 0.6 puts the friction limit near 1.08 ms: dt = 2 ms is refused, unless allowed,
+    in one line with the rule's one message (creatio.dynamics.problem.check_stable)."""
     with pytest.raises(ConfigError) as info:
         resolve("en02", ["sphere.mu=0.6"])
     msg = str(info.value)
-    assert "solver.dt=0.002" in msg and "sphere.mu = 0.6" in msg and "sphere.eps = 0.01" in msg
-    assert "largest stable dt" in msg
+    assert "\n" not in msg and msg.startswith("invalid config: solver.dt=0.002: ")
+    assert "mu = 0.6" in msg and "eps = 0.01" in msg and "largest stable dt is 0.00108161 s" in msg
+    assert "solver.allow_unstable=true" in msg
+    with pytest.raises(UnstableStepError) as core:
+        check_stable(resolve("en02", ["sphere.mu=0.6", "solver.allow_unstable=true"]).obj
+                     .sphere_problem().replace(allow_unstable=False))
+    assert str(core.value) in msg
     allowed = resolve("en02", ["sphere.mu=0.6", "solver.allow_unstable=true",
                                "phases.T=2.0"])
     ds = run_study(allowed)

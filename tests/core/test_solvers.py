@@ -7,7 +7,6 @@ friction limit; the scipy harness must measure the native solution's error exact
 
 from __future__ import annotations
 
-import dataclasses
 import math
 
 import numpy as np
@@ -37,11 +36,11 @@ def en02(en02_config_problem: SphereProblem) -> SphereProblem:
 @pytest.fixture(scope="module")
 def smooth(en02: SphereProblem) -> SphereProblem:
     """Frictionless 20 s EN-02 segment: smooth and non-stiff, 4-component state."""
-    return dataclasses.replace(en02, mu=0.0, t_end=20.0, output_interval=0.2)
+    return en02.replace(mu=0.0, t_end=20.0, interval=0.2)
 
 
 def _ref(problem: SphereProblem) -> np.ndarray:
-    return simulate(dataclasses.replace(problem, method="dop853", rtol=1e-13, atol=1e-15)).X
+    return simulate(problem.replace(method="dop853", rtol=1e-13, atol=1e-15)).X
 
 
 def _err(X: np.ndarray, ref: np.ndarray) -> float:
@@ -63,9 +62,9 @@ def test_observed_order_on_smooth_case(smooth: SphereProblem, method: str, dts) 
     ref = _ref(smooth)
     errs = []
     for dt in dts:
-        prob = dataclasses.replace(smooth, method=method, dt=dt, fixed_step=method != "rk4")
+        prob = smooth.replace(method=method, dt=dt, fixed_step=method != "rk4")
         res = simulate(prob)
-        assert res.status == "ok" and res.steps == round(smooth.t_end / dt)
+        assert res.status == "ok" and res.steps == round(smooth.output.t_end / dt)
         errs.append(_err(res.X, ref))
     order = math.log2(errs[0] / errs[1])
     assert errs[1] > 1e-13, "finest error must stay above rounding for an order estimate"
@@ -91,12 +90,11 @@ def test_dense_output_order_at_off_step_times(smooth: SphereProblem, method: str
     expected = min(METHODS[method].order, METHODS[method].dense_order + 1)
     errs = []
     for dt in dts:
-        assert (smooth.output_interval / dt) % 1.0 > 0.1  # most rows fall between steps
-        prob = dataclasses.replace(smooth, method=method, dt=dt, fixed_step=method != "rk4",
-                                   dense_output=True)
+        assert (smooth.output.interval / dt) % 1.0 > 0.1  # most rows fall between steps
+        prob = smooth.replace(method=method, dt=dt, fixed_step=method != "rk4", dense_output=True)
         res = simulate(prob)
-        assert res.status == "ok" and res.steps == math.ceil(smooth.t_end / dt - 1e-9)
-        np.testing.assert_allclose(res.t, np.arange(res.t.size) * smooth.output_interval,
+        assert res.status == "ok" and res.steps == math.ceil(smooth.output.t_end / dt - 1e-9)
+        np.testing.assert_allclose(res.t, np.arange(res.t.size) * smooth.output.interval,
                                    rtol=0.0, atol=1e-12)
         errs.append(_err(res.X, ref))
     order = math.log2(errs[0] / errs[1])
@@ -109,12 +107,11 @@ def test_adaptive_dense_output_meets_the_tolerance_in_fewer_steps(en02: SpherePr
                                                                   method: str) -> None:
     """Steps that need not land on the grid: fewer of them than the landing run's, and the
     interpolated rows still within rtol x |X| of the reference."""
-    prob = dataclasses.replace(en02, t_end=30.0)
+    prob = en02.replace(t_end=30.0)
     ref = _ref(prob)
     rtol = 1e-9
-    landing = simulate(dataclasses.replace(prob, method=method, rtol=rtol, atol=rtol / 100))
-    dense = simulate(dataclasses.replace(prob, method=method, rtol=rtol, atol=rtol / 100,
-                                         dense_output=True))
+    landing = simulate(prob.replace(method=method, rtol=rtol, atol=rtol / 100))
+    dense = simulate(prob.replace(method=method, rtol=rtol, atol=rtol / 100, dense_output=True))
     assert dense.status == "ok" and dense.t.size == landing.t.size
     scale = float(np.linalg.norm(ref, axis=1).max())
     assert _err(dense.X, ref) <= rtol * scale
@@ -127,7 +124,7 @@ def test_dense_output_frees_a_fixed_step_from_the_grid() -> None:
     with pytest.raises(ConfigError, match="solver.output_interval"):
         resolve("en02", ["solver.dt=0.003"])
     prob = resolve("en02", ["solver.dt=0.003", "solver.dense_output=true"]).obj.sphere_problem()
-    assert prob.dense_output and prob.dt == 0.003
+    assert prob.solver.dense_output and prob.solver.dt == 0.003
     with pytest.raises(ConfigError, match="solver.dense_output"):
         resolve("en02f", ["solver.dense_output=true", "flight.contact_loss=flight"])
 
@@ -137,35 +134,35 @@ def test_dense_output_frees_a_fixed_step_from_the_grid() -> None:
 def test_adaptive_methods_meet_their_tolerance(en02: SphereProblem, method: str,
                                                rtol: float) -> None:
     """Global centre error <= rtol x |X| (the local control keeps every step within it)."""
-    prob = dataclasses.replace(en02, t_end=30.0)
+    prob = en02.replace(t_end=30.0)
     ref = _ref(prob)
-    res = simulate(dataclasses.replace(prob, method=method, rtol=rtol, atol=rtol / 100))
+    res = simulate(prob.replace(method=method, rtol=rtol, atol=rtol / 100))
     assert res.status == "ok"
     scale = float(np.linalg.norm(ref, axis=1).max())
     assert _err(res.X, ref) <= rtol * scale
     # and the control works: a looser tolerance takes fewer steps
-    loose = simulate(dataclasses.replace(prob, method=method, rtol=rtol * 100, atol=rtol))
+    loose = simulate(prob.replace(method=method, rtol=rtol * 100, atol=rtol))
     assert loose.steps < res.steps
 
 
 def test_radau5_accurate_far_beyond_the_explicit_limit(en02: SphereProblem) -> None:
-    prob = dataclasses.replace(en02, t_end=30.0)
+    prob = en02.replace(t_end=30.0)
     limit = stability_limit(prob)
     dt = 0.05
     assert dt > 10 * limit  # 11.6 x RK4's limit (4.33 ms)
     ref = _ref(prob)
-    stiff = simulate(dataclasses.replace(prob, method="radau5", dt=dt, fixed_step=True))
+    stiff = simulate(prob.replace(method="radau5", dt=dt, fixed_step=True))
     assert stiff.status == "ok" and _err(stiff.X, ref) < 1e-9
     # RODAS4, L-stable too, is as stable there; order 4 against 5 costs it accuracy
-    ros = simulate(dataclasses.replace(prob, method="rodas4", dt=dt, fixed_step=True))
+    ros = simulate(prob.replace(method="rodas4", dt=dt, fixed_step=True))
     assert ros.status == "ok" and _err(stiff.X, ref) < _err(ros.X, ref) < 1e-8
-    assert math.isinf(stability_limit(dataclasses.replace(prob, method="radau5", dt=dt)))
+    assert math.isinf(stability_limit(prob.replace(method="radau5", dt=dt)))
     # the explicit scheme at the same step is refused, and breaks down when forced
     with pytest.raises(UnstableStepError, match="stability limit"):
-        simulate(dataclasses.replace(prob, dt=dt))
+        simulate(prob.replace(dt=dt))
     # forced, it does not blow up (|f| <= mu N saturates the slip): it chatters, its slip
     # and its error orders of magnitude above the stiff scheme's at the same step
-    forced = simulate(dataclasses.replace(prob, dt=dt, allow_unstable=True))
+    forced = simulate(prob.replace(dt=dt, allow_unstable=True))
     assert forced.warnings and _err(forced.X, ref) > 1e4 * _err(stiff.X, ref)
     assert forced.max_slip_speed > 10 * stiff.max_slip_speed
 
@@ -185,8 +182,8 @@ def test_dormand_prince_stability_interval_matches_its_polynomial() -> None:
 
 def test_harness_measures_the_native_error_on_the_same_solution(en02: SphereProblem) -> None:
     """States of a native run pushed through the peer harness give the native X exactly."""
-    prob = dataclasses.replace(en02, t_end=20.0)
-    native = simulate(dataclasses.replace(prob, method="dop853", rtol=1e-8, atol=1e-10))
+    prob = en02.replace(t_end=20.0)
+    native = simulate(prob.replace(method="dop853", rtol=1e-8, atol=1e-10))
     states = np.zeros((native.t.size, prob.initial_state(True, False).size))
     states[:, 0] = native.R
     states[:, 1] = native.alpha
@@ -209,10 +206,10 @@ def test_scipy_peer_agrees_with_the_native_port(en02: SphereProblem, native: str
     factor of each other, as measured by the same harness. (DOP853's errors are not
     compared: native 2e-14 m is far below the ~5e-12 m of scipy's dense-output
     interpolation at the t_eval grid, which native steps never need.)"""
-    prob = dataclasses.replace(en02, t_end=10.0)
+    prob = en02.replace(t_end=10.0)
     ref = _ref(prob)
     theirs = solve_peer(prob, peer, rtol, rtol / 100)
-    ours = simulate(dataclasses.replace(prob, method=native, rtol=rtol, atol=rtol / 100))
+    ours = simulate(prob.replace(method=native, rtol=rtol, atol=rtol / 100))
     assert theirs.status == "ok" and ours.status == "ok"
     np.testing.assert_array_equal(theirs.t, ours.t)
     e_peer = _err(centre_grid(prob, theirs.t, theirs.y, False), ref)
@@ -226,9 +223,9 @@ def test_scipy_peer_agrees_with_the_native_port(en02: SphereProblem, native: str
 def test_solver_group_selects_a_method() -> None:
     cfg = resolve("en02", ["solver=radau5"]).obj
     prob = cfg.sphere_problem()
-    assert prob.method == "radau5" and prob.adaptive and math.isinf(cfg.step_limit())
+    assert prob.solver.method == "radau5" and prob.adaptive and math.isinf(cfg.step_limit())
     fine = cfg.sphere_problem(cfg.solver.dt / cfg.solver.refine)
-    assert fine.rtol == pytest.approx(prob.rtol / 2**5)
+    assert fine.solver.rtol == pytest.approx(prob.solver.rtol / 2**5)
     assert resolve("en02").obj.solver.method == "rk4"  # the published studies stay on RK4
     with pytest.raises(ConfigError, match="solver.rtol"):
         resolve("en02", ["solver=radau5", "solver.rtol=0"])
@@ -239,11 +236,11 @@ def test_solver_group_selects_a_method() -> None:
 def test_radau5_step_is_set_by_the_slow_dynamics_at_large_mu(en02: SphereProblem) -> None:
     """At mu = 50 the slip relaxes at ~1.7e5 /s (RK4 limit 13 us): radau5's steps stay
     near the mu = 0.15 count, and it agrees with RK4 run inside its limit."""
-    prob = dataclasses.replace(en02, mu=50.0, t_end=5.0)
+    prob = en02.replace(mu=50.0, t_end=5.0)
     limit = stability_limit(prob)
     assert limit < 2e-5
-    rk4 = simulate(dataclasses.replace(prob, dt=1e-5))
-    stiff = simulate(dataclasses.replace(prob, method="radau5", rtol=1e-8, atol=1e-10))
+    rk4 = simulate(prob.replace(dt=1e-5))
+    stiff = simulate(prob.replace(method="radau5", rtol=1e-8, atol=1e-10))
     assert rk4.status == "ok" and stiff.status == "ok"
     assert stiff.steps < 400 and 1000 * stiff.steps < 5.0 / limit  # explicit: >= 5 s / limit
     assert _err(stiff.X, rk4.X) < 1e-8
@@ -252,7 +249,6 @@ def test_radau5_step_is_set_by_the_slow_dynamics_at_large_mu(en02: SphereProblem
 def test_a_step_the_integrator_cannot_take_stops_cleanly(en02: SphereProblem) -> None:
     """radau5 at a fixed 1 s step cannot solve its stage equations: status step_failed at
     the start, finite histories, no exception."""
-    res = simulate(dataclasses.replace(en02, method="radau5", fixed_step=True, dt=1.0,
-                                       output_interval=1.0))
+    res = simulate(en02.replace(method="radau5", fixed_step=True, dt=1.0, interval=1.0))
     assert res.status == "step_failed" and res.stop_time == 0.0
     assert np.all(np.isfinite(res.X)) and res.t.size >= 1

@@ -1,0 +1,67 @@
+"""Every script of scripts/ runs: each in its fast mode, as a user would start it (the quick
+modes measure nothing worth keeping; they catch a script that no longer runs, as
+bench_en02.py did when the driver's specialisations changed)."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+REPO = Path(__file__).resolve().parents[2]
+
+
+def _run(*args: str, timeout: float = 1800) -> str:
+    """Run a script from the repository root; its stdout (the run must succeed)."""
+    proc = subprocess.run([*args], cwd=REPO, capture_output=True, text=True, timeout=timeout,
+                          env=dict(os.environ))
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    return proc.stdout
+
+
+def test_bench_en02_quick() -> None:
+    out = _run(sys.executable, "scripts/bench_en02.py", "--quick")
+    assert "this process: first simulate" in out
+    assert out.count("status ok") == 4 and "RHS evals" in out
+
+
+def test_bench_kinematics_quick() -> None:
+    out = _run(sys.executable, "scripts/bench_kinematics.py", "--quick")
+    assert "ct02: median" in out and "en01: median" in out and "over 1 runs" in out
+
+
+def test_radau_orders_quick() -> None:
+    out = _run(sys.executable, "scripts/radau_orders.py", "--quick")
+    assert out.count("| 1e-06 |") == 12 and "scipy Radau" not in out
+
+
+def test_local_slurm_parses_and_refuses_an_unknown_command() -> None:
+    """The script parses (bash -n); without a command it prints its usage and exits 2 (up,
+    down and status need root and a cluster: tests/pipeline/test_slurm.py runs them)."""
+    _run("bash", "-n", "scripts/local-slurm.sh")
+    proc = subprocess.run(["bash", "scripts/local-slurm.sh"], cwd=REPO, capture_output=True,
+                          text=True, timeout=60)
+    assert proc.returncode == 2 and "usage:" in proc.stderr
+
+
+@pytest.mark.slow
+def test_bench_against_quick() -> None:
+    """Exports HEAD beside this tree and times one round of each (compiles both)."""
+    out = _run(sys.executable, "scripts/bench_against.py", "HEAD", "--quick")
+    assert "en02:rk4" in out and "now/then" in out
+
+
+@pytest.mark.slow
+def test_bench_workflow_quick() -> None:
+    out = _run(sys.executable, "scripts/bench_workflow.py", "HEAD", "--quick")
+    assert "snakemake all -n (creatio planning inside)" in out
+
+
+@pytest.mark.slow
+def test_scene_costs_one_repeat(tmp_path: Path) -> None:
+    out = _run(sys.executable, "scripts/scene_costs.py", "--repeats", "1", "--out",
+               str(tmp_path / "costs.md"))
+    assert (tmp_path / "costs.md").exists() and out.strip()
