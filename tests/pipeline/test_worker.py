@@ -21,6 +21,7 @@ from creatio.pipeline.code import package_version
 pytestmark = pytest.mark.skipif(not hasattr(os, "fork"), reason="the worker forks")
 
 CLI = [sys.executable, "-m", "creatio.cli"]
+REPO = Path(__file__).resolve().parents[2]
 
 
 @pytest.fixture
@@ -158,3 +159,29 @@ def test_ctrl_c_of_a_served_job_exits_130_in_one_line(warm, tmp_path):
     assert client.returncode == 130, err
     assert len(err.strip().splitlines()) == 1 and "interrupted" in err, err
     assert not (tmp_path / "x.nc").exists()
+
+
+def test_snakemake_jobs_run_in_the_invocations_worker(tmp_path):
+    """A local `snakemake all` starts its worker with the environment Snakemake's shell
+    gives a one-thread job, so its dataset and report jobs are served (none refused), and
+    what they write equals one process per job."""
+    def snakemake(work: Path, worker_env: str | None) -> str:
+        env = {**os.environ, "CREATIO_DEBUG": "1"}
+        env.pop(worker.ENV, None)
+        if worker_env:
+            env[worker.ENV] = worker_env
+        done = subprocess.run(
+            [sys.executable, "-m", "snakemake", "-s", str(REPO / "Snakefile"), "-d", str(work),
+             "-c", "2", "all", "--config", 'studies=["en02"]'],
+            cwd=work, env=env, capture_output=True, text=True, timeout=900)
+        assert done.returncode == 0, done.stderr[-3000:]
+        return "".join(p.read_text() for p in sorted((work / "data" / "logs").rglob("*.log")))
+
+    warm, alone = tmp_path / "warm", tmp_path / "alone"
+    warm.mkdir(), alone.mkdir()
+    logs = snakemake(warm, None)
+    assert "wrote" in logs and "refused" not in logs, logs
+    assert list((warm / ".snakemake" / "log").glob("creatio-worker-*.log"))
+    snakemake(alone, "off")
+    for nc in sorted((alone / "data" / "studies").rglob("*.nc")):
+        _same_data(warm / nc.relative_to(alone), nc)

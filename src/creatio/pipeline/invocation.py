@@ -85,10 +85,11 @@ class Invocation:
 
     # ------------------------------------------------------------------ warm worker
     def start_worker(self, workflow: Any) -> None:
-        """Run this invocation's jobs in a warm worker (creatio.pipeline.worker) when they
-        run on this machine: this checkout's daemon if one answers, else a worker of this
-        invocation, which stops with it. Jobs on a cluster, ``CREATIO_WORKER=off``, or a
-        system without fork and descriptor passing keep a process each."""
+        """Run this invocation's jobs in a warm worker of its own (creatio.pipeline.worker)
+        when they run on this machine; it starts with the environment Snakemake gives a
+        one-thread job and stops with the invocation. Jobs on a cluster,
+        ``CREATIO_WORKER=off``, or a system without fork and descriptor passing keep a
+        process each."""
         from creatio.pipeline import worker
 
         if os.environ.get(worker.ENV) == "off" or not _can_fork():
@@ -96,15 +97,11 @@ class Invocation:
         if not workflow.local_exec or workflow.exec_mode.name != "DEFAULT":
             return
         try:
-            daemon = worker.daemon_socket()
-            if worker.control(daemon, "status") is not None:
-                os.environ[worker.ENV] = str(daemon)
-                print(f"creatio: jobs run in the warm worker at {daemon}", file=sys.stderr)
-                return
-            path = daemon.with_name(f"s-{os.getpid()}.sock")
+            path = worker.daemon_socket().with_name(f"s-{os.getpid()}.sock")
             log = Path(".snakemake") / "log" / f"creatio-worker-{os.getpid()}.log"
             log.parent.mkdir(parents=True, exist_ok=True)
-            self._worker = worker.start(path, owner=os.getpid(), log=log)
+            self._worker = worker.start(path, owner=os.getpid(), log=log,
+                                        env=worker.snakemake_job_env(threads=1))
         except OSError as e:  # no private directory, no socket: a process per job
             print(f"creatio: no warm worker ({e}): a process per job", file=sys.stderr)
             return

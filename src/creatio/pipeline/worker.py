@@ -26,9 +26,9 @@ first job that needs a specialisation the cache lacks compiles it while any othe
 needs the same one waits for it (one compilation, not one per job).
 
 ``snakemake`` starts a worker for its invocation (the Snakefile's onstart, creatio.pipeline.
-invocation) when it runs
-jobs locally and no daemon of the checkout runs; ``creatio worker start`` starts a daemon that
-stays until it has been idle for ``--idle`` seconds (``creatio run`` then uses it too).
+invocation) when it runs jobs locally; ``creatio worker start`` starts a daemon that
+stays until it has been idle for ``--idle`` seconds, for ``creatio run`` (Snakemake's jobs,
+whose environment sets thread counts, use their invocation's worker).
 ``CREATIO_WORKER=off`` runs every command in its own process.
 """
 
@@ -590,6 +590,7 @@ def _child(entry: Callable[[list[str]], int], request: Mapping[str, Any], fds: S
         os.environ.clear()
         os.environ.update(request["env"])
         time.tzset()
+        tempfile.tempdir = None  # read TMPDIR again (Snakemake sets it per job)
         for signum in (signal.SIGTERM, signal.SIGHUP, signal.SIGQUIT, signal.SIGCHLD):
             signal.signal(signum, signal.SIG_DFL)
         signal.signal(signal.SIGINT, signal.default_int_handler)
@@ -701,10 +702,24 @@ def _mark_starting(path: Path, pid: int) -> None:
     os.replace(tmp, target)
 
 
+#: What Snakemake's shell sets for a job of ``threads`` threads (snakemake/shell.py): a
+#: worker for Snakemake's jobs starts with them at 1, the threads of every creatio rule but
+#: the analyses', whose timing jobs then differ in NUMBA_NUM_THREADS and run alone.
+SNAKEMAKE_THREADS = ("OMP_NUM_THREADS", "GOTO_NUM_THREADS", "OPENBLAS_NUM_THREADS",
+                     "MKL_NUM_THREADS", "VECLIB_MAXIMUM_THREADS", "NUMEXPR_NUM_THREADS")
+
+
+def snakemake_job_env(threads: int = 1) -> dict[str, str]:
+    """This process's environment as Snakemake's shell gives it to a job of `threads`."""
+    return {**os.environ, **dict.fromkeys(SNAKEMAKE_THREADS, str(threads))}
+
+
 def start(path: Path, *, idle: float | None = None, owner: int | None = None,
-          log: Path | None = None, wait: bool = False) -> subprocess.Popen:
+          log: Path | None = None, wait: bool = False,
+          env: Mapping[str, str] | None = None) -> subprocess.Popen:
     """Start a worker at path (a process of its own; a daemon when owner is None), its
-    output appended to log."""
+    output appended to log, in env (default: this process's environment): the worker
+    serves only clients whose import-time variables equal env's."""
     _mark_starting(path, os.getpid())
     args = [sys.executable, "-m", "creatio.cli", "worker", "serve", str(path)]
     if idle is not None:
@@ -716,7 +731,7 @@ def start(path: Path, *, idle: float | None = None, owner: int | None = None,
     try:
         proc = subprocess.Popen(args, stdin=subprocess.DEVNULL, stdout=out, stderr=out,
                                 start_new_session=owner is None,
-                                env={k: v for k, v in os.environ.items() if k != ENV})
+                                env={k: v for k, v in (env or os.environ).items() if k != ENV})
     finally:
         if log is not None:
             os.close(out)
@@ -782,8 +797,8 @@ def main(argv: Sequence[str], entry: Callable[[list[str]], int] | None = None) -
             return 0
         log = path.with_suffix(".log")
         proc = start(path, idle=args.idle, log=log, wait=True)
-        print(f"creatio worker: pid {proc.pid} at {path}: `creatio run` and snakemake jobs "
-              f"of this checkout run in it; it stops after {args.idle:g} s idle "
+        print(f"creatio worker: pid {proc.pid} at {path}: `creatio run` of this checkout runs "
+              f"in it; it stops after {args.idle:g} s idle "
               "(creatio worker stop); log: " + str(log))
         return 0
     if state is None:
