@@ -45,6 +45,10 @@ include: "workflows/rules/en05.smk"
 include: "workflows/rules/index.smk"
 
 
+# The warm worker warms up while Snakemake builds the DAG; onstart keeps it for local jobs.
+PLAN.prestart_worker(workflow)
+
+
 onstart:
     PLAN.start_worker(workflow)
 

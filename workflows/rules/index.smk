@@ -18,5 +18,6 @@ rule index:
         "data/logs/index.log",
     priority: -10
     run:
-        page = write_index("data", output[0])
+        with PLAN.lock:
+            page = write_index("data", output[0])
         Path(log[0]).write_text(f"wrote {page}\n")

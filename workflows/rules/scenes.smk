@@ -53,7 +53,8 @@ rule scene_config:
     log:
         "{root}/logs/scenes/{scene}_config.log",
     run:
-        SCENES.write(wildcards.root, wildcards.scene, output[0], log[0])
+        with PLAN.lock:
+            SCENES.write(wildcards.root, wildcards.scene, output[0], log[0])
 
 
 rule scene_family_batch:

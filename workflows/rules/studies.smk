@@ -27,7 +27,8 @@ rule study_config:
     log:
         "{root}/logs/{study}_config.log",
     run:
-        JOBS.write(wildcards.root, wildcards.study, output[0], log[0])
+        with PLAN.lock:
+            JOBS.write(wildcards.root, wildcards.study, output[0], log[0])
 
 
 rule study_dataset:

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import os
 import sys
+import threading
 from pathlib import Path
 from typing import Any
 
@@ -26,6 +27,12 @@ from creatio.pipeline.planning import (
 
 __all__ = ["Invocation", "job_command"]
 
+#: Command-line flags of a Snakemake invocation that runs no job.
+NO_RUN_FLAGS = frozenset(("-n", "--dry-run", "--dryrun", "--lint", "--summary",
+                          "--detailed-summary", "--dag", "--rulegraph", "--filegraph",
+                          "--d3dag", "--list-rules", "-l", "--version", "-h", "--help",
+                          "--unlock", "--cleanup-metadata", "--delete-all-output",
+                          "--delete-temp-output", "--touch", "-t", "--containerize"))
 #: The worked sweep of conf/sweeps/, planned for a job re-invoked alone.
 WORKED_SWEEP = "en02_mu"
 
@@ -65,6 +72,9 @@ class Invocation:
                                 self._worked_sweep, lambda: self.beyond.plans]
         self.sweeps.fallbacks += [self._ad_hoc_sweep, self._worked_sweep]
         self._worker: Any = None
+        #: Held by the run: blocks of the rules, which run in threads of Snakemake's process
+        #: (profiles/default): Hydra's composition is not thread-safe.
+        self.lock = threading.Lock()
 
     # ------------------------------------------------------------------ targets
     def sweep_targets(self) -> list[str]:
@@ -84,17 +94,33 @@ class Invocation:
         return self.sweeps.worked(WORKED_SWEEP)
 
     # ------------------------------------------------------------------ warm worker
+    def prestart_worker(self, workflow: Any) -> None:
+        """Start the worker while Snakemake builds the DAG (its imports then overlap the
+        planning instead of delaying the first job) when the command line asks for a run:
+        not a dry run, lint, report or listing. start_worker, at onstart, keeps it or stops
+        it once Snakemake knows where the jobs run."""
+        if workflow.exec_mode.name != "DEFAULT" or set(sys.argv[1:]) & NO_RUN_FLAGS:
+            return
+        if any(a.startswith(("--report", "--list", "--lint", "--executor")) or a == "-e"
+               for a in sys.argv[1:]):
+            return
+        self._start()
+
     def start_worker(self, workflow: Any) -> None:
         """Run this invocation's jobs in a warm worker of its own (creatio.pipeline.worker)
         when they run on this machine; it starts with the environment Snakemake gives a
         one-thread job and stops with the invocation. Jobs on a cluster,
         ``CREATIO_WORKER=off``, or a system without fork and descriptor passing keep a
         process each."""
+        if not workflow.local_exec or workflow.dryrun or workflow.exec_mode.name != "DEFAULT":
+            self.stop_worker()
+        elif self._worker is None:
+            self._start()
+
+    def _start(self) -> None:
         from creatio.pipeline import worker
 
         if os.environ.get(worker.ENV) == "off" or not _can_fork():
-            return
-        if not workflow.local_exec or workflow.exec_mode.name != "DEFAULT":
             return
         try:
             path = worker.daemon_socket().with_name(f"s-{os.getpid()}.sock")
