@@ -108,6 +108,7 @@ LONG = (
     "test_a_worker_killed_mid_job_stops_the_job_and_the_command_runs_alone",
     "tests/pipeline/test_worker.py::test_ctrl_c_of_a_served_job_exits_130_in_one_line",
     "tests/pipeline/test_worker.py::test_snakemake_jobs_run_in_the_invocations_worker",
+    "tests/pipeline/test_worker.py::test_a_refused_value_in_the_worker_is_one_line_and_exit_2",
 )
 
 

@@ -185,3 +185,17 @@ def test_snakemake_jobs_run_in_the_invocations_worker(tmp_path):
     snakemake(alone, "off")
     for nc in sorted((alone / "data" / "studies").rglob("*.nc")):
         _same_data(warm / nc.relative_to(alone), nc)
+
+
+def test_a_refused_value_in_the_worker_is_one_line_and_exit_2(warm, tmp_path):
+    """A failure of a served job is what it is alone: creatio's one line, status 2."""
+    env = {**os.environ, worker.ENV: str(warm), "CREATIO_DEBUG": ""}
+    before = worker.control(warm, "status")["served"]
+    done = _run(["task", "dataset", "en02", str(tmp_path / "x.nc"), "--override",
+                 "sphere.mu=-1"], env, tmp_path)
+    assert worker.control(warm, "status")["served"] == before + 1
+    alone = _run(["task", "dataset", "en02", str(tmp_path / "x.nc"), "--override",
+                  "sphere.mu=-1"], {**env, worker.ENV: "off"}, tmp_path)
+    assert done.returncode == alone.returncode == 2
+    assert done.stderr == alone.stderr and len(done.stderr.splitlines()) == 1, done.stderr
+    assert not (tmp_path / "x.nc").exists()
