@@ -874,12 +874,12 @@ def test_ctrl_c_inside_the_compiled_loop_exits_130_in_one_line(tmp_path):
     import time
 
     proc = subprocess.Popen(
-        [sys.executable, "-m", "creatio.cli", "run", "study=en02", "solver.dt=0.0001"],
+        [sys.executable, "-m", "creatio.cli", "run", "study=en02", "solver.dt=0.00005"],
         cwd=tmp_path, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
         env={**os.environ, "CREATIO_DEBUG": ""})
     lines = []
     for line in proc.stdout:  # (Hydra logs to stdout) the first run written: the second,
-        lines.append(line)  # at dt / 2, is in its compiled loop for about 4 s
+        lines.append(line)  # at dt / 2 = 2.5e-5 s, is in its compiled loop for seconds
         if "wrote" in line:
             break
     time.sleep(1.0)
