@@ -827,6 +827,21 @@ def test_a_planted_pickle_in_the_config_cache_runs_nothing(config_cache, tmp_pat
     assert json.loads(path.read_text())["sha256"] == resolved.sha256  # rebuilt, ours
 
 
+def test_a_cached_config_keeps_the_order_of_its_keys(config_cache):
+    """An entry read back from the cache is the composed config in its own order: the
+    stability map's axes (mu, eps) name its datasets in that order. Entries were written
+    with sorted keys, and a cache hit listed eps first."""
+    from creatio.pipeline import config
+
+    composed = config.resolve("stability_map")
+    config._resolve.cache_clear()
+    assert config._cache_path(config._cache_spec("stability_map", ())).is_file()
+    cached = config.resolve("stability_map")
+    assert list(composed.data["study"]["axes"]) == ["mu", "eps"]
+    assert list(cached.data["study"]["axes"]) == ["mu", "eps"]
+    assert cached.sha256 == composed.sha256
+
+
 def test_a_swapped_or_forged_config_cache_entry_is_not_used(config_cache):
     """A swapped entry changed mu; now an entry is used only when its own key, HMAC, YAML
     and data agree: swapped (another resolution's entry), forged (data edited, HMAC kept)
