@@ -22,7 +22,7 @@ import sys
 from collections.abc import Sequence
 from pathlib import Path
 
-from creatio.errors import ConfigError
+from creatio.errors import ConfigError, Parser
 
 log = logging.getLogger("creatio")
 
@@ -239,7 +239,7 @@ def _primary(args: Sequence[str]) -> str:
 def _task(argv: Sequence[str]) -> int:
     from creatio.studies import registry
 
-    ap = argparse.ArgumentParser(prog="creatio task", description="One workflow step.")
+    ap = Parser(prog="creatio task", description="One workflow step.")
     sub = ap.add_subparsers(dest="step", required=True)
     d = sub.add_parser("dataset", help="compute one study dataset")
     d.add_argument("study", choices=list(registry.STUDIES))
@@ -324,9 +324,9 @@ def _task_config(args: argparse.Namespace):
     if args.override:
         raise ConfigError("--override", args.override, "cannot be combined with a config")
     resolved = validate(yaml.safe_load(text))
-    if resolved.study != args.study:
+    if resolved.id != args.study:
         raise ConfigError("--config-file", str(args.config_file or "--config-yaml"),
-                          f"holds study {resolved.study}, not {args.study}")
+                          f"holds study {resolved.id}, not {args.study}")
     return resolved
 
 

@@ -25,7 +25,8 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
-from creatio.pipeline.io import VOLATILE_ATTRS, atomic_write
+from creatio.errors import Parser
+from creatio.pipeline.io import VOLATILE_ATTRS
 from creatio.pipeline.release import (
     MANIFEST,
     ReleaseError,
@@ -35,6 +36,7 @@ from creatio.pipeline.release import (
     sha256_file,
     verify_release,
 )
+from creatio.store.atomic import atomic_write
 
 __all__ = ["DamagedRelease", "DiffError", "Tolerance", "compare_arrays", "diff", "main",
            "render_text"]
@@ -523,7 +525,7 @@ def path_study(rel: str) -> str:
 
 
 def _load_dataset(path: Path) -> tuple[xr.Dataset, dict]:
-    from creatio.pipeline.io import read_dataset
+    from creatio.store.netcdf import read_dataset
 
     try:
         return read_dataset(path)
@@ -891,7 +893,7 @@ def _nonnegative(text: str) -> float:
 
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser of `creatio diff`."""
-    ap = argparse.ArgumentParser(prog="creatio diff", description=DESCRIPTION, epilog=EPILOG,
+    ap = Parser(prog="creatio diff", description=DESCRIPTION, epilog=EPILOG,
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("a", metavar="A", help="old side: dataset, report, directory, release "
                                            "version or 'latest'")

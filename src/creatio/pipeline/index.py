@@ -13,7 +13,6 @@ small files only (JSON reports, NetCDF attributes): no numba, nothing recomputed
 
 from __future__ import annotations
 
-import argparse
 import datetime as _dt
 import hashlib
 import html
@@ -23,6 +22,8 @@ from collections.abc import Mapping, Sequence
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
+
+from creatio.errors import Parser
 
 __all__ = ["INDEX", "RECORD", "Entry", "changes", "main", "record_run",
            "record_sweep", "refresh_index", "render_table", "scan", "write_index"]
@@ -57,7 +58,7 @@ def changes(default: Mapping[str, Any], config: Mapping[str, Any]) -> dict[str, 
 def _write(path: Path, text: str) -> Path:
     """Write through a temporary sibling and a rename (creatio.pipeline.io, imported here:
     the Snakefile imports this module, and planning stays free of xarray)."""
-    from creatio.pipeline.io import atomic_write
+    from creatio.store.atomic import atomic_write
 
     with atomic_write(path) as fh:
         fh.write(text)
@@ -446,7 +447,7 @@ def _find(entries: Sequence[Entry], name: str) -> Entry:
 def main(argv: Sequence[str]) -> int:
     """`creatio ls [--json]` and `creatio open NAME [--browser]`."""
     command, rest = argv[0], list(argv[1:])
-    ap = argparse.ArgumentParser(prog=f"creatio {command}")
+    ap = Parser(prog=f"creatio {command}")
     ap.add_argument("--data-dir", type=Path, default=Path("data"),
                     help="the data directory (default: data)")
     if command == "ls":
