@@ -56,7 +56,7 @@ def test_bench_against_quick() -> None:
 
 @pytest.mark.slow
 def test_bench_workflow_quick() -> None:
-    out = _run(sys.executable, "scripts/bench_workflow.py", "HEAD", "--quick")
+    out = _run(sys.executable, "scripts/bench_workflow.py", "--quick")
     assert "snakemake all -n (creatio planning inside)" in out
 
 
