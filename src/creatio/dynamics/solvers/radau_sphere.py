@@ -1,0 +1,71 @@
+"""Radau IIA of orders 9 and 13 and variable order (5, 9, 13) in the sphere's driver.
+
+One stepper kind of the driver (creatio.dynamics.solvers.RADAU_VO) under its implicit-stepper
+contract (creatio.dynamics.solvers.driver): the generic stepper of creatio.dynamics.solvers
+.radau_vo, Hairer and Wanner's RADAU, on the sphere's right-hand side (creatio.dynamics
+.sphere.rhs_of) and its Jacobian (creatio.dynamics.solvers.radau.jacobian: forward
+differences of the feedback columns, the quaternion block exact). The registry's methods
+radau9, radau13 (fixed order, 5 and 7 stages) and radau (5/9/13 by the Newton contraction)
+differ only in data: the stage range, the first stage count and the Jacobian reuse
+threshold, carried in the method's parameter vector (creatio.dynamics.solvers.Method.params,
+the PRM_* slots below), so all three share one compiled specialisation per flag set.
+
+radau5 keeps its own stepper (creatio.dynamics.solvers.radau): the variable-order stepper at
+3 stages is radau.f's control, not scipy's, and radau5's runs stay as they were.
+"""
+
+from __future__ import annotations
+
+from creatio.dynamics.jit import njit
+from creatio.dynamics.solvers import radau_vo
+from creatio.dynamics.solvers.radau import jacobian
+from creatio.dynamics.sphere import rhs_of
+
+__all__ = ["PRM_S_MAX", "PRM_S_MIN", "PRM_S_START", "PRM_THET", "dense", "step", "workspace"]
+
+#: Slots of the method's parameter vector: the stage range, the first step's stage count and
+#: the Jacobian reuse threshold (radau.f's THET).
+PRM_S_MIN, PRM_S_MAX, PRM_S_START, PRM_THET = range(4)
+
+
+@njit(cache=True)
+def _rhs(t, y, out, ctx):
+    """f(t, y) into out, no diagnostics (radau_vo's rhs signature); ctx carries the sphere's
+    flags and parameters, its flags literal so rhs_of resolves at compile time."""
+    free, pp, lc, rot, en = ctx
+    rhs_of(free, t, y, out, pp, lc, rot, en, False)
+
+
+@njit(cache=True)
+def _jac(t, y, f, J, work, tmp, ctx):
+    """The sphere's Jacobian (radau_vo's jac signature); returns its evaluations."""
+    free, pp, lc, rot, en = ctx
+    return jacobian(t, y, f, J, work, tmp, pp, lc, rot, en, free)
+
+
+@njit(cache=True)
+def workspace(n, params):
+    """radau_vo's workspace for the method whose parameters are params (PRM_*)."""
+    return radau_vo.workspace(n, int(params[PRM_S_MIN]), int(params[PRM_S_MAX]),
+                              int(params[PRM_S_START]), radau_vo.NIT, params[PRM_THET])
+
+
+@njit(cache=True)
+def step(stepper, t, t_next, h, y, f, ynew, fnew, dbuf, ws, tol, fixed, rejected, pp, lc, rot,
+         en, free):
+    """One try at the step t -> t_next = t + h (the driver's implicit-stepper contract):
+    (outcome, factor, rhs evaluations, Jacobians, LU decompositions, Newton iterations,
+    False). The end-of-step evaluation is left to the driver, which takes it with its
+    diagnostics at the top of the next step (so fnew and dbuf are not written here)."""
+    cnt = ws[1]
+    newton0 = cnt[radau_vo.CNT_NEWTON]
+    outcome, factor, evals, n_jac, n_dec, _ = radau_vo.step(
+        _rhs, _jac, (free, pp, lc, rot, en), t, t_next, h, y, f, ynew, ws, tol, fixed,
+        rejected)
+    return outcome, factor, evals, n_jac, n_dec, cnt[radau_vo.CNT_NEWTON] - newton0, False
+
+
+@njit(cache=True)
+def dense(ws, tg, yout):
+    """The last accepted step's collocation polynomial at tg (degree s)."""
+    radau_vo.dense(ws, tg, yout)
