@@ -5,9 +5,9 @@ A method is data, as scipy's RungeKutta classes are their constants: a stepper k
 ``rosenbrock`` the linearly implicit RODAS4; ``radau_sphere`` Radau IIA with 5 and 7 stages and
 the variable-order 5/9/13 method, told apart by their parameters), its order, the order of its
 error estimate (None without one), its tableau, its dense output's order and its real stability
-interval at a fixed step. The
-compiled loop that runs them all is creatio.dynamics.solvers.driver; config validation, the
-stability estimate, benchmarks and the stability map read this registry.
+interval at a fixed step. The compiled loop that runs them all is creatio.dynamics.solvers
+.driver; config validation, the stability estimate, benchmarks and the stability map read this
+registry.
 
 Adding an explicit method is a tableau (creatio.dynamics.solvers.tableaus) and one entry of
 METHODS below.

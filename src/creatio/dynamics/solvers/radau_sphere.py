@@ -19,9 +19,10 @@ from __future__ import annotations
 from creatio.dynamics.jit import njit
 from creatio.dynamics.solvers import radau_vo
 from creatio.dynamics.solvers.radau import jacobian
-from creatio.dynamics.sphere import rhs_of
+from creatio.dynamics.sphere import pack, rhs_of
 
-__all__ = ["PRM_S_MAX", "PRM_S_MIN", "PRM_S_START", "PRM_THET", "dense", "step", "workspace"]
+__all__ = ["PRM_S_MAX", "PRM_S_MIN", "PRM_S_START", "PRM_THET", "dense", "solve", "step",
+           "workspace"]
 
 #: Slots of the method's parameter vector: the stage range, the first step's stage count and
 #: the Jacobian reuse threshold (radau.f's THET).
@@ -69,3 +70,17 @@ def step(stepper, t, t_next, h, y, f, ynew, fnew, dbuf, ws, tol, fixed, rejected
 def dense(ws, tg, yout):
     """The last accepted step's collocation polynomial at tg (degree s)."""
     radau_vo.dense(ws, tg, yout)
+
+
+@njit(cache=True)
+def solve(p, lawc, y0, t_end, h0, rtol, atol, s_min, s_max, s_start, fixed, max_steps, t_dense,
+          thet):
+    """radau_vo.solve (steps free, samples at t_dense from the dense output) on the sphere's
+    fixed structure with rotation and no energy bookkeeping, the work-precision benchmark's
+    state: for tests and scripts that need what the driver does not return (the steps at
+    each stage count, every step's time and state). p, lawc: SphereProblem
+    .parameter_vector() and .law_matrix(); y0: .initial_state(True, False)."""
+    pp, lc = pack(p, lawc)
+    return radau_vo.solve(_rhs, _jac, (False, pp, lc, True, False), 0.0, y0, t_end, h0, rtol,
+                          atol, s_min, s_max, s_start, fixed, max_steps, t_dense, radau_vo.NIT,
+                          thet)
