@@ -85,47 +85,58 @@ def _fixed(en02, name: str, dt: float, dense: bool):
     return res
 
 
-@pytest.mark.parametrize(("name", "order", "dts"), [("radau9", 9, (0.4, 0.2)),
-                                                    ("radau13", 13, (1.0, 0.5))])
-def test_observed_order_at_fixed_steps_on_en02(en02, en02_reference, name, order, dts) -> None:
-    """Halving a fixed step divides the error at the steps by about 2^order."""
+#: Fixed steps that converge on EN-02's first 2 s (radau9 at 0.4 s and radau13 at 0.5 s lose
+#: Newton convergence near t = 1 s) with errors above the reference's own (about 4e-16 m).
+STEPS = {"radau9": (0.25, 0.125), "radau13": (0.4, 0.25)}
+
+
+def _observed(errs: list[float], dts: tuple[float, float]) -> float:
+    return math.log(errs[0] / errs[1]) / math.log(dts[0] / dts[1])
+
+
+@pytest.mark.parametrize(("name", "order"), [("radau9", 9), ("radau13", 13)])
+def test_observed_order_at_fixed_steps_on_en02(en02, en02_reference, name, order) -> None:
+    """Refining a fixed step divides the error at the steps by about (dt ratio)^order
+    (measured: radau9 8.86, radau13 12.6)."""
     ref = en02_reference
     errs = []
-    for dt in dts:
+    for dt in STEPS[name]:
         res = _fixed(en02, name, dt, False)
-        idx = np.searchsorted(ref.t, res.t)
-        np.testing.assert_allclose(ref.t[idx], res.t, atol=1e-12)
+        idx = np.searchsorted(ref.t, res.t - 1e-9)
+        np.testing.assert_allclose(ref.t[idx], res.t, atol=1e-9)
         errs.append(np.abs(res.X - ref.X[idx]).max())
-    observed = math.log2(errs[0] / errs[1])
-    assert errs[1] > 1e-12, errs  # above the reference's own error
+    observed = _observed(errs, STEPS[name])
+    assert errs[1] > 1e-15, errs  # above the reference's own error
     assert order - 1.0 <= observed <= order + 1.5, (errs, observed)
 
 
-@pytest.mark.parametrize(("name", "s", "dts"), [("radau9", 5, (0.4, 0.2)),
-                                                ("radau13", 7, (1.0, 0.5))])
-def test_dense_output_order_between_steps_on_en02(en02, en02_reference, name, s, dts) -> None:
+@pytest.mark.parametrize(("name", "s"), [("radau9", 5), ("radau13", 7)])
+def test_dense_output_order_between_steps_on_en02(en02, en02_reference, name, s) -> None:
     """Rows inside the steps come from the collocation polynomial (degree s), whose error
-    there is O(h^(s + 1)): halving the step divides it by about 2^(s + 1)."""
+    there is O(h^(s + 1)) (measured: radau9 6.3, radau13 8.0)."""
     ref = en02_reference
     errs = []
-    for dt in dts:
+    for dt in STEPS[name]:
         res = _fixed(en02, name, dt, True)
         steps = np.arange(0.0, 2.0 + 1e-9, dt)
         off = np.min(np.abs(res.t[:, None] - steps[None, :]), axis=1) > 1e-9
-        assert off.sum() >= 10
-        errs.append(np.abs(res.X[off] - ref.X[off]).max())
-    observed = math.log2(errs[0] / errs[1])
-    assert s <= observed <= s + 2.5, (errs, observed)
+        assert off.sum() >= 40
+        idx = np.searchsorted(ref.t, res.t - 1e-9)
+        errs.append(np.abs(res.X[off] - ref.X[idx][off]).max())
+    observed = _observed(errs, STEPS[name])
+    assert s <= observed <= s + 1.5, (errs, observed)
 
 
 def test_order_switch_raises_the_order_at_tighter_tolerance_on_en02(en02) -> None:
-    """Hairer's order selection, counted: at rtol 1e-12 the variable-order method takes a
-    larger share of its steps at 7 stages than at 1e-6."""
-    y0 = en02.initial_state(True, False)
-    p, lawc = en02.parameter_vector(), en02.law_matrix()
+    """Hairer's order selection, counted over EN-02's first 20 s with free steps: at rtol
+    1e-12 the variable-order method takes a larger share of its steps at 7 stages than at
+    1e-6 (measured: 66 of 85 against 15 of 41), and more at 7 stages than at 3."""
+    prob = en02.replace(t_end=20.0)
+    y0 = prob.initial_state(True, False)
+    p, lawc = prob.parameter_vector(), prob.law_matrix()
     share = {}
     for rtol in (1e-6, 1e-12):
-        ok, _, _, cnt, *_ = solve(p, lawc, y0, 2.0, 1e-3, rtol, rtol * 1e-2, 3, 7, 3, False,
+        ok, _, _, cnt, *_ = solve(p, lawc, y0, 20.0, 1e-3, rtol, rtol * 1e-2, 3, 7, 3, False,
                                   100000, np.zeros(0), vo.THET)
         assert ok
         steps = {s: int(cnt[vo.CNT_STEPS[s]]) for s in (3, 5, 7)}

@@ -18,6 +18,7 @@ from __future__ import annotations
 
 from creatio.dynamics.jit import njit
 from creatio.dynamics.solvers import radau_vo
+from creatio.dynamics.solvers.explicit import NEWTON_FAILED
 from creatio.dynamics.solvers.radau import jacobian
 from creatio.dynamics.sphere import pack, rhs_of
 
@@ -57,12 +58,28 @@ def step(stepper, t, t_next, h, y, f, ynew, fnew, dbuf, ws, tol, fixed, rejected
     """One try at the step t -> t_next = t + h (the driver's implicit-stepper contract):
     (outcome, factor, rhs evaluations, Jacobians, LU decompositions, Newton iterations,
     False). The end-of-step evaluation is left to the driver, which takes it with its
-    diagnostics at the top of the next step (so fnew and dbuf are not written here)."""
+    diagnostics at the top of the next step (so fnew and dbuf are not written here).
+
+    A fixed step has no smaller step to retry, so when its Newton iteration fails with a
+    Jacobian that was not fresh it is tried once more at the same h with a fresh one (what
+    radau.f does before it would shrink h; radau5's stepper does the same)."""
+    rs = ws[0]
     cnt = ws[1]
     newton0 = cnt[radau_vo.CNT_NEWTON]
-    outcome, factor, evals, n_jac, n_dec, _ = radau_vo.step(
-        _rhs, _jac, (free, pp, lc, rot, en), t, t_next, h, y, f, ynew, ws, tol, fixed,
-        rejected)
+    evals = 0
+    n_jac = 0
+    n_dec = 0
+    outcome = NEWTON_FAILED
+    factor = 0.5
+    for _ in range(2):
+        outcome, factor, ev, nj, nd, _ = radau_vo.step(
+            _rhs, _jac, (free, pp, lc, rot, en), t, t_next, h, y, f, ynew, ws, tol, fixed,
+            rejected)
+        evals += ev
+        n_jac += nj
+        n_dec += nd
+        if not (fixed and outcome == NEWTON_FAILED and rs[radau_vo.RS_NEED_JAC] > 0.0):
+            break
     return outcome, factor, evals, n_jac, n_dec, cnt[radau_vo.CNT_NEWTON] - newton0, False
 
 
