@@ -73,9 +73,11 @@ def fastest(runs: Sequence[dict[str, Any]], level: float, group: str,
 
 def _brief(e: dict[str, Any] | None) -> dict[str, Any] | None:
     keys = ("method", "setting", "error_m", "time_s", "time_median_s", "time_max_s",
-            "time_spread", "rhs_evals", "steps", "jacobians", "lu_factorisations",
-            "newton_iterations", "rejected_steps")
-    return {k: e[k] for k in keys} if e else None
+            "time_spread")
+    counts = ("rhs_evals", "steps", "jacobians", "lu_factorisations", "newton_iterations",
+              "rejected_steps")
+    # a count a record lacks is -1, as a count a peer does not report
+    return {**{k: e[k] for k in keys}, **{k: e.get(k, -1) for k in counts}} if e else None
 
 
 def _saving(lean: dict[str, Any], full: dict[str, Any]) -> dict[str, Any]:
