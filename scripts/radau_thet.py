@@ -1,6 +1,7 @@
 """Measure the Jacobian reuse threshold of the radau_sphere methods (radau.f's THET) on EN-02
 and EN-02R: each method at thet 1e-3 (radau.f's default) and 0.1 (Hairer's advice when a
-Jacobian is costly), over tolerances, with grid-cut and dense-output steps.
+Jacobian is costly), or those of --thet, over tolerances, with grid-cut and dense-output
+steps.
 
 Prints one row per run: error against a dop853 rtol 1e-13 reference (m), steps, rhs
 evaluations, Jacobians, LU decompositions, Newton iterations, rejections, and the core time
@@ -30,6 +31,8 @@ def main() -> None:
     ap.add_argument("--studies", default="en02,en02r")
     ap.add_argument("--methods", default="radau9,radau13,radau")
     ap.add_argument("--rtol", default="1e-8,1e-10,1e-12")
+    ap.add_argument("--thet", default="1e-3,0.1")
+    ap.add_argument("--dense", default="false,true")
     args = ap.parse_args()
     print("study method thet dense rtol error_m steps rhs jac lu newton rejected ms")
     for study in args.studies.split(","):
@@ -38,11 +41,11 @@ def main() -> None:
                                     fixed_step=False)).X
         calls = []
         for name in args.methods.split(","):
-            for thet in (1e-3, 0.1):
+            for thet in (float(v) for v in args.thet.split(",")):
                 params = list(METHODS[name].params)
                 params[PRM_THET] = thet
                 method = dataclasses.replace(METHODS[name], params=tuple(params))
-                for dense in (False, True):
+                for dense in (v == "true" for v in args.dense.split(",")):
                     for rtol in (float(v) for v in args.rtol.split(",")):
                         prob = base.replace(method=name, rtol=rtol, atol=rtol * 0.01,
                                             fixed_step=False, dense_output=dense)
