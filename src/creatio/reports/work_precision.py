@@ -276,8 +276,9 @@ def _figure(runs: Sequence[dict], path: Path) -> None:
              and math.isfinite(e["error_m"]) and e["error_m"] > 0]
     methods = list(dict.fromkeys(e["method"] for e in shown))
     styles = _styles(methods)
-    fig, axes = plt.subplots(max(len(studies), 1), 2, figsize=(12, 4.8 * max(len(studies), 1)),
+    fig, axes = plt.subplots(max(len(studies), 1), 2, figsize=(15, 4.8 * max(len(studies), 1)),
                              squeeze=False)
+    legend: dict[str, Any] = {}
     for row, study in enumerate(studies):
         for col, (key, label) in enumerate((("time_s", "core time (s)"),
                                             ("rhs_evals", "right-hand-side evaluations"))):
@@ -290,7 +291,8 @@ def _figure(runs: Sequence[dict], path: Path) -> None:
                 colour, marker, ls = styles[m]
                 x = np.array([e[key] for e in pts], dtype=float)
                 y = np.array([e["error_m"] for e in pts])
-                ax.loglog(x, y, ls, color=colour, marker=marker, ms=4, label=m)
+                (line,) = ax.loglog(x, y, ls, color=colour, marker=marker, ms=4, label=m)
+                legend.setdefault(m, line)
                 if key == "time_s":
                     upper = np.array([e["time_max_s"] for e in pts]) - x
                     ax.errorbar(x, y, xerr=[np.zeros_like(x), upper], fmt="none",
@@ -300,8 +302,10 @@ def _figure(runs: Sequence[dict], path: Path) -> None:
             ax.set_ylabel("max centre error (m)")
             ax.set_title(f"{study}: error against {label.split(' (')[0]}")
             ax.grid(True, which="both", alpha=0.3)
-            ax.legend(fontsize=8, ncol=2 if len(methods) > 8 else 1)
-    fig.tight_layout()
+    # one legend for every panel, beside them: inside, two dozen entries hid the curves
+    fig.legend(list(legend.values()), list(legend), loc="center right", fontsize=8,
+               ncol=1 if len(legend) <= 30 else 2)
+    fig.tight_layout(rect=(0.0, 0.0, 0.87 if len(legend) <= 30 else 0.77, 1.0))
     save_figure(fig, path, dpi=110)
     plt.close(fig)
 
