@@ -27,7 +27,7 @@ def _prefix_equal(short, full) -> None:
 @pytest.mark.parametrize(("method", "budget", "beyond"), [
     ("rk4", 2000, 40), ("radau5", 400, 40), ("dop853", 1000, 40),
     # a radau9 try: a Jacobian (7), up to 12 Newton iterations of 5 stages, the stop row
-    ("radau9", 400, 7 + 12 * 5 + 2)])
+    ("radau9", 150, 7 + 12 * 5 + 2)])
 def test_budget_stops_a_run_without_changing_its_steps(en02_problem: SphereProblem, capfd,
                                                        method: str, budget: int,
                                                        beyond: int) -> None:
