@@ -21,7 +21,7 @@ import sys
 from collections.abc import Sequence
 from pathlib import Path
 
-from creatio.errors import ConfigError
+from creatio.errors import ConfigError, Parser
 
 log = logging.getLogger("creatio")
 
@@ -235,7 +235,7 @@ def _primary(args: Sequence[str]) -> str:
 def _task(argv: Sequence[str]) -> int:
     from creatio.studies import registry
 
-    ap = argparse.ArgumentParser(prog="creatio task", description="One workflow step.")
+    ap = Parser(prog="creatio task", description="One workflow step.")
     sub = ap.add_subparsers(dest="step", required=True)
     d = sub.add_parser("dataset", help="compute one study dataset")
     d.add_argument("study", choices=list(registry.STUDIES))

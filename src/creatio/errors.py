@@ -3,13 +3,14 @@ release that cannot be made or read), and the one-line exit the workflow gives t
 
 from __future__ import annotations
 
+import argparse
 import functools
 import os
 import sys
 from collections.abc import Callable
 from typing import Any
 
-__all__ = ["ConfigError", "ReleaseError", "interrupted", "one_line_errors"]
+__all__ = ["ConfigError", "Parser", "ReleaseError", "interrupted", "one_line_errors"]
 
 
 class ConfigError(ValueError):
@@ -22,6 +23,17 @@ class ConfigError(ValueError):
 
 class ReleaseError(Exception):
     """A release cannot be made, found or read; the message says why and what to do."""
+
+
+class Parser(argparse.ArgumentParser):
+    """An argument parser whose refusal is one line (what is wrong, and where --help is),
+    exit 2, instead of argparse's usage block; subcommands inherit it."""
+
+    def error(self, message: str) -> Any:  # argparse's hook: must not return
+        """Print ``PROG: MESSAGE (see PROG --help)`` on stderr and exit 2."""
+        sys.stderr.write(f"{self.prog}: {message} (see {self.prog} --help)\n")
+        sys.stderr.flush()
+        raise SystemExit(2)
 
 
 def one_line_errors(fn: Callable[..., Any]) -> Callable[..., Any]:

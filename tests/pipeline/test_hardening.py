@@ -288,3 +288,21 @@ def test_an_empty_feature_list_is_refused_and_a_failing_run_is_one_line(tmp_path
         resolve("ct02", ["study.feature_times=[]"])
     message, code = cli.describe(ValueError("zero-size array\nsecond line"))
     assert code == 1 and "\n" not in message and message.startswith("ValueError: zero-size")
+
+
+@pytest.mark.parametrize("argv, words", [
+    (["task", "scene", "dataset", "xx", "out.nc"], "invalid choice: 'xx'"),
+    (["task", "dataset"], "required: study, out"),
+    (["diff"], "required: A, B"),
+    (["ls", "--bogus"], "unrecognized arguments: --bogus"),
+    (["task", "en05"], "required: step"),
+])
+def test_a_command_line_argparse_refuses_is_one_line(tmp_path, argv, words):
+    """A wrong subcommand argument is one line naming the problem and --help, exit 2, not
+    argparse's usage block (and nothing is written)."""
+    proc = subprocess.run([sys.executable, "-m", "creatio.cli", *argv], cwd=tmp_path,
+                          capture_output=True, text=True, timeout=120)
+    lines = proc.stderr.strip().splitlines()
+    assert proc.returncode == 2 and len(lines) == 1, proc.stderr
+    assert words in lines[0] and lines[0].endswith("--help)") and "usage" not in lines[0]
+    assert list(tmp_path.iterdir()) == []

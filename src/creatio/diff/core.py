@@ -25,6 +25,7 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
+from creatio.errors import Parser
 from creatio.pipeline.io import VOLATILE_ATTRS, atomic_write
 from creatio.pipeline.release import (
     MANIFEST,
@@ -891,7 +892,7 @@ def _nonnegative(text: str) -> float:
 
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser of `creatio diff`."""
-    ap = argparse.ArgumentParser(prog="creatio diff", description=DESCRIPTION, epilog=EPILOG,
+    ap = Parser(prog="creatio diff", description=DESCRIPTION, epilog=EPILOG,
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("a", metavar="A", help="old side: dataset, report, directory, release "
                                            "version or 'latest'")

@@ -13,7 +13,6 @@ small files only (JSON reports, NetCDF attributes): no numba, nothing recomputed
 
 from __future__ import annotations
 
-import argparse
 import datetime as _dt
 import hashlib
 import html
@@ -23,6 +22,8 @@ from collections.abc import Mapping, Sequence
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
+
+from creatio.errors import Parser
 
 __all__ = ["INDEX", "RECORD", "Entry", "changes", "main", "record_run",
            "record_sweep", "refresh_index", "render_table", "scan", "write_index"]
@@ -446,7 +447,7 @@ def _find(entries: Sequence[Entry], name: str) -> Entry:
 def main(argv: Sequence[str]) -> int:
     """`creatio ls [--json]` and `creatio open NAME [--browser]`."""
     command, rest = argv[0], list(argv[1:])
-    ap = argparse.ArgumentParser(prog=f"creatio {command}")
+    ap = Parser(prog=f"creatio {command}")
     ap.add_argument("--data-dir", type=Path, default=Path("data"),
                     help="the data directory (default: data)")
     if command == "ls":

@@ -305,9 +305,9 @@ def _config(path: Path) -> Resolved:
 
 def main(argv: Sequence[str], say: Callable[[str], None] | None = None) -> int:
     """`creatio task en05 batch|sobol|track ...`: one step of EN-05 as its rules call it."""
-    import argparse
+    from creatio.errors import Parser
 
-    ap = argparse.ArgumentParser(prog="creatio task en05", description="One step of EN-05.")
+    ap = Parser(prog="creatio task en05", description="One step of EN-05.")
     sub = ap.add_subparsers(dest="step", required=True)
     b = sub.add_parser("batch", help="compute one batch of the Sobol' sample's points")
     s = sub.add_parser("sobol", help="the Sobol' dataset from the sample's batches")

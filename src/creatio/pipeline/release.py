@@ -30,7 +30,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from creatio.errors import ReleaseError, one_line_errors
+from creatio.errors import Parser, ReleaseError, one_line_errors
 
 __all__ = [
     "released_studies",
@@ -530,7 +530,7 @@ latest data`."""
 
 
 def _create_parser() -> argparse.ArgumentParser:
-    ap = argparse.ArgumentParser(prog="creatio release", description=DESCRIPTION,
+    ap = Parser(prog="creatio release", description=DESCRIPTION,
                                  epilog=EPILOG,
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("version", metavar="VERSION", help="release version, e.g. 0.2.0")
@@ -543,7 +543,7 @@ def _create_parser() -> argparse.ArgumentParser:
 
 
 def _verify_parser() -> argparse.ArgumentParser:
-    ap = argparse.ArgumentParser(
+    ap = Parser(
         prog="creatio release verify",
         description="Check every file of a release against the sha256 in its MANIFEST.json.",
         epilog="exit status: 0 intact, 1 a file is missing, changed or not in the manifest, "
@@ -556,7 +556,7 @@ def _verify_parser() -> argparse.ArgumentParser:
 
 
 def _list_parser() -> argparse.ArgumentParser:
-    ap = argparse.ArgumentParser(prog="creatio release list",
+    ap = Parser(prog="creatio release list",
                                  description="List the releases, oldest to newest.")
     ap.add_argument("--data-dir", type=Path, default=Path("data"),
                     help="where releases/ is looked up (default: data)")

@@ -17,7 +17,7 @@ import sys
 from collections.abc import Sequence
 from pathlib import Path
 
-from creatio.errors import ConfigError
+from creatio.errors import ConfigError, Parser
 
 __all__ = ["main"]
 
@@ -26,7 +26,7 @@ def main(argv: Sequence[str]) -> int:
     """Run one scene step; 2 on a refused config, 1 on a failed build."""
     from creatio.scenes import registry
 
-    ap = argparse.ArgumentParser(prog="creatio task scene", description="One scene step.")
+    ap = Parser(prog="creatio task scene", description="One scene step.")
     sub = ap.add_subparsers(dest="step", required=True)
     lib = sub.add_parser("library", help="bundle the pages' three.js (needs Node.js and npm)")
     lib.add_argument("out", type=Path)
