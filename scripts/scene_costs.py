@@ -27,12 +27,12 @@ import time
 from collections.abc import Callable
 from pathlib import Path
 
-from creatio.pipeline.io import write_dataset
 from creatio.pipeline.run import run_study
 from creatio.scenes import registry
 from creatio.scenes.config import resolve, route
 from creatio.scenes.needs import needs
 from creatio.scenes.run import scene_dataset
+from creatio.store.netcdf import write_dataset
 from creatio.studies import registry as studies
 from creatio.studies.schema import vary
 

@@ -320,9 +320,9 @@ def _task_config(args: argparse.Namespace):
     if args.override:
         raise ConfigError("--override", args.override, "cannot be combined with a config")
     resolved = validate(yaml.safe_load(text))
-    if resolved.study != args.study:
+    if resolved.id != args.study:
         raise ConfigError("--config-file", str(args.config_file or "--config-yaml"),
-                          f"holds study {resolved.study}, not {args.study}")
+                          f"holds study {resolved.id}, not {args.study}")
     return resolved
 
 

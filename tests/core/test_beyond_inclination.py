@@ -145,8 +145,8 @@ def test_a_short_cycle_leaves_its_cavity_yet_ends_ok(en02_problem) -> None:
 
 def test_en02g_study_dataset_and_report(tmp_path) -> None:
     """A small EN-02G through the study's run function and report writer."""
-    from creatio.pipeline.io import write_dataset
     from creatio.pipeline.run import run_study
+    from creatio.store.netcdf import write_dataset
 
     cfg = resolve("en02g", ["study.inclinations_deg=[0,20,40]", "study.oscillation.gamma0_deg=[10]",
                             "phases.T=30.0"])

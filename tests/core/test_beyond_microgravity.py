@@ -104,8 +104,8 @@ def test_round_up_keeps_three_digits() -> None:
 
 
 def test_en03m_study_dataset_and_report(tmp_path) -> None:
-    from creatio.pipeline.io import write_dataset
     from creatio.pipeline.run import run_study
+    from creatio.store.netcdf import write_dataset
 
     cfg = resolve("en03m", ["phases.T=20.0", "study.bisection.decades=[-2,-1]",
                             "study.max_force_factor=1.0", "study.bisection.rtol=0.05"])

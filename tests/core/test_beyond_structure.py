@@ -218,8 +218,8 @@ def test_every_integrator_runs_the_structure(en03, method) -> None:
 
 
 def test_en03_study_dataset_and_report(tmp_path) -> None:
-    from creatio.pipeline.io import write_dataset
     from creatio.pipeline.run import run_study
+    from creatio.store.netcdf import write_dataset
 
     cfg = resolve("en03", ["study.inertia_sweep=[1.0,100.0]", "phases.T=30.0"])
     parts = cfg.entry.parts(cfg.obj)

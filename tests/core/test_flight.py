@@ -147,7 +147,7 @@ def test_flight_disabled_is_the_released_en02(en02_problem: SphereProblem) -> No
     """flight=False (whatever the other flight settings) never enters the hybrid loop: no
     events, and EN-02's 120 s history equals release 0.1.0's, made before flight existed (0
     on the machine that made it; 1e-12 m is the release diff's tolerance across machines)."""
-    from creatio.pipeline.io import read_dataset
+    from creatio.store.netcdf import read_dataset
 
     a = simulate(en02_problem)
     assert a.events.shape == (0, 11) and not a.flight
@@ -193,8 +193,8 @@ def test_impact_cap_turns_bounces_into_contact() -> None:
 def test_en02f_builds_its_datasets_and_report(tmp_path) -> None:
     """EN-02F through its study function and report writer, on a short sweep."""
     from creatio.pipeline.config import resolve
-    from creatio.pipeline.io import write_dataset
-    from creatio.reports.flight import write_en02f
+    from creatio.reports.en02f import write_en02f
+    from creatio.store.netcdf import write_dataset
     from creatio.studies import en02f
     from creatio.studies.schema import vary
 

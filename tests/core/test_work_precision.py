@@ -275,8 +275,8 @@ def test_a_newly_registered_method_is_benchmarked_without_editing(tiny, monkeypa
 def test_tiny_run_end_to_end(tiny, tmp_path) -> None:
     """run_resolved: one dataset per base with provenance, the three report files, every
     registered method in the data, every repeat recorded, JIT times on the first part."""
-    from creatio.pipeline.io import read_dataset
     from creatio.pipeline.run import run_resolved
+    from creatio.store.netcdf import read_dataset
 
     root = run_resolved(tiny, data_dir=tmp_path)
     entry = tiny.entry

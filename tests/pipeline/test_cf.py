@@ -12,10 +12,10 @@ import numpy as np
 import pytest
 import xarray as xr
 
-from creatio.pipeline import cf
 from creatio.pipeline.config import resolve
-from creatio.pipeline.io import read_dataset, write_dataset
 from creatio.pipeline.run import run_study
+from creatio.store import cf
+from creatio.store.netcdf import read_dataset, write_dataset
 
 cf_units = pytest.importorskip(
     "cf_units", reason="cf-units (UDUNITS-2) is a dev dependency: pip install -e '.[dev]'")

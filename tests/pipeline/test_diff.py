@@ -12,7 +12,8 @@ import xarray as xr
 import yaml
 
 from creatio.diff.core import Tolerance, compare_arrays, diff, main
-from creatio.pipeline.io import provenance, write_dataset
+from creatio.pipeline.io import provenance
+from creatio.store.netcdf import write_dataset
 
 CONFIG = {"geometry": {"A": 0.18, "R0": 0.68}, "sphere": {"mu": 0.15}, "study": {"id": "en02"}}
 
@@ -343,7 +344,7 @@ RELEASED_EN02 = (Path(__file__).resolve().parents[2] / "data" / "releases" / "0.
 def todays_encoding(path: Path) -> xr.Dataset:
     """A 0.1.0 sphere dataset as today's code writes the same numbers: contact_alpha in
     degree (numpy.degrees, as studies.sphere does), time without standard_name."""
-    from creatio.pipeline.io import read_dataset
+    from creatio.store.netcdf import read_dataset
 
     ds, _ = read_dataset(path)
     ds["contact_alpha"] = ("time", np.degrees(ds.contact_alpha.values),
@@ -392,7 +393,7 @@ def test_time_stored_with_a_placeholder_date_reads_back_in_seconds(tmp_path, cap
     names the encoding change as provenance."""
     import netCDF4
 
-    from creatio.pipeline.io import read_dataset
+    from creatio.store.netcdf import read_dataset
 
     a = dataset()
     a["time"].attrs["units"] = "s"

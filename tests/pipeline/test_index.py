@@ -23,7 +23,7 @@ from creatio.pipeline.index import (
     scan,
     write_index,
 )
-from creatio.pipeline.io import write_dataset
+from creatio.store.netcdf import write_dataset
 
 
 def _dataset(status: str = "ok") -> xr.Dataset:

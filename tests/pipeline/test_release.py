@@ -16,7 +16,7 @@ import yaml
 from creatio.diff import diff
 from creatio.diff import main as diff_main
 from creatio.pipeline import release
-from creatio.pipeline.io import provenance, write_dataset
+from creatio.pipeline.io import provenance
 from creatio.pipeline.release import (
     Layout,
     ReleaseError,
@@ -27,6 +27,7 @@ from creatio.pipeline.release import (
     parse_version,
     verify_release,
 )
+from creatio.store.netcdf import write_dataset
 from creatio.studies import registry
 
 

@@ -445,35 +445,7 @@ def test_a_problem_refusal_past_the_rules_is_named_by_its_key(monkeypatch):
                               "be finite and > 0, got 1e-31")
 
 
-# ------------------------------------------------------- import circles and stale names
-def _imports() -> dict[str, set[str]]:
-    """Every creatio module -> the creatio modules it imports anywhere (functions too)."""
-    import ast
-
-    src = REPO / "src" / "creatio"
-    graph: dict[str, set[str]] = {}
-    for path in src.rglob("*.py"):
-        parts = ("creatio", *path.relative_to(src).with_suffix("").parts)
-        mod = ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
-        deps: set[str] = set()
-        for node in ast.walk(ast.parse(path.read_text())):
-            if isinstance(node, ast.ImportFrom) and (node.module or "").startswith("creatio"):
-                deps |= {node.module, *(f"{node.module}.{a.name}" for a in node.names)}
-            elif isinstance(node, ast.Import):
-                deps |= {a.name for a in node.names if a.name.startswith("creatio")}
-        graph[mod] = deps
-    return {m: {d for d in ds if d in graph and d != m} for m, ds in graph.items()}
-
-
-def test_no_module_imports_one_that_imports_it_back():
-    """planning.py <-> release.py (and planning <-> sweep) imported each other, if only
-    inside functions; a package importing its own submodules aside, no two modules do."""
-    graph = _imports()
-    circles = sorted((a, b) for a in graph for b in graph[a]
-                     if a < b and a in graph[b] and not b.startswith(f"{a}."))
-    assert circles == []
-
-
+# ------------------------------ stale names (import circles: tests/pipeline/test_layers.py)
 def test_no_stale_module_names_in_the_workflow():
     """workflow/rules/release.smk named creatio.release, which does not exist; every
     creatio.X the Snakefile and the rules name is a module (or a name in one)."""

@@ -59,7 +59,7 @@ def _assert_drawn(browser: Browser) -> None:
 
 @pytest.mark.parametrize("scene", ["en02", "en02r", "compare"])
 def test_a_sphere_page_draws_the_dataset_at_the_chosen_time(browser, scenes, scene):
-    from creatio.pipeline.io import read_dataset
+    from creatio.store.netcdf import read_dataset
 
     ds, _ = read_dataset(scenes[scene] / "scene.nc")
     t = 60.0
@@ -99,7 +99,7 @@ def _assert_surface_is_the_models(probe: list[dict], ds, r: int, k: int) -> None
 def test_the_surface_family_page_follows_the_slider(browser, scenes):
     from creatio.model.laws import Law
     from creatio.model.surface import Frame, Motion, Surface
-    from creatio.pipeline.io import read_dataset
+    from creatio.store.netcdf import read_dataset
 
     ds, _ = read_dataset(scenes["surface_family"] / "scene.nc")
     state = _open(browser, scenes["surface_family"] / "index.html", "#gamma=90")
@@ -122,7 +122,7 @@ def test_the_surface_family_page_follows_the_slider(browser, scenes):
 
 @pytest.mark.parametrize("mode", ["angular", "radial", "oscillation"])
 def test_the_velocity_normal_page_draws_the_point_normal_and_velocity(browser, scenes, mode):
-    from creatio.pipeline.io import read_dataset
+    from creatio.store.netcdf import read_dataset
 
     ds, _ = read_dataset(scenes["velocity_normal"] / "scene.nc")
     m = list(ds["mode"].values).index(mode)

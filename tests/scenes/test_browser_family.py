@@ -43,7 +43,7 @@ def _slide(browser: Browser, key: str, index: int) -> dict:
 
 
 def _dataset(scenes, scene):
-    from creatio.pipeline.io import read_dataset
+    from creatio.store.netcdf import read_dataset
 
     return read_dataset(scenes[scene] / "scene.nc")[0]
 
@@ -277,9 +277,9 @@ def test_a_narrow_screen_stacks_the_views_above_the_panel(browser, scenes, scene
 def test_two_axes_give_two_sliders_and_each_member_its_own_run(browser, tmp_path, library):
     """mu x T: the T slider switches to a member whose run lasts its own T (the study's
     duration follows T), drawn from that member's frames; the chart follows the other axis."""
-    from creatio.pipeline.io import read_dataset
     from creatio.scenes.config import resolve, route
     from creatio.scenes.run import write_page, write_scene_dataset
+    from creatio.store.netcdf import read_dataset
 
     r = resolve("en02", route("en02", ["phases.T=12", "scene.axes.sphere.mu=0.1,0.2",
                                        "scene.axes.phases.T=8,12"])[0])

@@ -15,7 +15,7 @@ from creatio.scenes.plan import SceneRuns
 @pytest.mark.parametrize("scene", list(registry.SCENES))
 def test_every_scene_composes_and_validates(scene):
     r = resolve(scene)
-    assert r.scene == scene and r.obj.scene.id == scene
+    assert r.id == scene and r.obj.scene.id == scene
     assert len(r.sha256) == 64
 
 

@@ -28,7 +28,7 @@ def _build(workdir: Path, axis: str) -> tuple[Path, subprocess.CompletedProcess]
 
 
 def test_a_family_is_computed_once_and_a_changed_axis_computes_only_the_new(tmp_path):
-    from creatio.pipeline.io import read_dataset
+    from creatio.store.netcdf import read_dataset
 
     nc, proc = _build(tmp_path, "0.1,0.2,0.4")
     assert proc.returncode == 0, proc.stderr[-3000:]

@@ -105,7 +105,7 @@ def apply_conventions(a: xr.Dataset, b: xr.Dataset) -> tuple[xr.Dataset, list[di
 def encoding_notes(a: xr.Dataset, b: xr.Dataset) -> list[dict[str, Any]]:
     """Variables whose units read back the same but were stored otherwise (the time of
     datasets before 0.2, ``seconds since 1970-01-01``, against ``s``): provenance."""
-    from creatio.pipeline.cf import STORED_UNITS
+    from creatio.store.cf import STORED_UNITS
 
     notes = []
     for name in sorted(set(a.variables) & set(b.variables), key=str):

@@ -26,7 +26,7 @@ import numpy as np
 import xarray as xr
 
 from creatio.errors import Parser
-from creatio.pipeline.io import VOLATILE_ATTRS, atomic_write
+from creatio.pipeline.io import VOLATILE_ATTRS
 from creatio.pipeline.release import (
     MANIFEST,
     ReleaseError,
@@ -36,6 +36,7 @@ from creatio.pipeline.release import (
     sha256_file,
     verify_release,
 )
+from creatio.store.atomic import atomic_write
 
 __all__ = ["DamagedRelease", "DiffError", "Tolerance", "compare_arrays", "diff", "main",
            "render_text"]
@@ -524,7 +525,7 @@ def path_study(rel: str) -> str:
 
 
 def _load_dataset(path: Path) -> tuple[xr.Dataset, dict]:
-    from creatio.pipeline.io import read_dataset
+    from creatio.store.netcdf import read_dataset
 
     try:
         return read_dataset(path)

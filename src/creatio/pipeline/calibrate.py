@@ -214,8 +214,8 @@ def calibrate(args: Sequence[str]) -> dict[str, Path]:
     out = Path(own["out"]) if own["out"] else (
         Path("data") / "calibration" / f"{Path(own['track']).stem}-{digest[:12]}")
     ds = _dataset(resolved, track, fit, noise, own["track"])
-    from creatio.pipeline.io import write_dataset
     from creatio.reports.en05 import write_calibration_report
+    from creatio.store.netcdf import write_dataset
 
     paths = {"nc": write_dataset(ds, out / "calibration.nc")}
     paths.update(write_calibration_report(ds, out))
@@ -252,8 +252,8 @@ def _dataset(resolved: Resolved, track: Any, fit: Any, noise: float, source: str
                "coordinate": ("coordinate", list(track.coordinates)),
                "parameter": ("parameter", list(fit.keys)),
                "parameter2": ("parameter2", list(fit.keys)), "bound": ("bound", ["low", "high"])})
-    title = f"calibration of {resolved.study} to {Path(source).name}"
-    ds.attrs = {**provenance(resolved.study, resolved.yaml, resolved.sha256, title),
+    title = f"calibration of {resolved.id} to {Path(source).name}"
+    ds.attrs = {**provenance(resolved.id, resolved.yaml, resolved.sha256, title),
                 "track_file": str(source), "track_source": track.source,
                 "noise_m": noise, "residual_rms_m": fit.residual_rms_m,
                 "s2": fit.s2, "dof": fit.dof, "condition": fit.condition,
@@ -267,7 +267,7 @@ def write_example_track(resolved: Resolved, out: Path | None = None) -> Path:
     """The synthetic example track of EN-05's calibration settings (the model at the truth
     on EN-02 with EN05's cycle, the camera's frames within the window, noise of the example
     seed), written as a track CSV that says what it is."""
-    from creatio.pipeline.io import atomic_write
+    from creatio.store.atomic import atomic_write
     from creatio.studies.en05 import synthetic_track, truth_config
 
     cfg = resolved.obj

@@ -15,8 +15,8 @@ import functools
 import hashlib
 import json
 import os
-from collections.abc import Sequence
-from dataclasses import MISSING, dataclass, fields, is_dataclass
+from collections.abc import Callable, Sequence
+from dataclasses import MISSING, dataclass, field, fields, is_dataclass
 from enum import Enum
 from pathlib import Path
 from typing import Any
@@ -54,13 +54,16 @@ PRIMARY = {"study": "config", "analysis": "analysis"}
 
 @dataclass(frozen=True)
 class Resolved:
-    """A validated config: typed object tree, plain dict, canonical YAML and its sha256."""
+    """A validated experiment config, a study's or a scene's: its id, typed object tree,
+    plain dict, canonical YAML and the sha256 that keys everything made from it. ``lookup``
+    finds its registry entry (the study registry's, or the scene registry's for a scene)."""
 
-    study: str
+    id: str
     obj: Any
     data: dict
     yaml: str
     sha256: str
+    lookup: Callable[[str], Any] = field(default=registry.get, compare=False, repr=False)
 
     @property
     def key(self) -> str:
@@ -68,9 +71,15 @@ class Resolved:
         return self.sha256[:12]
 
     @property
-    def entry(self) -> registry.Study:
-        """The registry entry of this config's study."""
-        return registry.get(self.study)
+    def entry(self) -> Any:
+        """The registry entry of this config's study or scene."""
+        return self.lookup(self.id)
+
+    @functools.cached_property
+    def bases(self) -> dict[str, Resolved]:
+        """Each study config under ``bases`` (a scene's), resolved as the study itself
+        would be."""
+        return {name: validate(cfg) for name, cfg in self.data.get("bases", {}).items()}
 
 
 def register_schemas(*extra: str) -> None:
@@ -270,8 +279,8 @@ def _resolve(study: str, overrides: tuple[str, ...], only_applicable: bool) -> R
     except Exception as e:  # Hydra refused an override: unknown key, bad type, bad syntax
         raise override_error(study, list(ovs), e) from None
     resolved = validate(cfg)
-    if resolved.study != study:  # conf/<group>/<study>.yaml names another study
-        raise ConfigError("study.id", resolved.study, f"must be {study} (the config chosen)")
+    if resolved.id != study:  # conf/<group>/<study>.yaml names another study
+        raise ConfigError("study.id", resolved.id, f"must be {study} (the config chosen)")
     if path is not None:
         _store(path, spec, resolved)
     return resolved
@@ -401,7 +410,7 @@ def _store(path: Path, spec: str, resolved: Resolved) -> None:
     key = _cache_key(create=True)
     if key is None:
         return
-    body = {"spec": spec, "study": resolved.study, "data": resolved.data,
+    body = {"spec": spec, "study": resolved.id, "data": resolved.data,
             "yaml": resolved.yaml, "sha256": resolved.sha256}
     try:
         text = json.dumps({**body, "mac": _mac(key, body)}, sort_keys=True)
@@ -484,7 +493,7 @@ def override_error(
 
 def output_root(resolved: Resolved, data_dir: str | Path = "data") -> Path:
     """Default config -> ``data``; anything else -> ``data/runs/<config hash>``."""
-    default = resolve(resolved.study)
+    default = resolve(resolved.id)
     data_dir = Path(data_dir)
     return data_dir if default.sha256 == resolved.sha256 else data_dir / "runs" / resolved.key
 

@@ -58,7 +58,7 @@ def changes(default: Mapping[str, Any], config: Mapping[str, Any]) -> dict[str, 
 def _write(path: Path, text: str) -> Path:
     """Write through a temporary sibling and a rename (creatio.pipeline.io, imported here:
     the Snakefile imports this module, and planning stays free of xarray)."""
-    from creatio.pipeline.io import atomic_write
+    from creatio.store.atomic import atomic_write
 
     with atomic_write(path) as fh:
         fh.write(text)

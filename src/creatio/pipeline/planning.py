@@ -263,8 +263,8 @@ class JobConfigs:
     def add(self, root: str, resolved: Resolved, overrides: Sequence[str] = ()) -> None:
         """Register the config that produces datasets under root (first one wins), with
         the overrides that made it (recorded beside a run folder's files)."""
-        self._by_root.setdefault((str(root), resolved.study), resolved)
-        self._overrides.setdefault((str(root), resolved.study), tuple(overrides))
+        self._by_root.setdefault((str(root), resolved.id), resolved)
+        self._overrides.setdefault((str(root), resolved.id), tuple(overrides))
 
     @one_line_errors
     def get(self, root: str, study: str) -> Resolved:

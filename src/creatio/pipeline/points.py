@@ -214,13 +214,13 @@ def sobol_dataset(resolved: Resolved, sample: En05Sample | None = None,
     ds.attrs["point_store"] = plan.outdir
     ds.attrs["sample_base_overrides"] = " ".join(plan.base)
     title = "EN-05 Sobol' indices of EN-02's outputs"
-    ds.attrs = {**provenance(resolved.study, resolved.yaml, resolved.sha256, title), **ds.attrs}
+    ds.attrs = {**provenance(resolved.id, resolved.yaml, resolved.sha256, title), **ds.attrs}
     return ds
 
 
 def run_study_sample(resolved: Resolved, root: Path) -> list[Path]:
     """`creatio run study=en05`: the sample's batches in this process, then its dataset."""
-    from creatio.pipeline.io import write_dataset
+    from creatio.store.netcdf import write_dataset
 
     out = Path(resolved.entry.dataset_dir(str(root))) / "en05_sobol.nc"
     return [write_dataset(sobol_dataset(resolved, compute_missing=True), out)]
@@ -298,8 +298,8 @@ def _config(path: Path) -> Resolved:
     from creatio.pipeline.config import validate
 
     resolved = validate(yaml.safe_load(path.read_text()))
-    if resolved.study != "en05":
-        raise ConfigError("--config-file", str(path), f"holds study {resolved.study}, not en05")
+    if resolved.id != "en05":
+        raise ConfigError("--config-file", str(path), f"holds study {resolved.id}, not en05")
     return resolved
 
 
@@ -342,7 +342,7 @@ def main(argv: Sequence[str], say: Callable[[str], None] | None = None) -> int:
                                   f"must lie in [0, {sample.n_batches - 1}]")
             run_batch(sample.plan(), args.batch, args.out)
         else:
-            from creatio.pipeline.io import write_dataset
+            from creatio.store.netcdf import write_dataset
 
             out = args.out or Path("data/studies/en05/en05_sobol.nc")
             write_dataset(sobol_dataset(resolved, sample, args.compute_missing), out)

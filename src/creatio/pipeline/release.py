@@ -398,7 +398,7 @@ def make_release(
 def clean_stale_releases(data_dir: str | Path = "data") -> list[Path]:
     """Remove the temporary directories (``.VERSION.tmp-PID``) of releases whose maker no
     longer runs (a SIGKILL leaves one behind: it never becomes a release); returns them."""
-    from creatio.pipeline.io import clean_stale
+    from creatio.store.atomic import clean_stale
 
     root = releases_dir(data_dir)
     stale = list(root.glob(".*.tmp-*")) if root.is_dir() else []

@@ -32,13 +32,13 @@ def run_study(resolved: Resolved, part: str | None = None, **args: Any) -> Any:
     elif args:
         matches = [q for q in parts if dict(q.args) == args]
         if not matches:
-            raise KeyError(f"{resolved.study} has no dataset with {args}")
+            raise KeyError(f"{resolved.id} has no dataset with {args}")
         p = matches[0]
     else:
         p = parts[0]
     ds = entry.run_function()(resolved.obj, **p.args)
-    title = getattr(resolved.obj.study, "title", "") or resolved.study
-    ds.attrs = {**provenance(resolved.study, resolved.yaml, resolved.sha256, title), **ds.attrs}
+    title = getattr(resolved.obj.study, "title", "") or resolved.id
+    ds.attrs = {**provenance(resolved.id, resolved.yaml, resolved.sha256, title), **ds.attrs}
     if entry.kind.name == "sphere":  # absurd own checks: status checks_failed, with why
         from creatio.pipeline.checks import mark
 
@@ -48,13 +48,13 @@ def run_study(resolved: Resolved, part: str | None = None, **args: Any) -> Any:
 
 def compute_dataset(resolved: Resolved, out: Path, part: str | None = None) -> Path:
     """Run one dataset of a study and write it atomically to out."""
-    from creatio.pipeline.io import write_dataset
+    from creatio.store.netcdf import write_dataset
 
     t0 = time.perf_counter()
     ds = run_study(resolved, part)
     write_dataset(ds, out)
     status = ds.attrs.get("status")
-    log.info("%s%s: wrote %s in %.2f s%s", resolved.study, f" [{part}]" if part else "", out,
+    log.info("%s%s: wrote %s in %.2f s%s", resolved.id, f" [{part}]" if part else "", out,
              time.perf_counter() - t0, f" (status {status})" if status else "")
     return out
 
@@ -68,7 +68,7 @@ def write_report(study: str, outdir: Path, datasets: Sequence[Path]) -> dict[str
     entry = registry.get(study)
     if entry.kind.name == "sphere":
         from creatio.pipeline.checks import ChecksFailed, run_problems
-        from creatio.pipeline.io import read_dataset
+        from creatio.store.netcdf import read_dataset
 
         runs = [read_dataset(Path(p))[0] for p in datasets]
         try:
@@ -92,8 +92,8 @@ def run_resolved(resolved: Resolved, data_dir: Path = Path("data")) -> Path:
 
     root = output_root(resolved, data_dir)
     if root != data_dir:
-        log.info("%s: overridden config %s -> %s", resolved.study, resolved.key, root)
-        record_run(root, "study", resolved.study, resolved.data, resolve(resolved.study).data,
+        log.info("%s: overridden config %s -> %s", resolved.id, resolved.key, root)
+        record_run(root, "study", resolved.id, resolved.data, resolve(resolved.id).data,
                    None, resolved.sha256, data_dir)
     entry = resolved.entry
     outs = [compute_dataset(resolved, Path(entry.dataset_dir(str(root))) / f"{p.name}.nc", p.name)
@@ -101,7 +101,7 @@ def run_resolved(resolved: Resolved, data_dir: Path = Path("data")) -> Path:
     extra = entry.extra_function()
     if extra is not None:  # datasets the workflow makes in batch jobs, here in this process
         outs += extra(resolved, root)
-    write_report(resolved.study, root / entry.kind.report_dir, outs)
+    write_report(resolved.id, root / entry.kind.report_dir, outs)
     page = refresh_index(data_dir)
     if page is not None:
         log.info("results: %s (creatio ls lists them)", page)

@@ -459,7 +459,8 @@ def run_batch(plan: SweepPlan, k: int, out: str | Path | None = None,
     import numpy as np
     import xarray as xr
 
-    from creatio.pipeline.io import provenance, write_dataset
+    from creatio.pipeline.io import provenance
+    from creatio.store.netcdf import write_dataset
     from creatio.studies.schema import vary
 
     say = progress or log.info
@@ -601,8 +602,9 @@ def write_sweep(plan: SweepPlan, compute_missing: bool = False) -> dict[str, Pat
     code, first, in this process (`creatio run -m`, outside Snakemake).
     """
     from creatio.pipeline.index import record_sweep, refresh_index
-    from creatio.pipeline.io import provenance, write_dataset
+    from creatio.pipeline.io import provenance
     from creatio.reports.sweep import write_sweep_report
+    from creatio.store.netcdf import write_dataset
 
     if compute_missing:
         for k in range(plan.n_batches):

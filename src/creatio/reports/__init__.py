@@ -1,4 +1,5 @@
-"""Reports derived from datasets (never recomputing a study): one module per kind of study.
+"""Reports derived from datasets (never recomputing a study): one module per study, one per
+kind where studies share a report (kinematic, sphere), and what they share (common).
 
 :func:`summary` gives the JSON summary of any study's dataset (what sweeps aggregate).
 """

@@ -220,7 +220,7 @@ def figure(datasets: Sequence[xr.Dataset], path: str | Path) -> Path:
 
 def write_report(datasets: Sequence[Path], outdir: str | Path) -> dict[str, Path]:
     """Write boundaries.json, boundaries.md and boundaries.png from the axis datasets."""
-    from creatio.pipeline.io import read_dataset
+    from creatio.store.netcdf import read_dataset
 
     loaded = [read_dataset(p) for p in datasets]
     if not loaded:

@@ -1,4 +1,5 @@
-"""What every report shares: strict JSON, number formatting, markdown tables, matplotlib.
+"""What every report shares: strict JSON, number formatting, markdown tables, matplotlib, and
+the sphere kind's report frame (load a dt pair, write the JSON contract, compare the runs).
 
 Reports are derived from datasets and never recompute a study. Numbers are formatted one
 way everywhere (:func:`fmt`): four significant digits, scientific below 1e-3.
@@ -6,6 +7,7 @@ way everywhere (:func:`fmt`): four significant digits, scientific below 1e-3.
 
 from __future__ import annotations
 
+import csv
 import html
 import json
 import math
@@ -19,12 +21,16 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
+import xarray as xr  # noqa: E402
+from matplotlib.ticker import ScalarFormatter  # noqa: E402
 
-from creatio.pipeline.io import atomic_save, atomic_write  # noqa: E402
+from creatio.store.atomic import atomic_save, atomic_write  # noqa: E402
 from creatio.studies.published import Published  # noqa: E402
 
-__all__ = ["PUBLISHED_HEADER", "cell", "fmt", "h_key", "markdown_html", "nested", "plt",
-           "published_row", "readable_y", "strict_json", "table", "write_markdown"]
+__all__ = ["FAILURES", "PUBLISHED_HEADER", "as_list", "cell", "finish_figure", "finite_max",
+           "fmt", "h_key", "markdown_html", "nested", "paths_figure", "plt", "published_row",
+           "readable_y", "run_difference", "run_header", "start_report", "status_counts",
+           "strict_json", "study_status", "table", "value_key", "write_csv", "write_markdown"]
 
 
 def strict_json(data: Any) -> str:
@@ -195,3 +201,137 @@ def write_markdown(path: Path, text: str) -> Path:
     """Write a report's markdown and, beside it (same stem, .html), its HTML page."""
     write_text(path.with_suffix(".html"), markdown_html(text))
     return write_text(path, text)
+
+
+# ---------------------------------- the sphere kind's reports (EN-02F, EN-02G, EN-03, EN-03M)
+#: Statuses of a numerical failure (the others are physical outcomes, recorded per run).
+FAILURES = ("non_finite", "step_failed")
+
+
+def as_list(datasets: xr.Dataset | Sequence[xr.Dataset]) -> list[xr.Dataset]:
+    """One dataset or several, as a list."""
+    return [datasets] if isinstance(datasets, xr.Dataset) else list(datasets)
+
+
+def run_difference(coarse: xr.DataArray, fine: xr.DataArray) -> np.ndarray:
+    """Max over the common output times of |centre_coarse - centre_fine| for each run of a
+    stacked centre (run, time, component) or one run (time, component); NaN where a run has
+    no common sample (before the last dim pair: any leading run dimensions are kept)."""
+    common = np.intersect1d(np.round(coarse.time.values, 9), np.round(fine.time.values, 9))
+    a = coarse.sel(time=common, method="nearest").values
+    b = fine.sel(time=common, method="nearest").values
+    d = np.linalg.norm(a - b, axis=-1)
+    with np.errstate(all="ignore"):
+        finite = np.isfinite(d)
+        out = np.where(finite.any(axis=-1), np.nanmax(np.where(finite, d, -np.inf), axis=-1),
+                       np.nan)
+    return out
+
+
+def finite_max(values: Any) -> float:
+    """The largest finite value, NaN where there is none."""
+    v = np.asarray(values, float)
+    v = v[np.isfinite(v)]
+    return float(v.max()) if v.size else math.nan
+
+
+def study_status(statuses: Sequence[str]) -> str:
+    """A study's status: "ok" unless one of its runs failed numerically."""
+    return "failed" if any(s in FAILURES for s in statuses) else "ok"
+
+
+def status_counts(statuses: Sequence[str]) -> dict[str, int]:
+    """How many runs ended with each status."""
+    out: dict[str, int] = {}
+    for s in statuses:
+        out[str(s)] = out.get(str(s), 0) + 1
+    return out
+
+
+def value_key(x: float) -> str:
+    """A coordinate value as a JSON key: 5, 0.5, inf."""
+    return "inf" if math.isinf(x) else f"{x:g}"
+
+
+def _pair_line(runs: Sequence[xr.Dataset]) -> str:
+    a = runs[0].attrs
+    method = str(a.get("method", "rk4"))
+    if "rtol" in a:
+        return (f"{method} (adaptive) at rtol = {a['rtol']:g} compared with rtol = "
+                f"{runs[-1].attrs.get('rtol', math.nan):g}")
+    return f"{method.upper()} at dt = {a['dt']:g} s compared with dt = {runs[-1].attrs['dt']:g} s"
+
+
+def run_header(ds: xr.Dataset, runs: Sequence[xr.Dataset], study: str) -> list[str]:
+    """A report's first lines: title, the compared steps (or tolerances), config and code."""
+    return [f"# {ds.attrs.get('title', study)}", "",
+            f"{_pair_line(runs)}; config sha256 `{ds.attrs.get('config_sha256', '')[:12]}`, "
+            f"creatio {ds.attrs.get('creatio_version')}, commit "
+            f"{str(ds.attrs.get('git_commit', ''))[:10]}.", ""]
+
+
+def write_csv(path: Path, header: Sequence[str], rows: Sequence[Sequence[Any]]) -> None:
+    """A table as CSV, written atomically (NumPy floats as plain numbers)."""
+    with atomic_write(path, newline="") as fh:
+        w = csv.writer(fh)
+        w.writerow(list(header))
+        w.writerows([[v if not isinstance(v, float | np.floating) else float(v) for v in row]
+                     for row in rows])
+
+
+def _report_paths(outdir: Path, study: str) -> dict[str, Path]:
+    return {"json": outdir / f"{study}.json", "md": outdir / f"{study}.md",
+            "html": outdir / f"{study}.html", "png": outdir / f"{study}.png",
+            "csv": outdir / f"{study}_history.csv",
+            "trajectory": outdir / f"{study}_trajectory.png",
+            "convergence": outdir / f"{study}_convergence.png"}
+
+
+def _load_runs(datasets: Sequence[Path]) -> tuple[list[xr.Dataset], dict]:
+    from creatio.store.netcdf import read_dataset
+
+    loaded = [read_dataset(p) for p in datasets]
+    return [ds for ds, _ in loaded], loaded[0][1]
+
+
+def start_report(datasets: Sequence[Path], outdir: str | Path,
+           summary: Any) -> tuple[list[xr.Dataset], dict, dict[str, Path]]:
+    """What every writer here does first: load the datasets, summarise them with
+    summary(runs), write the JSON contract; returns (runs, summary, output paths)."""
+    runs, _ = _load_runs(datasets)
+    outdir = Path(outdir)
+    outdir.mkdir(parents=True, exist_ok=True)
+    s = summary(runs)
+    paths = _report_paths(outdir, s["study"])
+    write_text(paths["json"], strict_json(s))
+    return runs, s, paths
+
+
+def finish_figure(fig: Any, path: Path) -> None:
+    """Save and close a figure, with no offset notation on any linear y axis (an offset
+    such as 1e-6 - 3.6e2 hides the values a reader looks for)."""
+    for ax in fig.axes:
+        if isinstance(ax.yaxis.get_major_formatter(), ScalarFormatter):
+            ax.ticklabel_format(axis="y", useOffset=False)
+    fig.tight_layout()
+    save_figure(fig, path, dpi=100)
+    plt.close(fig)
+
+
+def paths_figure(named: Sequence[tuple[str, xr.Dataset]], path: Path, title: str) -> None:
+    """Centre paths of named runs in the structure's frame and in the world frame."""
+    fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(12, 6))
+    for label, ds in named:
+        X = ds.centre.values
+        W = ds.world_centre.values if "world_centre" in ds else X
+        ax1.plot(X[:, 0], X[:, 1], lw=0.8, label=label)
+        ax2.plot(W[:, 0], W[:, 1], lw=0.8, label=label)
+    for ax, name in ((ax1, "in the structure's frame"), (ax2, "in the world frame")):
+        ax.set_aspect("equal")
+        ax.set_xlabel("x (m)")
+        ax.set_ylabel("y (m)")
+        ax.set_title(f"centre path {name}", fontsize=9)
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=7)
+    fig.suptitle(title, fontsize=10)
+    finish_figure(fig, path)

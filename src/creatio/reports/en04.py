@@ -20,8 +20,14 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
-from creatio.reports.beyond import _finish, _start
-from creatio.reports.common import plt, table, write_markdown, write_text
+from creatio.reports.common import (
+    finish_figure,
+    plt,
+    start_report,
+    table,
+    write_markdown,
+    write_text,
+)
 from creatio.studies.en04 import oscillation_tolerance
 
 __all__ = ["ACTUATION_KEYS", "en04_summary", "write_report"]
@@ -194,7 +200,7 @@ def _powers(ds: xr.Dataset, path: Path) -> None:
         ax.set_xlabel("t (s)")
         ax.set_ylabel("power (mW)")
         ax.legend(fontsize=8, ncol=4)
-    _finish(fig, path)
+    finish_figure(fig, path)
 
 
 def _oscillations(ds: xr.Dataset, path: Path) -> None:
@@ -231,7 +237,7 @@ def _oscillations(ds: xr.Dataset, path: Path) -> None:
         bx.set_ylabel("(measured - closed form) / closed form")
         bx.set_title(f"along {d}: slide (mu = 0) and roll", fontsize=9)
         bx.legend(fontsize=7)
-    _finish(fig, path)
+    finish_figure(fig, path)
 
 
 def _convergence(act: xr.Dataset | None, path: Path) -> None:
@@ -271,13 +277,13 @@ def _convergence(act: xr.Dataset | None, path: Path) -> None:
     a3.set_ylabel("J")
     a3.set_title("W_surface from (N n + f) . c_t minus the run's surface work", fontsize=9)
     a3.legend(fontsize=7)
-    _finish(fig, path)
+    finish_figure(fig, path)
 
 
 def _csv(act: xr.Dataset, path: Path) -> None:
     """The actuation histories every output interval of the studies (the sphere reports'
     sampling), one column per study and variable (units in the header)."""
-    from creatio.reports.beyond import _write_csv
+    from creatio.reports.common import write_csv
 
     every = float(act.attrs.get("history_interval", act.attrs["sample_interval"]))
     step = max(1, round(every / float(act.attrs["sample_interval"])))
@@ -287,13 +293,13 @@ def _csv(act: xr.Dataset, path: Path) -> None:
                            for c in act.case.values for v in names]
     cols = [act.time.values] + [act[v].values[i] for i in range(act.sizes["case"])
                                 for v in names]
-    _write_csv(path, header, list(zip(*cols, strict=True)))
+    write_csv(path, header, list(zip(*cols, strict=True)))
 
 
 def write_report(datasets: Sequence[Path], outdir: str | Path) -> dict[str, Path]:
     """Write en04.json/.md/.png, _history.csv (actuation histories), _trajectory.png (the
     still-cavity oscillations), _convergence.png (quadrature, closed form, load energy)."""
-    runs, s, paths = _start(datasets, outdir, en04_summary)
+    runs, s, paths = start_report(datasets, outdir, en04_summary)
     parts = _split(runs)
     act = parts.get("actuation")
     osc = parts.get("oscillation")

@@ -20,8 +20,8 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
-from creatio.pipeline.io import atomic_write
 from creatio.reports.common import fmt, plt, save_figure, strict_json, table, write_text
+from creatio.store.atomic import atomic_write
 
 __all__ = ["calibration_summary", "en05_summary", "write_calibration_report", "write_report"]
 

@@ -17,7 +17,6 @@ import numpy as np
 import xarray as xr
 
 from creatio.model.numerics import observed_order
-from creatio.pipeline.io import atomic_write
 from creatio.reports.common import (
     PUBLISHED_HEADER,
     h_key,
@@ -30,6 +29,7 @@ from creatio.reports.common import (
     write_markdown,
     write_text,
 )
+from creatio.store.atomic import atomic_write
 from creatio.studies import registry
 
 __all__ = ["PATTERN_LABELS", "kinematic_summary", "write_report"]
@@ -138,7 +138,7 @@ def _convergence_figure(summary: dict, study: str, path: Path) -> None:
 def write_report(datasets: Sequence[Path], outdir: str | Path) -> dict[str, Path]:
     """Write <study>.json, .md (and its .html), _fd_error.csv and .png for a CT-02/EN-01
     dataset."""
-    from creatio.pipeline.io import read_dataset
+    from creatio.store.netcdf import read_dataset
 
     ds, _ = read_dataset(datasets[0])
     study = ds.attrs["study"]

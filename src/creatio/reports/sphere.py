@@ -14,7 +14,6 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
-from creatio.pipeline.io import atomic_write
 from creatio.reports.common import (
     PUBLISHED_HEADER,
     fmt,
@@ -27,6 +26,7 @@ from creatio.reports.common import (
     write_markdown,
     write_text,
 )
+from creatio.store.atomic import atomic_write
 from creatio.studies import registry
 
 __all__ = ["dynamic_summary", "history_csv", "timestep_difference", "write_comparison",
@@ -315,7 +315,7 @@ SUMMARY_ROWS = [
 
 def write_report(datasets: Sequence[Path], outdir: str | Path) -> dict[str, Path]:
     """Write <study>.json/.md/.html/.png, _history.csv, _trajectory.png, _convergence.png."""
-    from creatio.pipeline.io import read_dataset
+    from creatio.store.netcdf import read_dataset
 
     loaded = [read_dataset(p) for p in datasets]
     runs = [ds for ds, _ in loaded]
@@ -381,7 +381,7 @@ def write_report(datasets: Sequence[Path], outdir: str | Path) -> dict[str, Path
 
 def write_comparison(datasets: Sequence[Path], outdir: str | Path) -> dict[str, Path]:
     """EN-02 vs EN-02R: both centre paths on shared time over the surface, and a table."""
-    from creatio.pipeline.io import read_dataset
+    from creatio.store.netcdf import read_dataset
 
     loaded = [read_dataset(p) for p in datasets]
     outdir = Path(outdir)

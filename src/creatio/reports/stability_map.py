@@ -278,7 +278,7 @@ def markdown(sets: Sequence[xr.Dataset], title: str = "") -> str:
 
 def write_report(datasets: Sequence[Path], outdir: str | Path) -> dict[str, Path]:
     """Write stability_map.json, stability_map.md and stability_map.png to outdir."""
-    from creatio.pipeline.io import read_dataset
+    from creatio.store.netcdf import read_dataset
 
     loaded = [read_dataset(p) for p in datasets]
     sets = [ds for ds, _ in loaded]

@@ -312,7 +312,7 @@ def _figure(runs: Sequence[dict], path: Path) -> None:
 
 def write_report(datasets: Sequence[Path], outdir: str | Path) -> dict[str, Path]:
     """Write work_precision.{json,md,png} into outdir from the benchmark's datasets."""
-    from creatio.pipeline.io import read_dataset
+    from creatio.store.netcdf import read_dataset
 
     outdir = Path(outdir)
     outdir.mkdir(parents=True, exist_ok=True)

@@ -103,7 +103,7 @@ def _family_batch(args: argparse.Namespace) -> None:
     resolved = _config(args)
     family = family_of(resolved) if resolved.entry.kind.name == "sphere" else None
     if family is None:
-        raise ConfigError("scene.axes", {}, f"scene {resolved.scene} declares no axis: it "
+        raise ConfigError("scene.axes", {}, f"scene {resolved.id} declares no axis: it "
                           "has no family to compute")
     if args.batch_size is not None and args.batch_size != family.batch_size:
         raise ConfigError("--batch-size", args.batch_size, f"the family of {family.size} "
@@ -138,6 +138,6 @@ def _config(args: argparse.Namespace):
     import yaml
 
     resolved = validate(yaml.safe_load(args.config_yaml))
-    if resolved.scene != args.scene:
-        raise ConfigError("--config-yaml", resolved.scene, f"is not scene {args.scene}")
+    if resolved.id != args.scene:
+        raise ConfigError("--config-yaml", resolved.id, f"is not scene {args.scene}")
     return resolved

@@ -109,7 +109,7 @@ def sphere_scene(resolved: Any, reuse: Mapping[str, str | Path] | None = None,
     is the scene's base's (else the run is computed and the mismatch logged); ``computed``
     maps a study to the :func:`run_need` result already in hand (a family member's).
     """
-    from creatio.pipeline.io import read_dataset
+    from creatio.store.netcdf import read_dataset
 
     reuse = dict(reuse or {})
     s = resolved.obj.scene
@@ -127,7 +127,7 @@ def sphere_scene(resolved: Any, reuse: Mapping[str, str | Path] | None = None,
             study_ds, _ = read_dataset(reuse[need.study])
             if study_ds.attrs.get("config_sha256") != base.sha256:
                 log.warning("scene %s: %s holds another config of %s; computing instead",
-                            resolved.scene, reuse[need.study], need.study)
+                            resolved.id, reuse[need.study], need.study)
                 study_ds = None
             else:
                 sources.append(f"reused {reuse[need.study]}")
@@ -199,7 +199,7 @@ def sphere_scene(resolved: Any, reuse: Mapping[str, str | Path] | None = None,
     }
     ds = xr.Dataset(data, coords=coords)
     ds.attrs.update({
-        "scene": resolved.scene,
+        "scene": resolved.id,
         "kind": "sphere",
         "frame_interval": interval,
         "playback_speed": s.playback.speed,
@@ -260,7 +260,7 @@ def surface_family_scene(resolved: Any, reuse: Mapping[str, Any] | None = None) 
         coords={"inclination": ("inclination", incl,
                                 {"long_name": "inclination gamma", "units": "degree"})},
     )
-    ds.attrs.update({"scene": resolved.scene, "kind": "surface_family", "time": s.time,
+    ds.attrs.update({"scene": resolved.id, "kind": "surface_family", "time": s.time,
                      "mesh": [s.mesh.n_alpha, s.mesh.n_R], **_geometry_attrs(cfg.geometry)})
     return ds
 
@@ -301,7 +301,7 @@ def velocity_normal_scene(resolved: Any, reuse: Mapping[str, Any] | None = None)
                 "time": ("frame", times, {"units": "s"}),
                 "component": ("component", COMPONENTS)},
     )
-    ds.attrs.update({"scene": resolved.scene, "kind": "velocity_normal",
+    ds.attrs.update({"scene": resolved.id, "kind": "velocity_normal",
                      "alpha_deg": s.alpha_deg, "R": s.R, "normal_length": s.normal_length,
                      "velocity_scale": s.velocity_scale, "magnification": s.magnification,
                      "mesh": [s.mesh.n_alpha, s.mesh.n_R], **_geometry_attrs(cfg.geometry)})

@@ -1,4 +1,4 @@
-"""Scene configs: Hydra in, a validated :class:`SceneResolved` out; overrides routed per scene.
+"""Scene configs: Hydra in, a validated :class:`Resolved` out; overrides routed per scene.
 
 The pipeline composes the ``study`` and ``analysis`` groups; this module is the small adapter
 that does the same for the ``scene`` group (``conf/scene.yaml`` + ``conf/scene/<id>.yaml``),
@@ -19,7 +19,6 @@ from __future__ import annotations
 import functools
 import hashlib
 from collections.abc import Sequence
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -34,11 +33,9 @@ from creatio.pipeline.config import (
     refuse_interpolations,
     refuse_resolvers,
 )
-from creatio.pipeline.config import validate as validate_study
 from creatio.scenes import registry
 
 __all__ = [
-    "SceneResolved",
     "compose",
     "output_root",
     "resolve",
@@ -48,32 +45,6 @@ __all__ = [
 
 #: The primary config of the scenes (conf/scene.yaml) and its config group (conf/scene/).
 PRIMARY = "scene"
-
-
-@dataclass(frozen=True)
-class SceneResolved:
-    """A validated scene config: typed tree, plain dict, canonical YAML and its sha256."""
-
-    scene: str
-    obj: Any
-    data: dict
-    yaml: str
-    sha256: str
-
-    @property
-    def key(self) -> str:
-        """Short config hash used to key output directories."""
-        return self.sha256[:12]
-
-    @property
-    def entry(self) -> registry.Scene:
-        """The registry entry of this scene."""
-        return registry.get(self.scene)
-
-    @functools.cached_property
-    def bases(self) -> dict[str, Resolved]:
-        """Each study config under ``bases``, resolved as the study itself would be."""
-        return {name: validate_study(cfg) for name, cfg in self.data.get("bases", {}).items()}
 
 
 def register_schemas() -> None:
@@ -107,7 +78,7 @@ def compose(scene: str, overrides: Sequence[str] = ()) -> DictConfig:
         GlobalHydra.instance().hydra = outer
 
 
-def validate(cfg: DictConfig | dict) -> SceneResolved:
+def validate(cfg: DictConfig | dict) -> Resolved:
     """Merge onto the scene's schema, check every rule, return the resolved config."""
     if not isinstance(cfg, dict):
         cfg = OmegaConf.to_container(cfg, resolve=False)
@@ -132,7 +103,8 @@ def validate(cfg: DictConfig | dict) -> SceneResolved:
 
         plan_family(obj)
     text = OmegaConf.to_yaml(OmegaConf.create(data), sort_keys=True)
-    return SceneResolved(scene, obj, data, text, hashlib.sha256(text.encode()).hexdigest())
+    return Resolved(scene, obj, data, text, hashlib.sha256(text.encode()).hexdigest(),
+                    lookup=registry.get)
 
 
 @functools.lru_cache(maxsize=64)
@@ -227,13 +199,13 @@ def _axis_value(value: str) -> str:
     return f'"{text}"' if '"' not in text else value
 
 
-def resolve(scene: str, overrides: Sequence[str] = ()) -> SceneResolved:
+def resolve(scene: str, overrides: Sequence[str] = ()) -> Resolved:
     """Compose and validate one scene's config with (already routed) overrides, memoised."""
     return _resolve(scene, tuple(str(o) for o in overrides))
 
 
 @functools.lru_cache(maxsize=256)
-def _resolve(scene: str, overrides: tuple[str, ...]) -> SceneResolved:
+def _resolve(scene: str, overrides: tuple[str, ...]) -> Resolved:
     refuse_interpolations(overrides)
     refuse_identity(overrides, "scene.id", "--config 'scenes=[ID]'")
     try:
@@ -258,8 +230,8 @@ def _override_error(scene: str, overrides: Sequence[str], error: Exception) -> C
     return ConfigError("overrides", list(overrides), str(error).splitlines()[0])
 
 
-def output_root(resolved: SceneResolved, data_dir: str | Path = "data") -> Path:
+def output_root(resolved: Resolved, data_dir: str | Path = "data") -> Path:
     """Default scene config -> ``data``; anything else -> ``data/runs/<config hash>``."""
-    default = resolve(resolved.scene)
+    default = resolve(resolved.id)
     data_dir = Path(data_dir)
     return data_dir if default.sha256 == resolved.sha256 else data_dir / "runs" / resolved.key

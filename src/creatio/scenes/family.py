@@ -395,7 +395,7 @@ class Member:
     """One member: the scene config with its axis values set in every study it shows; or
     the reason the validation refused it."""
 
-    scene: str
+    id: str
     index: int
     obj: Any
     refused: str
@@ -406,7 +406,7 @@ class Member:
         """The registry entry of the scene."""
         from creatio.scenes import registry
 
-        return registry.get(self.scene)
+        return registry.get(self.id)
 
     @functools.cached_property
     def bases(self) -> dict[str, _Base]:
@@ -452,13 +452,13 @@ def member(resolved: Any, family: Family, index: int) -> Member:
         varied = dataclasses.replace(obj, scene=scene, bases=bases)
         varied.check()
     except ConfigError as e:
-        return Member(resolved.scene, index, None, str(e).removeprefix("invalid config: "), "")
+        return Member(resolved.id, index, None, str(e).removeprefix("invalid config: "), "")
     s = varied.scene
     text = json.dumps({
         "runs": [[name, _point_key(bases[name])] for name in s.studies],
         "interval": s.playback.interval, "rotation": s.rotation,
         "readouts": [str(r) for r in s.readouts], "code": _code()}, sort_keys=True)
-    return Member(resolved.scene, index, varied, "", hashlib.sha256(text.encode()).hexdigest())
+    return Member(resolved.id, index, varied, "", hashlib.sha256(text.encode()).hexdigest())
 
 
 def compute_member(m: Member) -> Any:
@@ -605,17 +605,17 @@ def run_batch(resolved: Any, family: Family, k: int, out: str | Path | None = No
         now = time.perf_counter()
         if now - last > 2.0 or done == len(indices):
             rate = done / max(now - t0, 1e-9)
-            say(f"scene {resolved.scene} family batch {k + 1}/{family.n_batches}: "
+            say(f"scene {resolved.id} family batch {k + 1}/{family.n_batches}: "
                 f"{done}/{len(indices)} members, {rate:.1f}/s, "
                 f"ETA {(len(indices) - done) / rate:.0f} s ({counts['computed']} computed, "
                 f"{counts['reused']} reused, {counts['refused']} refused)")
             last = now
     ds = assemble(rows, *_layout(resolved, family))
-    ds.attrs.update({"scene": resolved.scene, "config_sha256": resolved.sha256, "batch": k,
+    ds.attrs.update({"scene": resolved.id, "config_sha256": resolved.sha256, "batch": k,
                      "batch_size": family.batch_size, **counts, "compute_s": compute_s,
                      "wall_s": time.perf_counter() - t0})
     if out is not None:
-        from creatio.pipeline.io import write_dataset
+        from creatio.store.netcdf import write_dataset
 
         write_dataset(ds, out)
     return ds
@@ -627,7 +627,7 @@ def compute_family(resolved: Any, family: Family, batches: Sequence[str | Path] 
     computed here (with the store). One dataset over all members, in flat order."""
     import xarray as xr
 
-    from creatio.pipeline.io import read_dataset
+    from creatio.store.netcdf import read_dataset
 
     if batches:
         parts = []
@@ -635,7 +635,7 @@ def compute_family(resolved: Any, family: Family, batches: Sequence[str | Path] 
             ds, _ = read_dataset(path)
             if ds.attrs.get("config_sha256") != resolved.sha256:
                 raise ConfigError("family", str(path), "was computed for another config of "
-                                  f"scene {resolved.scene}: rerun its batch job")
+                                  f"scene {resolved.id}: rerun its batch job")
             parts.append(ds)
     else:
         parts = [run_batch(resolved, family, k, store=store) for k in range(family.n_batches)]
@@ -664,7 +664,7 @@ def attach(scene_ds: Any, family: Family, members: Any) -> Any:
         members = members.pad(frame=(0, frames - members.sizes["frame"]))
     scene_ds = scene_ds.assign_coords(time=("frame", np.arange(frames) * interval,
                                             scene_ds.time.attrs))
-    from creatio.pipeline import cf
+    from creatio.store import cf
 
     out = scene_ds.copy()
     for name, var in members.data_vars.items():

@@ -19,8 +19,8 @@ import xarray as xr
 
 from creatio.model.laws import Law
 from creatio.model.surface import Frame, Motion, Surface
-from creatio.pipeline.io import atomic_save
 from creatio.reports.common import plt
+from creatio.store.atomic import atomic_save
 
 __all__ = ["plain", "sphere_media", "surface_family_media", "velocity_normal_media"]
 

@@ -6,8 +6,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any
 
+from creatio.pipeline.config import Resolved
 from creatio.scenes import registry
-from creatio.scenes.config import SceneResolved
 from creatio.studies.schema import Output
 
 __all__ = ["RunNeed", "needs"]
@@ -35,7 +35,7 @@ class RunNeed:
                 "solver.output_interval": self.interval}
 
 
-def needs(resolved: SceneResolved) -> list[RunNeed]:
+def needs(resolved: Resolved) -> list[RunNeed]:
     """What each study of a sphere scene must provide (empty for the kinematic scenes)."""
     if resolved.entry.kind is not registry.SPHERE:
         return []

@@ -20,8 +20,8 @@ import numpy as np
 import xarray as xr
 
 import creatio
-from creatio.pipeline.io import atomic_save
 from creatio.scenes.assets import web_file
+from creatio.store.atomic import atomic_save
 
 __all__ = ["MAX_BYTES", "family_data", "fill", "page_data", "write_page"]
 

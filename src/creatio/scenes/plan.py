@@ -28,7 +28,7 @@ from creatio.model.numerics import steps_in
 from creatio.pipeline.config import Resolved
 from creatio.pipeline.config import output_root as study_root
 from creatio.scenes import registry
-from creatio.scenes.config import SceneResolved, output_root, resolve, route
+from creatio.scenes.config import output_root, resolve, route
 from creatio.scenes.needs import RunNeed, needs
 from creatio.studies import registry as studies
 
@@ -51,7 +51,7 @@ def reusable(base: Resolved, need: RunNeed, data_dir: str | Path = "data") -> st
     need; else None. Path only (the job checks the file's config hash when it reads it)."""
     if not _holds(base, need):
         return None
-    entry = studies.get(base.study)
+    entry = studies.get(base.id)
     path = entry.datasets(str(study_root(base, data_dir)), base.obj)[0]
     return path if Path(path).is_file() else None
 
@@ -61,7 +61,7 @@ class ScenePlan:
     """One scene's resolved config, the overrides that reached it, and its output root."""
 
     scene: str
-    resolved: SceneResolved
+    resolved: Resolved
     overrides: tuple[str, ...]
     root: str
 

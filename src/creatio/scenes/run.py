@@ -14,14 +14,15 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
-from creatio.scenes.config import SceneResolved, validate
+from creatio.pipeline.config import Resolved
+from creatio.scenes.config import validate
 
 __all__ = ["build_scene", "scene_dataset", "write_media", "write_page", "write_scene_dataset"]
 
 log = logging.getLogger("creatio")
 
 
-def scene_dataset(resolved: SceneResolved, reuse: Mapping[str, str | Path] | None = None,
+def scene_dataset(resolved: Resolved, reuse: Mapping[str, str | Path] | None = None,
                   family: Sequence[str | Path] = (), store: str | Path | None = None) -> Any:
     """The scene's dataset with provenance attached, and its family when it declares axes:
     read from the ``family`` batch files (the workflow's), else computed here, each member
@@ -35,11 +36,11 @@ def scene_dataset(resolved: SceneResolved, reuse: Mapping[str, str | Path] | Non
         members = compute_family(resolved, fam, family, store)
         ds = attach(ds, fam, members)
         log.info("scene %s: family of %d members (%d computed, %d reused, %d refused)",
-                 resolved.scene, fam.size, members.attrs["computed"], members.attrs["reused"],
+                 resolved.id, fam.size, members.attrs["computed"], members.attrs["reused"],
                  members.attrs["refused"])
-    title = getattr(resolved.obj.scene, "title", "") or resolved.scene
-    attrs = provenance(resolved.scene, resolved.yaml, resolved.sha256, title)
-    attrs["references"] = f"CREATIO technical notebook, scene {resolved.scene}"
+    title = getattr(resolved.obj.scene, "title", "") or resolved.id
+    attrs = provenance(resolved.id, resolved.yaml, resolved.sha256, title)
+    attrs["references"] = f"CREATIO technical notebook, scene {resolved.id}"
     for name, base in resolved.bases.items():
         attrs[f"study_{name}_config_sha256"] = base.sha256
     attrs["subtitle"] = resolved.entry.description
@@ -47,25 +48,25 @@ def scene_dataset(resolved: SceneResolved, reuse: Mapping[str, str | Path] | Non
     return ds
 
 
-def write_scene_dataset(resolved: SceneResolved, out: str | Path,
+def write_scene_dataset(resolved: Resolved, out: str | Path,
                         reuse: Mapping[str, str | Path] | None = None,
                         family: Sequence[str | Path] = (),
                         store: str | Path | None = None) -> Path:
     """Compute (or read) the scene's data and write ``scene.nc`` atomically."""
-    from creatio.pipeline.io import write_dataset
+    from creatio.store.netcdf import write_dataset
 
     t0 = time.perf_counter()
     ds = scene_dataset(resolved, reuse, family, store)
     write_dataset(ds, out)
-    log.info("scene %s: wrote %s in %.2f s", resolved.scene, out, time.perf_counter() - t0)
+    log.info("scene %s: wrote %s in %.2f s", resolved.id, out, time.perf_counter() - t0)
     return Path(out)
 
 
-def _read(path: str | Path) -> tuple[Any, SceneResolved]:
+def _read(path: str | Path) -> tuple[Any, Resolved]:
     """A scene dataset and the resolved config recorded in it."""
     import yaml
 
-    from creatio.pipeline.io import read_dataset
+    from creatio.store.netcdf import read_dataset
 
     ds, _ = read_dataset(path)
     return ds, validate(yaml.safe_load(ds.attrs["config_yaml"]))
@@ -86,11 +87,11 @@ def write_media(dataset: str | Path, animation: str | Path, poster: str | Path) 
     ds, resolved = _read(dataset)
     t0 = time.perf_counter()
     resolved.entry.media_function()(ds, resolved.obj, Path(animation), Path(poster))
-    log.info("scene %s: %s, %s in %.1f s", resolved.scene, animation, poster,
+    log.info("scene %s: %s, %s in %.1f s", resolved.id, animation, poster,
              time.perf_counter() - t0)
 
 
-def build_scene(resolved: SceneResolved, outdir: str | Path, library: str | Path,
+def build_scene(resolved: Resolved, outdir: str | Path, library: str | Path,
                 reuse: Mapping[str, str | Path] | None = None,
                 store: str | Path | None = None) -> dict[str, Path]:
     """Every file of one scene into ``outdir`` (what the scene rules do, in one process;

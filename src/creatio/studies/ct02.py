@@ -14,7 +14,7 @@ import xarray as xr
 from creatio.model.cavity import cavity, classify_inclination, helical_pitch
 from creatio.model.laws import Law, LawKind
 from creatio.model.surface import Motion
-from creatio.studies.schema import Ct02Config
+from creatio.studies.ct02_schema import Ct02Config
 from creatio.studies.verification import DERIVATIVES, fd_errors, regularity, sample_grid
 
 REGULARITY_KEYS = ("j_identity_error", "normal_tangent_dot", "normal_length_error",

@@ -13,7 +13,7 @@ import xarray as xr
 from creatio.model.cavity import pattern_angle
 from creatio.model.laws import Law
 from creatio.model.surface import Motion
-from creatio.studies.schema import En01Config
+from creatio.studies.en01_schema import En01Config
 from creatio.studies.verification import DERIVATIVES, fd_errors, regularity, sample_grid
 
 REGULARITY_KEYS = ("normal_length_error", "normal_tangent_dot", "j_identity_error",

@@ -33,7 +33,8 @@ from creatio.dynamics.layout import (
 )
 from creatio.model.cavity import in_cavity_cell
 from creatio.studies.beyond import output_grid, run_dataset, stack
-from creatio.studies.schema import En02fConfig, with_cycle
+from creatio.studies.en02f_schema import En02fConfig
+from creatio.studies.schema import with_cycle
 
 __all__ = ["HISTORIES", "cycle_boundary", "event_figures", "run", "run_drop"]
 

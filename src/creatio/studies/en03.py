@@ -13,7 +13,7 @@ import xarray as xr
 
 from creatio.dynamics import simulate
 from creatio.studies.beyond import output_grid, stack, structure_dataset
-from creatio.studies.schema import En03Config
+from creatio.studies.en03_schema import En03Config
 
 __all__ = ["SWEEP_HISTORIES", "SWEEP_SCALARS", "run"]
 

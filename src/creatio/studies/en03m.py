@@ -14,7 +14,7 @@ The search's runs ("probes") stop at the first step outside the cell (status lef
 only their outcome counts. Then a full run at study.figure_factor times the smallest force
 (or study.fallback_force when none carries) gives EN-03's figures plus the confinement work.
 Each run's fixed step is refined to stay inside its own friction stability limit
-(creatio.studies.schema.En03mConfig.force_problem).
+(creatio.studies.en03m_schema.En03mConfig.force_problem).
 """
 
 from __future__ import annotations
@@ -27,7 +27,8 @@ import xarray as xr
 
 from creatio.dynamics import simulate
 from creatio.studies.beyond import output_grid, stack, structure_dataset
-from creatio.studies.schema import Confinement, En03mConfig
+from creatio.studies.en03m_schema import En03mConfig
+from creatio.studies.schema import Confinement
 from creatio.studies.sphere import pattern
 
 __all__ = ["FIGURE_HISTORIES", "Probe", "probe", "round_up", "run", "search"]

@@ -18,15 +18,13 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from creatio.studies import published
-from creatio.studies.schema import (
-    Ct02Config,
-    DynamicConfig,
-    En01Config,
-    En02fConfig,
-    En02gConfig,
-    En03Config,
-    En03mConfig,
-)
+from creatio.studies.ct02_schema import Ct02Config
+from creatio.studies.en01_schema import En01Config
+from creatio.studies.en02f_schema import En02fConfig
+from creatio.studies.en02g_schema import En02gConfig
+from creatio.studies.en03_schema import En03Config
+from creatio.studies.en03m_schema import En03mConfig
+from creatio.studies.schema import DynamicConfig
 
 __all__ = ["KINDS", "STUDIES", "Kind", "Part", "Study", "get", "select"]
 
@@ -183,17 +181,17 @@ STUDIES: dict[str, Study] = {
               "creatio.reports.sphere:write_report", _timestep_parts("en02v")),
         # Beyond the notebook (docs/studies.md): outside `all`, built by `snakemake beyond`
         Study("en02g", SPHERE, En02gConfig, "creatio.studies.en02g:run",
-              "creatio.reports.beyond:write_en02g", _timestep_parts("en02g"), in_all=False,
-              summary="creatio.reports.beyond:en02g_summary"),
+              "creatio.reports.en02g:write_en02g", _timestep_parts("en02g"), in_all=False,
+              summary="creatio.reports.en02g:en02g_summary"),
         Study("en02f", SPHERE, En02fConfig, "creatio.studies.en02f:run",
-              "creatio.reports.flight:write_en02f", _en02f_parts, in_all=False,
-              summary="creatio.reports.flight:en02f_summary"),
+              "creatio.reports.en02f:write_en02f", _en02f_parts, in_all=False,
+              summary="creatio.reports.en02f:en02f_summary"),
         Study("en03", SPHERE, En03Config, "creatio.studies.en03:run",
-              "creatio.reports.beyond:write_en03", _en03_parts, in_all=False,
-              summary="creatio.reports.beyond:en03_summary"),
+              "creatio.reports.en03:write_en03", _en03_parts, in_all=False,
+              summary="creatio.reports.en03:en03_summary"),
         Study("en03m", SPHERE, En03mConfig, "creatio.studies.en03m:run",
-              "creatio.reports.beyond:write_en03m", _timestep_parts("en03m"), in_all=False,
-              summary="creatio.reports.beyond:en03m_summary"),
+              "creatio.reports.en03m:write_en03m", _timestep_parts("en03m"), in_all=False,
+              summary="creatio.reports.en03m:en03m_summary"),
         Study("en04", SPHERE, "creatio.studies.en04:En04Config", "creatio.studies.en04:run",
               "creatio.reports.en04:write_report", "creatio.studies.en04:parts", in_all=False,
               summary="creatio.reports.en04:en04_summary"),

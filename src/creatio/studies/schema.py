@@ -1,4 +1,10 @@
-"""The config schema of every study: typed dataclasses and the rules their values obey.
+"""The config types every study shares: geometry, time laws, sphere, structure, solver,
+outputs, the sphere studies' root (DynamicConfig), the probe's, the rules their values obey
+(require, the size limits) and vary. Each study's own schema stands beside its run function
+in ``<study>_schema.py`` (ct02_schema, en01_schema, en02g_schema, en02f_schema, en03_schema,
+en03m_schema, en05_schema), importable without the compiler or xarray that the run module
+loads, since every config is validated when a workflow is planned; the analyses keep theirs
+in their own module, loaded only when one is asked for.
 
 A study's config is a tree of these dataclasses (Hydra composes it from ``conf/``; the
 pipeline merges it onto the schema and calls ``check``). Each ``check`` raises
@@ -19,7 +25,6 @@ from typing import Any
 
 from creatio.dynamics import problem as core
 from creatio.dynamics.problem import (
-    MAX_IMPACT_CAP,
     MAX_RHS_EVALS,
     SphereProblem,
     UnstableStepError,
@@ -34,29 +39,32 @@ from creatio.model.surface import Motion, Surface
 
 __all__ = [
     "AngleUnit",
-    "BisectionConfig",
     "Confinement",
-    "Ct02Config",
     "DynamicConfig",
-    "En01Config",
-    "En02fConfig",
-    "En02gConfig",
-    "En03Config",
-    "En03mConfig",
+    "DynamicStudy",
     "GeometryConfig",
+    "InitialConfig",
     "LawConfig",
+    "MAX_SAMPLES",
     "MISSING",
     "Method",
-    "OscillationConfig",
+    "NO_CYCLE",
     "Output",
+    "PhasePairConfig",
     "PhasesConfig",
     "ProbeConfig",
     "SolverConfig",
     "SphereConfig",
     "StructureConfig",
     "check_finite",
+    "check_grid",
+    "check_inclinations",
+    "check_inertia",
+    "check_positive_list",
     "require",
+    "require_samples",
     "vary",
+    "with_cycle",
 ]
 
 #: A mandatory value (OmegaConf's marker for "must be set"), without importing OmegaConf.
@@ -297,7 +305,7 @@ class GeometryConfig:
         return Surface(self.R0, self.dR, self.A, self.Kr, self.Ka)
 
 
-_NO_CYCLE = (LawKind.constant, LawKind.linear, LawKind.sinusoid)  # a step needs phases.T
+NO_CYCLE = (LawKind.constant, LawKind.linear, LawKind.sinusoid)  # a step needs phases.T
 
 
 @dataclass
@@ -426,131 +434,25 @@ class SolverConfig:
         return [self.dt, self.dt / self.refine]
 
 
-def _check_positive_list(path: str, values: Sequence[float], minimum: int = 1) -> None:
+def check_positive_list(path: str, values: Sequence[float], minimum: int = 1) -> None:
     require(len(values) >= minimum, path, list(values), f"needs at least {minimum} value(s)")
     for i, v in enumerate(values):
         require(v > 0.0 and math.isfinite(v), f"{path}[{i}]", v, "must be > 0")
 
 
-def _check_inclinations(path: str, values: Sequence[float]) -> None:
+def check_inclinations(path: str, values: Sequence[float]) -> None:
     require(len(values) >= 1, path, list(values), "needs at least 1 value")
     for i, v in enumerate(values):
         require(-90.0 <= v <= 90.0, f"{path}[{i}]", v, "must lie in [-90, 90] degrees")
 
 
-def _check_grid(path: str, n_radii: int, n_angles: int, per: int = 1) -> None:
+def check_grid(path: str, n_radii: int, n_angles: int, per: int = 1) -> None:
     """Both counts positive, and the grid (times `per` evaluations of it at once) within
     MAX_SAMPLES."""
     require(n_radii >= 2, f"{path}.n_radii", n_radii, "must be >= 2 (both ends are sampled)")
     require(n_angles >= 1, f"{path}.n_angles", n_angles, "must be >= 1")
     require_samples(f"{path}.n_radii", n_radii, n_radii * n_angles * per,
                     f"grid points ({n_radii} x {n_angles}" + (f" x {per})" if per > 1 else ")"))
-
-
-@dataclass
-class Ct02Study:
-    """CT-02 sampling: FD steps, inclinations, grid, times, gamma(t) case, feature times."""
-
-    id: str = "ct02"
-    title: str = ""
-    h: list[float] = MISSING
-    inclinations_deg: list[float] = MISSING
-    n_radii: int = 9
-    n_angles: int = 24
-    times: list[float] = MISSING
-    varying_gamma: LawConfig = field(default_factory=LawConfig)
-    feature_times: list[float] = MISSING
-    feature_h: float = 1e-4
-
-    def check(self, path: str) -> None:
-        """Steps positive, inclinations in range, grid sizes sane, gamma(t) in range."""
-        _check_positive_list(f"{path}.h", self.h)
-        _check_inclinations(f"{path}.inclinations_deg", self.inclinations_deg)
-        require(len(self.times) >= 1, f"{path}.times", self.times, "needs at least 1 value")
-        _check_grid(path, self.n_radii, self.n_angles, len(self.times))
-        require(len(self.feature_times) >= 1, f"{path}.feature_times", self.feature_times,
-                "needs at least 1 value (the report's feature check)")
-        self.varying_gamma.check(f"{path}.varying_gamma", inclination=True, kinds=_NO_CYCLE)
-        require(self.feature_h > 0.0, f"{path}.feature_h", self.feature_h, "must be > 0")
-
-
-@dataclass
-class LawSetConfig:
-    """One EN-01 time-law case: radial phase, angular phase, inclination (no quintic T)."""
-
-    r: LawConfig = field(default_factory=LawConfig)
-    a: LawConfig = field(default_factory=LawConfig)
-    gamma: LawConfig = field(default_factory=LawConfig)
-
-    def check(self, path: str) -> None:
-        """Each law valid (no quintic: there is no cycle length here), gamma in range."""
-        self.r.check(f"{path}.r", kinds=_NO_CYCLE)
-        self.a.check(f"{path}.a", kinds=_NO_CYCLE)
-        self.gamma.check(f"{path}.gamma", inclination=True, kinds=_NO_CYCLE)
-
-
-@dataclass
-class RegularityConfig:
-    """Regularity grid: inclinations and a radius x angle grid per inclination."""
-
-    inclinations_deg: list[float] = MISSING
-    n_radii: int = 168
-    n_angles: int = 168
-
-    def check(self, path: str) -> None:
-        """Inclinations in range, grid sizes sane."""
-        _check_inclinations(f"{path}.inclinations_deg", self.inclinations_deg)
-        _check_grid(path, self.n_radii, self.n_angles)
-
-
-@dataclass
-class PatternConfig:
-    """Pattern velocity check over one quintic cycle of the angular phase."""
-
-    T: float = 120.0
-    a: LawConfig = field(default_factory=LawConfig)
-    sample_interval: float = 0.1
-    fd_step: float = 1e-3
-
-    def check(self, path: str) -> None:
-        """T, sample interval and difference step positive."""
-        require(self.T > 0.0, f"{path}.T", self.T, "must be > 0")
-        self.a.check(f"{path}.a")
-        require(
-            0.0 < self.sample_interval <= self.T,
-            f"{path}.sample_interval",
-            self.sample_interval,
-            f"must lie in (0, T = {self.T}]",
-        )
-        require(self.fd_step > 0.0, f"{path}.fd_step", self.fd_step, "must be > 0")
-        require_samples(f"{path}.sample_interval", self.sample_interval,
-                        self.T / self.sample_interval, "pattern samples (T / sample_interval)")
-
-
-@dataclass
-class En01Study:
-    """EN-01 sampling: FD steps, grid, times, three law cases, regularity, pattern."""
-
-    id: str = "en01"
-    title: str = ""
-    h: list[float] = MISSING
-    n_radii: int = 17
-    n_angles: int = 36
-    times: list[float] = MISSING
-    laws: dict[str, LawSetConfig] = field(default_factory=dict)
-    regularity: RegularityConfig = field(default_factory=RegularityConfig)
-    pattern: PatternConfig = field(default_factory=PatternConfig)
-
-    def check(self, path: str) -> None:
-        """Every sub-config valid; at least one law case."""
-        _check_positive_list(f"{path}.h", self.h)
-        require(len(self.times) >= 1, f"{path}.times", self.times, "needs at least 1 value")
-        _check_grid(path, self.n_radii, self.n_angles, len(self.times))
-        require(len(self.laws) >= 1, f"{path}.laws", dict(self.laws), "needs at least 1 case")
-        for name, case in self.laws.items():
-            case.check(f"{path}.laws.{name}")
-        self.regularity.check(f"{path}.regularity")
-        self.pattern.check(f"{path}.pattern")
 
 
 @dataclass
@@ -585,34 +487,6 @@ class DynamicStudy:
         require(self.duration > 0.0, f"{path}.duration", self.duration, "must be > 0")
         require(Output.trajectory in self.outputs, f"{path}.outputs",
                  [o.value for o in self.outputs], "must include trajectory")
-
-
-@dataclass
-class Ct02Config:
-    """Root schema of CT-02."""
-
-    study: Ct02Study = field(default_factory=Ct02Study)
-    geometry: GeometryConfig = field(default_factory=GeometryConfig)
-    phases: PhasePairConfig = field(default_factory=PhasePairConfig)
-
-    def check(self) -> None:
-        """Validate every group."""
-        self.geometry.check("geometry")
-        self.phases.check("phases")
-        self.study.check("study")
-
-
-@dataclass
-class En01Config:
-    """Root schema of EN-01."""
-
-    study: En01Study = field(default_factory=En01Study)
-    geometry: GeometryConfig = field(default_factory=GeometryConfig)
-
-    def check(self) -> None:
-        """Validate every group."""
-        self.geometry.check("geometry")
-        self.study.check("study")
 
 
 @dataclass
@@ -786,7 +660,7 @@ class ProbeConfig:
             require(math.isfinite(v), name, v, "must be a finite number")
 
 
-# ---------------------------------------------- beyond the notebook (EN-02G, EN-03, EN-03M)
+# ------------------------------------------ structure (EN-03, EN-03M, the analyses)
 class Confinement(StrEnum):
     """What holds the sphere on the membrane besides gravity (docs/model.md s.10)."""
 
@@ -795,7 +669,7 @@ class Confinement(StrEnum):
     base = "base"
 
 
-def _check_inertia(path: str, value: float) -> None:
+def check_inertia(path: str, value: float) -> None:
     require(value > 0.0, path, value, "must be > 0 kg m^2 (.inf: a fixed structure)")
 
 
@@ -810,7 +684,7 @@ class StructureConfig:
 
     def check(self, path: str) -> None:
         """inertia > 0 (inf allowed), force finite and >= 0, a force only with a confinement."""
-        _check_inertia(f"{path}.inertia", self.inertia)
+        check_inertia(f"{path}.inertia", self.inertia)
         require(math.isfinite(self.force) and self.force >= 0.0, f"{path}.force", self.force,
                 "must be finite and >= 0 N")
         require(self.confinement is not Confinement.none or self.force == 0.0, f"{path}.force",
@@ -821,340 +695,3 @@ class StructureConfig:
         return core.Structure(float(self.inertia), self.confinement.value, float(self.force))
 
 
-@dataclass
-class OscillationConfig:
-    """EN-02G's oscillating inclination gamma(t) = gamma0 + G sin(Omega t), at each gamma0."""
-
-    gamma0_deg: list[float] = field(default_factory=lambda: [0.0, 10.0, 20.0])
-    amplitude_deg: float = 10.0
-    omega: float = 0.7
-
-    def check(self, path: str) -> None:
-        """G >= 0, Omega finite, |gamma0| + G <= 90 deg for each gamma0."""
-        require(self.amplitude_deg >= 0.0, f"{path}.amplitude_deg", self.amplitude_deg,
-                "must be >= 0")
-        require(math.isfinite(self.omega), f"{path}.omega", self.omega, "must be finite")
-        for i, g0 in enumerate(self.gamma0_deg):
-            require(abs(g0) + self.amplitude_deg <= 90.0, f"{path}.gamma0_deg[{i}]", g0,
-                    f"|gamma0| + amplitude_deg ({self.amplitude_deg}) must be <= 90 degrees")
-
-
-@dataclass
-class En02gStudy(DynamicStudy):
-    """EN-02G: EN-02 at each constant inclination, and under the oscillating law, each run
-    started at the static equilibrium of the cavity nearest study.initial."""
-
-    inclinations_deg: list[float] = MISSING
-    oscillation: OscillationConfig = field(default_factory=OscillationConfig)
-
-    def check(self, path: str) -> None:
-        """The EN-02 rules, inclinations in [-90, 90], the oscillation law in range."""
-        super().check(path)
-        _check_inclinations(f"{path}.inclinations_deg", self.inclinations_deg)
-        self.oscillation.check(f"{path}.oscillation")
-
-
-@dataclass
-class En02gConfig(DynamicConfig):
-    """Root schema of EN-02G (docs/studies.md): the inclination is set per run by the study,
-    so phases.gamma stays at its default (constant 0)."""
-
-    study: En02gStudy = field(default_factory=En02gStudy)
-
-    def check(self) -> None:
-        """phases.gamma untouched, gravity to find the equilibrium, then the rules of the
-        sphere studies over every run."""
-        require(self.sphere.g > 0.0, "sphere.g", self.sphere.g,
-                "must be > 0: every EN-02G run starts at the static equilibrium, the lowest "
-                "point under gravity")
-        gamma = self.phases.gamma
-        require(gamma.kind is LawKind.constant and gamma.phi0 == 0.0, "phases.gamma",
-                f"{gamma.kind.value}, phi0 = {gamma.phi0}",
-                "EN-02G sets the inclination of each run (study.inclinations_deg, "
-                "study.oscillation): leave phases.gamma constant at 0")
-        super().check()
-
-    def run_problems(self, dt: float | None = None
-                     ) -> list[tuple[str, float, SphereProblem]]:
-        """(kind, inclination or gamma0 in degrees, problem) of every run: "constant" at each
-        inclination, then "oscillating" at each gamma0; all start at the equilibrium."""
-        base = self.sphere_problem(dt)
-        T = self.phases.T
-        osc = self.study.oscillation
-        out = []
-        for g in self.study.inclinations_deg:
-            law = Law(phi0=math.radians(g), T=T, kind=LawKind.constant)
-            out.append(("constant", float(g), base.replace(gamma=law, equilibrium=True)))
-        for g0 in osc.gamma0_deg:
-            law = Law(phi0=math.radians(g0), T=T, amplitude=math.radians(osc.amplitude_deg),
-                      omega=osc.omega, kind=LawKind.sinusoid)
-            out.append(("oscillating", float(g0), base.replace(gamma=law, equilibrium=True)))
-        return out
-
-    def stability_problems(self) -> list[SphereProblem]:
-        """Every run of the study."""
-        return [p for _, _, p in self.run_problems()]
-
-
-class ContactLoss(StrEnum):
-    """What a run does where the normal reaction would go negative (docs/model.md s.11):
-    ``stop`` with status contact_lost (every published study), or continue in ``flight``."""
-
-    stop = "stop"
-    flight = "flight"
-
-
-@dataclass
-class FlightConfig:
-    """Separation, flight and impact (docs/model.md s.11)."""
-
-    contact_loss: ContactLoss = ContactLoss.stop
-    restitution: float = 0.0
-    resume_speed: float = 1e-4
-    impact_cap: float = 100.0
-
-    def check(self, path: str) -> None:
-        """e in [0, 1], resumption speed >= 0, impact cap in [1, MAX_IMPACT_CAP] per second
-        (the event table holds 3 x cap x duration rows)."""
-        require(0.0 <= self.restitution <= 1.0, f"{path}.restitution", self.restitution,
-                "must be in [0, 1]")
-        require(math.isfinite(self.resume_speed) and self.resume_speed >= 0.0,
-                f"{path}.resume_speed", self.resume_speed, "must be finite and >= 0 m/s")
-        require(math.isfinite(self.impact_cap) and 1.0 <= self.impact_cap <= MAX_IMPACT_CAP,
-                f"{path}.impact_cap", self.impact_cap,
-                f"must be between 1 and {MAX_IMPACT_CAP:g} per second (the event table holds "
-                "3 x impact_cap x duration rows)")
-
-    def to_events(self) -> core.Events:
-        """The numeric-core events of these settings."""
-        return core.Events(self.contact_loss is ContactLoss.flight, float(self.restitution),
-                           float(self.resume_speed), float(self.impact_cap))
-
-
-@dataclass
-class DropConfig:
-    """The drop test of docs/model.md s.11: flat, still surface, sphere dropped at rest."""
-
-    height: float = 0.1
-    restitution: float = 0.5
-    duration: float = 1.0
-    dt: float = 0.001
-
-    def check(self, path: str) -> None:
-        """Height, duration and dt > 0, e in (0, 1] (the apex ratio needs bounces)."""
-        for name in ("height", "duration", "dt"):
-            v = getattr(self, name)
-            require(math.isfinite(v) and v > 0.0, f"{path}.{name}", v, "must be > 0")
-        require(0.0 < self.restitution <= 1.0, f"{path}.restitution", self.restitution,
-                "must be in (0, 1]")
-        require(steps_in(self.duration, self.dt) is not None, f"{path}.duration",
-                self.duration, f"must be an integer multiple of {path}.dt = {self.dt}")
-        require_samples(f"{path}.duration", self.duration,
-                        self.duration / self.output_interval(),
-                        f"history rows ({path}.duration / {self.output_interval():g} s)")
-
-    def output_interval(self) -> float:
-        """The drop test's history interval: the multiple of dt nearest 0.01 s."""
-        return self.dt * max(1, round(0.01 / self.dt))
-
-
-@dataclass
-class En02fStudy(DynamicStudy):
-    """EN-02F: EN-02 at each cycle length T (one cycle each) and restitution e, with flight,
-    plus the drop test."""
-
-    cycles_s: list[float] = MISSING
-    restitutions: list[float] = MISSING
-    drop: DropConfig = field(default_factory=DropConfig)
-
-    def check(self, path: str) -> None:
-        """The EN-02 rules, at least one T > 0 and one e in [0, 1], the drop test in range."""
-        super().check(path)
-        for name in ("cycles_s", "restitutions"):
-            values = getattr(self, name)
-            require(len(values) >= 1, f"{path}.{name}", list(values), "needs at least 1 value")
-        for i, T in enumerate(self.cycles_s):
-            require(math.isfinite(T) and T > 0.0, f"{path}.cycles_s[{i}]", T, "must be > 0 s")
-        for i, e in enumerate(self.restitutions):
-            require(0.0 <= e <= 1.0, f"{path}.restitutions[{i}]", e, "must be in [0, 1]")
-        self.drop.check(f"{path}.drop")
-
-
-@dataclass
-class En02fConfig(DynamicConfig):
-    """Root schema of EN-02F (docs/studies.md): the study sets T and e per run."""
-
-    study: En02fStudy = field(default_factory=En02fStudy)
-    flight: FlightConfig = field(default_factory=FlightConfig)
-
-    def check(self) -> None:
-        """The sphere studies' rules, the flight settings, and every run's duration a
-        multiple of a fixed dt."""
-        self.flight.check("flight")  # first: the other rules build problems from it
-        require(not (self.solver.dense_output and self.flight.contact_loss is ContactLoss.flight),
-                "solver.dense_output", self.solver.dense_output,
-                "is not available with flight.contact_loss = flight (the flight loop takes "
-                "its own steps to every event)")
-        # the runs' own values before the rules that build their problems (the stability
-        # limit): a cycle that is no multiple of dt reached the problem's ValueError, keyless
-        self.study.check("study")
-        self.solver.check("solver")
-        for i, T in enumerate(self.study.cycles_s):
-            require(self.solver.adaptive or steps_in(T, self.solver.dt) is not None,
-                    f"study.cycles_s[{i}]", T,
-                    f"must be an integer multiple of solver.dt = {self.solver.dt}")
-        super().check()
-
-    def durations(self) -> list[float]:
-        """The default run's length and each cycle's (one run per cycle)."""
-        return [self.study.duration, *self.study.cycles_s]
-
-    def run_problems(self, dt: float | None = None
-                     ) -> list[tuple[float, float, SphereProblem]]:
-        """(T, e, problem) of every run: one cycle of length T, restitution e."""
-        base = self.sphere_problem(dt)
-        out = []
-        for T in self.study.cycles_s:
-            motion = with_cycle(base.model.motion, float(T))
-            for e in self.study.restitutions:
-                out.append((float(T), float(e), base.replace(motion=motion, t_end=float(T),
-                                                            restitution=float(e))))
-        return out
-
-    def drop_problem(self) -> SphereProblem:
-        """The drop test: A = 0 and still phases, dropped from study.drop.height, flight on."""
-        d = self.study.drop
-        still = Law.constant(0.0)
-        return self.sphere_problem(d.dt).replace(
-            A=0.0, motion=Motion(still, still, still), t_end=d.duration,
-            interval=d.output_interval(), method="rk4", fixed_step=False,
-            flight=True, restitution=float(d.restitution), height=d.height)
-
-    def run_events(self) -> core.Events:
-        """Flight as configured (flight.contact_loss)."""
-        return self.flight.to_events()
-
-    def stability_problems(self) -> list[SphereProblem]:
-        """Every (T, e) run of the study."""
-        return [p for _, _, p in self.run_problems()]
-
-
-@dataclass
-class En03Study(DynamicStudy):
-    """EN-03: the single run at structure.inertia, the inertia sweep, and the I_s -> inf
-    limit check (a run at limit_inertia against the fixed structure)."""
-
-    inertia_sweep: list[float] = MISSING
-    limit_inertia: float = 1.0e12
-
-    def check(self, path: str) -> None:
-        """The EN-02 rules; every inertia > 0."""
-        super().check(path)
-        require(len(self.inertia_sweep) >= 1, f"{path}.inertia_sweep", self.inertia_sweep,
-                "needs at least 1 value")
-        for i, v in enumerate(self.inertia_sweep):
-            _check_inertia(f"{path}.inertia_sweep[{i}]", v)
-        _check_inertia(f"{path}.limit_inertia", self.limit_inertia)
-
-
-@dataclass
-class En03Config(DynamicConfig):
-    """Root schema of EN-03 (docs/studies.md): EN-02 on a structure free to yaw."""
-
-    study: En03Study = field(default_factory=En03Study)
-    structure: StructureConfig = field(default_factory=StructureConfig)
-
-    def check(self) -> None:
-        """The structure group, then the rules of the sphere studies over every run."""
-        self.structure.check("structure")
-        super().check()
-
-    def run_structure(self) -> core.Structure:
-        """The single run's structure (structure.inertia, confinement, force)."""
-        return self.structure.to_structure()
-
-    def sweep_problems(self, dt: float | None = None) -> list[tuple[float, SphereProblem]]:
-        """(I_s, problem) of the inertia sweep, then of the limit check (limit_inertia and
-        the fixed structure, inf)."""
-        base = self.sphere_problem(dt)
-        inertias = [*self.study.inertia_sweep, self.study.limit_inertia, math.inf]
-        return [(float(v), base.replace(inertia=float(v))) for v in inertias]
-
-    def stability_problems(self) -> list[SphereProblem]:
-        """The single run and the inertia sweep (the smallest I_s sets the limit)."""
-        return [self.sphere_problem()] + [p for _, p in self.sweep_problems()]
-
-
-@dataclass
-class BisectionConfig:
-    """EN-03M's search for the smallest carrying force: a scan up the decades, then bisection."""
-
-    decades: list[int] = field(default_factory=lambda: [-4, -3, -2, -1, 0, 1])
-    rtol: float = 1.0e-3
-
-    def check(self, path: str) -> None:
-        """At least one decade; 0 < rtol < 1."""
-        require(len(self.decades) >= 1, f"{path}.decades", self.decades,
-                "needs at least 1 value")
-        require(0.0 < self.rtol < 1.0, f"{path}.rtol", self.rtol, "must lie in (0, 1)")
-
-
-@dataclass
-class En03mStudy(DynamicStudy):
-    """EN-03M: for each confinement and structure inertia, the smallest confining force that
-    carries the sphere through the cycle, then a run at figure_factor times it."""
-
-    reference_gravity: float = 9.81
-    confinements: list[Confinement] = field(
-        default_factory=lambda: [Confinement.normal, Confinement.base])
-    inertias: list[float] = field(default_factory=lambda: [10.0, math.inf])
-    max_force_factor: float = 100.0
-    bisection: BisectionConfig = field(default_factory=BisectionConfig)
-    figure_factor: float = 2.0
-    fallback_force: float = 9.81
-
-    def check(self, path: str) -> None:
-        """The EN-02 rules, confinements normal/base, inertias > 0, factors positive."""
-        super().check(path)
-        require(self.reference_gravity > 0.0, f"{path}.reference_gravity",
-                self.reference_gravity, "must be > 0")
-        require(len(self.confinements) >= 1, f"{path}.confinements",
-                [c.value for c in self.confinements], "needs at least 1 value")
-        for i, c in enumerate(self.confinements):
-            require(c is not Confinement.none, f"{path}.confinements[{i}]", c.value,
-                    "must be normal or base")
-        require(len(self.inertias) >= 1, f"{path}.inertias", self.inertias,
-                "needs at least 1 value")
-        for i, v in enumerate(self.inertias):
-            _check_inertia(f"{path}.inertias[{i}]", v)
-        require(self.max_force_factor > 0.0, f"{path}.max_force_factor",
-                self.max_force_factor, "must be > 0")
-        self.bisection.check(f"{path}.bisection")
-        require(self.figure_factor >= 1.0, f"{path}.figure_factor", self.figure_factor,
-                "must be >= 1")
-        require(self.fallback_force > 0.0, f"{path}.fallback_force", self.fallback_force,
-                "must be > 0")
-
-
-@dataclass
-class En03mConfig(DynamicConfig):
-    """Root schema of EN-03M (docs/studies.md): microgravity with a confining force."""
-
-    study: En03mStudy = field(default_factory=En03mStudy)
-
-    def force_problem(self, confinement: Confinement, inertia: float, force: float,
-                      dt: float | None = None, stop_on_leaving: bool = False) -> SphereProblem:
-        """The run of one confinement, structure inertia and force P at timestep dt (default
-        solver.dt), its fixed step refined to stay inside the friction stability limit:
-        dt / ceil(dt / limit) for a fixed-step explicit method (docs/studies.md EN-03M)."""
-        p = self.sphere_problem(dt).replace(
-            structure=core.Structure(float(inertia), confinement.value, float(force)),
-            stop_on_leaving_cavity=stop_on_leaving)
-        dt, limit = p.solver.dt, stability_limit(p)
-        if dt > limit and not p.solver.allow_unstable:
-            p = p.replace(dt=dt / math.ceil(dt / limit * (1.0 + 1e-12)))
-        return p
-
-    def stability_problems(self) -> list[SphereProblem]:
-        """None: the study refines the step of each run to its own limit (force_problem)."""
-        return []

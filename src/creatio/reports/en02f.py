@@ -20,8 +20,17 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
-from creatio.reports.beyond import FAILURES, _start, run_difference
-from creatio.reports.common import fmt, plt, save_figure, table, write_markdown, write_text
+from creatio.reports.common import (
+    FAILURES,
+    fmt,
+    plt,
+    run_difference,
+    save_figure,
+    start_report,
+    table,
+    write_markdown,
+    write_text,
+)
 
 __all__ = ["en02f_summary", "write_en02f"]
 
@@ -193,7 +202,7 @@ def _convergence(sweeps: Sequence[xr.Dataset], drop: xr.Dataset | None, path: Pa
 def write_en02f(datasets: Sequence[Path], outdir: str | Path) -> dict[str, Path]:
     """Write en02f.json/.md/.png, _history.csv (per-case figures), _trajectory.png,
     _convergence.png."""
-    runs, s, paths = _start(datasets, outdir, en02f_summary)
+    runs, s, paths = start_report(datasets, outdir, en02f_summary)
     sweeps, drop = _split(runs)
     keys = ["status", "stop_time_s", "flights", "impacts", "flight_time_s",
             "max_flight_height_m", "impact_loss_J", "energy_residual_J", "ends_in_cavity",

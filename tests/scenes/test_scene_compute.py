@@ -51,8 +51,8 @@ def test_a_scene_dataset_carries_provenance(short_en02):
 def test_reused_and_computed_frames_agree(short_en02, tmp_path):
     """The study's own run (0.1 s history, energy, rotation) read at the frame times equals
     the scene's minimal run: leaving out energy and the 0.1 s rows changes no step."""
-    from creatio.pipeline.io import write_dataset
     from creatio.pipeline.run import run_study
+    from creatio.store.netcdf import write_dataset
 
     r, computed = short_en02
     study = run_study(r.bases["en02"], dt=0.002)
@@ -65,8 +65,8 @@ def test_reused_and_computed_frames_agree(short_en02, tmp_path):
 
 
 def test_a_dataset_of_another_config_is_not_reused(short_en02, tmp_path):
-    from creatio.pipeline.io import write_dataset
     from creatio.pipeline.run import run_study
+    from creatio.store.netcdf import write_dataset
 
     r, _ = short_en02
     other = resolve("en02", [*SHORT, "bases.en02.sphere.mu=0.2"]).bases["en02"]
