@@ -1,10 +1,11 @@
-# Two entry points: `make all` regenerates every study, `make test` runs the tests.
+# Two entry points: `make all` regenerates every study, `make test` runs the quick tier of the
+# tests (make test-long the second, make test-all both; CI runs both: .ci/run).
 PY ?= python3
 VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 
-.PHONY: all test lint bench lock clean
+.PHONY: all test test-long test-all lint bench lock clean
 
 all: $(STAMP)
 	$(BIN)/snakemake all -c 2
@@ -13,6 +14,12 @@ all: $(STAMP)
 
 test: $(STAMP)
 	$(BIN)/python -m pytest
+
+test-long: $(STAMP)
+	$(BIN)/python -m pytest -m 'long and not slow'
+
+test-all: $(STAMP)
+	$(BIN)/python -m pytest -m 'not slow'
 
 lint: $(STAMP)
 	$(BIN)/ruff check src tests scripts

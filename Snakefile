@@ -15,96 +15,55 @@
 #   snakemake en05 -c 2              EN-05: Sobol' indices, calibration, which test pins mu
 #   snakemake --report data/report.html    Snakemake's report of everything built
 #
-# Overrides are Hydra overrides, applied to every study whose config has the key. Study ids,
-# their files and report rules come from the study registry (creatio.studies.registry).
-import sys
-from pathlib import Path
-
+# Thin on purpose: the --config is validated here; what it plans lives in the package
+# (creatio.pipeline.invocation: the studies of all and beyond, analyses, sweeps, EN-05, and
+# where a job re-invoked alone finds its configuration); the rules, report captions, schemas
+# and envs live in workflows/. Local jobs run in a warm worker (creatio.pipeline.worker).
 from snakemake.utils import min_version
 
-from creatio.pipeline.planning import (
-    JobConfigs,
-    StudyRuns,
-    SweepRegistry,
-    analysis_ids,
-    check_workflow_config,
-    code_version,
-    pass_config_safely,
-    wildcard_pattern,
-)
-from creatio.studies.registry import KINDS
+from creatio.pipeline.invocation import Invocation
+from creatio.pipeline.planning import check_workflow_config, pass_config_safely
 
 min_version("9.0")
+
+
 # No --config text reaches a shell: re-invoked jobs get it base64-encoded (and decode it here).
 pass_config_safely(workflow.config_settings, config)
-check_workflow_config(config, workflow.source_path("workflow/schemas/config.schema.yaml"))
-
-# The interpreter relative to the working directory when it lives there (.venv/bin/python):
-# jobs run from it, and the report's job parameters show no clone's absolute path.
-_PY = Path(sys.executable)
-_PY = _PY.relative_to(Path.cwd()) if _PY.is_relative_to(Path.cwd()) else _PY
-CREATIO = f'"{_PY}" -m creatio.cli'
-STUDY_IDS = wildcard_pattern(folder="studies")
-ANALYSIS_IDS = wildcard_pattern(folder="benchmarks")
-JOBS = JobConfigs()
-RUNS = StudyRuns(JOBS, config.get("overrides"), config.get("studies"))
-ANALYSES = StudyRuns(JOBS, None, analysis_ids())
-SWEEPS = SweepRegistry(JOBS, workflow.basedir)
-# A job re-invoked on its own (a cluster node, a run: directive) re-parses this file
-# without the targets: these re-plan what the invocation's --config asked for.
-PLANNERS = [
-    lambda: RUNS.plans,
-    lambda: ANALYSES.plans,
-    lambda: SWEEPS.outputs(
-        config.get("study", ""),
-        config["sweep"],
-        config.get("overrides"),
-        config.get("sweep_batch"),
-        config.get("sweep_max_points"),
-    )
-    if config.get("sweep")
-    else None,
-    lambda: SWEEPS.worked("en02_mu"),
-]
-JOBS.fallbacks += PLANNERS
-SWEEPS.fallbacks += PLANNERS[2:]
+check_workflow_config(config, workflow.source_path("workflows/schemas/config.schema.yaml"))
+PLAN = Invocation(config, workflow.basedir)
 
 
-wildcard_constraints:
-    root=r"data|data/runs/[0-9a-f]{12}",
+include: "workflows/rules/common.smk"
+include: "workflows/report/report.smk"
+include: "workflows/rules/studies.smk"
+include: "workflows/rules/analyses.smk"
+include: "workflows/rules/sweeps.smk"
+include: "workflows/rules/release.smk"
+include: "workflows/rules/scenes.smk"
+include: "workflows/rules/beyond.smk"
+include: "workflows/rules/en05.smk"
+include: "workflows/rules/index.smk"
 
 
-include: "workflow/report/report.smk"
-include: "workflow/rules/studies.smk"
-include: "workflow/rules/analyses.smk"
-include: "workflow/rules/sweeps.smk"
-include: "workflow/rules/release.smk"
-include: "workflow/rules/scenes.smk"
-include: "workflow/rules/beyond.smk"
-include: "workflow/rules/en05.smk"
-include: "workflow/rules/index.smk"
+# The warm worker warms up while Snakemake builds the DAG; onstart keeps it for local jobs.
+PLAN.prestart_worker(workflow)
 
 
-# Cheap aggregation, reports and plots run where Snakemake runs, not as cluster jobs.
+onstart:
+    PLAN.start_worker(workflow)
+
+
+onsuccess:
+    PLAN.stop_worker()
+    list_results()
+
+
+onerror:
+    PLAN.stop_worker()
+
+
 localrules:
     all,
-    study_config,
-    scene_config,
-    benchmarks,
-    kinematic_report,
-    sphere_report,
-    analysis_report,
-    compare,
-    sweep,
-    sweep_en02_mu,
-    sweep_aggregate,
-    release,
-    diff,
-    diff_report,
-    scenes,
-    scene_library,
-    scene_page,
-    index,
 
 
 rule all:

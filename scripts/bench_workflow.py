@@ -1,210 +1,330 @@
-"""Where a user's wall time goes, here and at another git revision, measured in one run.
+"""Where a user's wall time goes beyond the computation, one process per job against the warm
+worker (creatio.pipeline.worker), measured in one run (issue 23's table).
 
-For each case the same command runs against this tree and against the other revision (its
-tree exported with ``git archive`` into a temporary directory and run with this venv), one
-after the other, in fresh working directories:
+Each case runs from a fresh ``git clone`` of this repository's HEAD (this venv, the clone's
+sources first on PYTHONPATH), with a new value each time so that something is computed, the
+two paths interleaved (``CREATIO_WORKER=off`` before, the worker after), repeated: the
+median and the range are printed, with the machine and its load.
 
-* ``snakemake all -n`` (and the seconds spent in creatio's planning, timed in-process);
-* a no-op ``snakemake all -c 2`` (every output present);
-* one dataset job (``creatio task dataset ct02``) against the computation inside it;
-* ``snakemake all -c 2`` from an empty data/, with numba's cache cold and warm;
-* a sweep of 12 EN-02 points on one core, through Snakemake and in one process;
-* the dry run of a 10^5-point sweep (given up after --timeout seconds);
-* with --big: a 1,000-point EN-02 mu x T sweep (trajectory outputs) on 2 cores, against its
-  summed core time (this tree only: the other would run 1,000 jobs).
+* ``creatio run study=en02 sphere.mu=...``, numba cache warm (worker: ``creatio worker start``);
+* the Snakemake override path for one study (``snakemake all --config overrides=... studies=``);
+* the en02 scene for one new mu (``snakemake scenes --config ... scenes=["en02"]``);
+* a fresh 40-point EN-02 mu sweep on 2 cores, against its summed core time / 2;
+* ``snakemake all -c 2`` from the fresh clone, numba cache cold, then warm with data/ removed,
+  with where the seconds go (per rule from Snakemake's log; compile = cold - warm; imports).
 
-    python scripts/bench_workflow.py              # against bdffec5 (before the rework)
-    python scripts/bench_workflow.py HEAD~3 --big --timeout 120
-    python scripts/bench_workflow.py HEAD --quick   # the planning row only (a smoke test)
+SLURM's ``scontrol show config`` is run by Snakemake's SLURM plugin at import; where SLURM
+is installed but its daemons are down it waits about 9 s. By default a stand-in ``scontrol``
+that fails at once is put first on PATH (as on a machine without SLURM) and the cost is
+printed; --keep-slurm measures with the real one.
+
+    python scripts/bench_workflow.py                 # every case, 3 repeats (about 15 min)
+    python scripts/bench_workflow.py --repeats 2 --skip-all
+    python scripts/bench_workflow.py --quick         # the planning row only (a smoke test)
 """
 
 from __future__ import annotations
 
 import argparse
+import glob
 import os
 import platform
+import re
 import shutil
+import statistics
 import subprocess
 import sys
-import tarfile
 import tempfile
 import time
+from collections import defaultdict
+from collections.abc import Callable
+from datetime import datetime
 from pathlib import Path
 
 REPO = Path(__file__).resolve().parents[1]
-SWEEP12 = ['sweep=["sphere.mu=0,0.05,0.1,0.15","study.initial.R=0.43,0.5,0.6"]', "study=en02"]
-SWEEP1E5 = ['sweep=["sphere.mu=range(0,500)","phases.T=range(1,201)"]', "study=en02"]
-SWEEP1K = ['sweep=["sphere.mu=range(0,0.3,0.012)","phases.T=range(20,120,2.5)"]',
-           "study=en02", 'overrides=["study.outputs=[trajectory]"]']
-
-
-class Tree:
-    """A source tree to run: this one, or an exported revision."""
-
-    def __init__(self, label: str, root: Path, cache: Path) -> None:
-        self.label, self.root, self.cache = label, root, cache
-
-    def env(self, numba_cache: Path | None = None) -> dict[str, str]:
-        env = dict(os.environ, PYTHONPATH=str(self.root / "src"),
-                   CREATIO_CONF_DIR=str(self.root / "conf"))
-        env["NUMBA_CACHE_DIR"] = str(numba_cache or self.cache / "numba")
-        env["CREATIO_NUMBA_CACHE"] = str(numba_cache or self.cache / "numba")
-        env["CREATIO_CONFIG_CACHE"] = str(self.cache / "configs")
-        return env
-
-    def run(self, args: list[str], cwd: Path, timeout: float, numba_cache: Path | None = None
-            ) -> tuple[float, int]:
-        t0 = time.perf_counter()
-        try:
-            proc = subprocess.run(args, cwd=cwd, env=self.env(numba_cache), timeout=timeout,
-                                  capture_output=True, text=True)
-            code = proc.returncode
-        except subprocess.TimeoutExpired:
-            return float("inf"), -1
-        return time.perf_counter() - t0, code
-
-    def snakemake(self, work: Path, *args: str, cores: int = 2, timeout: float = 1800,
-                  numba_cache: Path | None = None) -> tuple[float, int]:
-        cmd = [sys.executable, "-m", "snakemake", "-s", str(self.root / "Snakefile"), "-d",
-               str(work), "-c", str(cores), *args]
-        return self.run(cmd, work, timeout, numba_cache)
-
-    def python(self, code: str, cwd: Path, timeout: float = 600) -> str:
-        out = subprocess.run([sys.executable, "-c", code], cwd=cwd, env=self.env(),
-                             timeout=timeout, capture_output=True, text=True, check=True)
-        return out.stdout.strip()
-
-
-def export(revision: str, into: Path) -> Path:
-    """The whole tree of a git revision under into/then."""
-    data = subprocess.run(["git", "archive", revision], cwd=REPO, capture_output=True,
-                          check=True).stdout
-    (into / "then.tar").write_bytes(data)
-    root = into / "then"
-    root.mkdir()
-    with tarfile.open(into / "then.tar") as tar:
-        tar.extractall(root, filter="data")
-    return root
-
+MODES = ("off", "worker")
 
 PLAN = """
 import time
 t0 = time.perf_counter()
-try:
-    from creatio.pipeline.planning import plan
-except ImportError:
-    from creatio.workflow import plan
+from creatio.pipeline.planning import plan
 plan()
-print(time.perf_counter() - t0)
-"""
-
-ONE_PROCESS = """
-import time
-t0 = time.perf_counter()
-try:
-    from creatio.pipeline.sweep import plan_sweep, write_sweep
-    write_sweep(plan_sweep("en02", {sweep}, [], data_dir="data", batch_size=12),
-                compute_missing=True)
-except ImportError:
-    from creatio.config import resolve
-    from creatio.studies import run_study
-    from creatio.sweep import plan_sweep
-    for p in plan_sweep("en02", {sweep}, []).points:
-        run_study(p.resolved)
 print(time.perf_counter() - t0)
 """
 
 COMPUTE = """
 import time
-try:
-    from creatio.pipeline.config import resolve
-    from creatio.pipeline.run import run_study
-except ImportError:
-    from creatio.config import resolve
-    from creatio.studies import run_study
-r = resolve("ct02")
-run_study(r)
-t0 = time.perf_counter(); run_study(r); print(time.perf_counter() - t0)
+from creatio.pipeline.config import resolve
+from creatio.pipeline.run import run_study
+r = resolve("en02", ["sphere.mu={mu}"])
+names = [p.name for p in r.entry.parts(r.obj)]
+for n in names:
+    run_study(r, n)
+best = []
+for _ in range(3):
+    t0 = time.perf_counter()
+    for n in names:
+        run_study(r, n)
+    best.append(time.perf_counter() - t0)
+print(min(best))
+"""
+
+IMPORTS = """
+import time
+t0 = time.perf_counter()
+import numpy, xarray, netCDF4, numba, matplotlib.pyplot, hydra, omegaconf
+import creatio.cli, creatio.pipeline.run, creatio.pipeline.io
+print(time.perf_counter() - t0)
+"""
+
+SWEEP_CORE = """
+import glob, xarray as xr
+print(sum(float(xr.open_dataset(f).attrs["compute_s"])
+          for f in glob.glob("data/sweeps/*/batches/*.nc")))
 """
 
 
-def measure(tree: Tree, scratch: Path, args: argparse.Namespace) -> dict[str, str]:
-    """Every case for one tree (with --quick, the planning row alone); values are formatted
-    seconds (or a note)."""
-    out: dict[str, str] = {}
-    work = scratch / f"{tree.label}-all"
-    work.mkdir()
-    cold = scratch / f"{tree.label}-numba-cold"
-    if args.quick:
-        t, _ = tree.snakemake(work, "all", "-n", numba_cache=cold)
-        creatio = float(tree.python(PLAN, work))
-        out["snakemake all -n (creatio planning inside)"] = f"{t:.1f} s ({creatio:.2f} s)"
-        return out
-    t, code = tree.snakemake(work, "all", numba_cache=cold)
-    out["snakemake all -c 2, numba cache cold"] = f"{t:.1f} s" + ("" if code == 0 else " (failed)")
-    shutil.rmtree(work / "data")
-    t, _ = tree.snakemake(work, "all", numba_cache=cold)
-    out["snakemake all -c 2, numba cache warm, data/ removed"] = f"{t:.1f} s"
-    t, _ = tree.snakemake(work, "all", numba_cache=cold)
-    out["snakemake all with nothing to do"] = f"{t:.1f} s"
-    t, _ = tree.snakemake(work, "all", "-n", numba_cache=cold)
-    creatio = float(tree.python(PLAN, work))
-    out["snakemake all -n (creatio planning inside)"] = f"{t:.1f} s ({creatio:.2f} s)"
-    job = [sys.executable, "-m", "creatio.cli", "task", "dataset", "ct02", "x.nc"]
-    t, _ = tree.run(job, work, 300, cold)
-    compute = float(tree.python(COMPUTE, work))
-    out["one dataset job (ct02) (computation inside)"] = f"{t:.1f} s ({compute:.2f} s)"
-    sweep = scratch / f"{tree.label}-sweep12"
-    sweep.mkdir()
-    t, _ = tree.snakemake(sweep, "sweep", "--config", *SWEEP12, cores=1, numba_cache=cold)
-    out["snakemake sweep of 12 EN-02 points, one core"] = f"{t:.1f} s"
-    one = scratch / f"{tree.label}-one"
-    one.mkdir()
-    axes = '["sphere.mu=0,0.05,0.1,0.15", "study.initial.R=0.43,0.5,0.6"]'
-    out["the same 12 points in one process"] = (
-        f"{float(tree.python(ONE_PROCESS.format(sweep=axes), one)):.1f} s")
-    big = scratch / f"{tree.label}-1e5"
-    big.mkdir()
-    t, code = tree.snakemake(big, "sweep", "-n", "--config", *SWEEP1E5, timeout=args.timeout,
-                             numba_cache=cold)
-    out["dry run of a sweep of 10^5 points"] = (
-        f"> {args.timeout:.0f} s (given up)" if code == -1 else f"{t:.1f} s")
+class Clone:
+    """A fresh clone of HEAD, run with this venv."""
+
+    def __init__(self, root: Path, numba: Path, path: str) -> None:
+        self.root, self.numba, self.path = root, numba, path
+
+    def env(self, mode: str, **extra: str) -> dict[str, str]:
+        env = dict(os.environ, PYTHONPATH=str(self.root / "src"),
+                   CREATIO_CONF_DIR=str(self.root / "conf"), PATH=self.path,
+                   NUMBA_CACHE_DIR=str(self.numba), CREATIO_NUMBA_CACHE=str(self.numba),
+                   CREATIO_CONFIG_CACHE="off")
+        env.pop("CREATIO_WORKER", None)
+        if mode == "off":
+            env["CREATIO_WORKER"] = "off"
+        env.update(extra)
+        return env
+
+    def run(self, args: list[str], mode: str, timeout: float = 1800, check: bool = True,
+            **extra: str) -> tuple[float, str]:
+        t0 = time.perf_counter()
+        proc = subprocess.run(args, cwd=self.root, env=self.env(mode, **extra), timeout=timeout,
+                              capture_output=True, text=True)
+        dt = time.perf_counter() - t0
+        if check and proc.returncode != 0:
+            raise RuntimeError(f"{' '.join(args)} failed ({proc.returncode}):\n"
+                               f"{proc.stderr[-3000:]}")
+        return dt, proc.stdout
+
+    def snakemake(self, mode: str, *args: str, cores: int = 2) -> float:
+        return self.run([sys.executable, "-m", "snakemake", "-c", str(cores), *args], mode)[0]
+
+    def python(self, code: str, mode: str = "off") -> float:
+        return float(self.run([sys.executable, "-c", code], mode)[1].strip().splitlines()[-1])
+
+
+def _shim(scratch: Path) -> str:
+    """PATH with a stand-in scontrol that fails at once."""
+    bin_dir = scratch / "no-slurm"
+    bin_dir.mkdir()
+    (bin_dir / "scontrol").write_text("#!/bin/sh\nexit 1\n")
+    (bin_dir / "scontrol").chmod(0o755)
+    return f"{bin_dir}{os.pathsep}{os.environ.get('PATH', '')}"
+
+
+def _fmt(values: list[float]) -> str:
+    if len(values) == 1:
+        return f"{values[0]:.1f} s"
+    return f"{statistics.median(values):.1f} s ({min(values):.1f}-{max(values):.1f})"
+
+
+class Daemon:
+    """`creatio worker start` around the worker runs of `creatio run`."""
+
+    def __init__(self, clone: Clone) -> None:
+        self.clone = clone
+
+    def __enter__(self) -> Daemon:
+        self.clone.run([sys.executable, "-m", "creatio.cli", "worker", "start", "--idle",
+                        "600"], "worker")
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.clone.run([sys.executable, "-m", "creatio.cli", "worker", "stop"], "worker",
+                       check=False)
+
+
+def interleaved(repeats: int, case: Callable[[str, int], float]) -> dict[str, list[float]]:
+    """case(mode, i) for each repeat, the modes alternating (off first, then first last)."""
+    out: dict[str, list[float]] = {m: [] for m in MODES}
+    for i in range(repeats):
+        for mode in MODES if i % 2 == 0 else MODES[::-1]:
+            out[mode].append(case(mode, i))
     return out
 
 
+def guarded(rows: list[tuple[str, str, str, str]], name: str,
+            case: Callable[[], dict[str, list[float]]], inside: str | Callable[[], str]) -> None:
+    """One row of the table; a case that fails is a row saying so, and the others run."""
+    try:
+        r = case()
+    except (RuntimeError, subprocess.TimeoutExpired) as e:
+        rows.append((name, "failed", "failed", str(e).splitlines()[0][:200]))
+        return
+    rows.append((name, _fmt(r["off"]), _fmt(r["worker"]),
+                 inside() if callable(inside) else inside))
+
+
+def snakemake_log_rules(clone: Clone, since: float) -> dict[str, tuple[int, float]]:
+    """Per rule: jobs and summed wall seconds, from the newest Snakemake log after since."""
+    logs = sorted(p for p in (clone.root / ".snakemake" / "log").glob("*.snakemake.log")
+                  if p.stat().st_mtime >= since)
+    if not logs:
+        return {}
+    started: dict[str, datetime] = {}
+    out: dict[str, list[float]] = defaultdict(list)
+    stamp = None
+    rule = None
+    for line in logs[-1].read_text().splitlines():
+        if m := re.match(r"\[(\w{3} \w{3} +\d+ [\d:]+ \d{4})\]$", line):
+            stamp = datetime.strptime(m.group(1), "%a %b %d %H:%M:%S %Y")
+        elif m := re.match(r"(?:local)?rule (\w+):$", line):
+            rule = m.group(1)
+        elif (m := re.match(r"\s+jobid: (\d+)$", line)) and rule and stamp:
+            started[m.group(1)] = stamp
+        elif (m := re.match(r"Finished jobid: (\d+) \(Rule: (\w+)\)", line)) and stamp:
+            if m.group(1) in started:
+                out[m.group(2)].append((stamp - started[m.group(1)]).total_seconds())
+    return {k: (len(v), sum(v)) for k, v in out.items()}
+
+
+def logged_compute(clone: Clone) -> float:
+    """Seconds the dataset jobs say they spent computing and writing ("wrote ... in X s")."""
+    total = 0.0
+    for log in glob.glob(str(clone.root / "data" / "logs" / "**" / "*.log"), recursive=True):
+        for m in re.finditer(r"wrote .* in ([\d.]+) s", Path(log).read_text(errors="replace")):
+            total += float(m.group(1))
+    return total
+
+
 def main() -> None:
-    """Export the other revision, measure both trees, print the table."""
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("revision", nargs="?", default="bdffec5")
-    parser.add_argument("--timeout", type=float, default=60.0,
-                        help="seconds before a dry run of the 10^5-point sweep is given up")
-    parser.add_argument("--big", action="store_true",
-                        help="also the 1,000-point sweep on 2 cores (this tree; minutes)")
-    parser.add_argument("--quick", action="store_true",
-                        help="the planning row only: checks the script runs")
-    args = parser.parse_args()
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--repeats", type=int, default=3)
+    ap.add_argument("--skip-all", action="store_true", help="leave out `snakemake all` cold")
+    ap.add_argument("--keep-slurm", action="store_true", help="the real scontrol on PATH")
+    ap.add_argument("--quick", action="store_true", help="the planning row only")
+    args = ap.parse_args()
+    load0 = os.getloadavg()
+    rows: list[tuple[str, str, str, str]] = []
+    notes: list[str] = []
     with tempfile.TemporaryDirectory() as tmp:
         scratch = Path(tmp)
-        now = Tree("now", REPO, scratch / "now-cache")
-        then = Tree(f"then {args.revision}", export(args.revision, scratch), scratch / "then")
-        then.label = "then"
-        rows = {"now": measure(now, scratch, args), "then": measure(then, scratch, args)}
-        if args.big:
-            work = scratch / "now-1k"
-            work.mkdir()
-            t, _ = now.snakemake(work, "sweep", "--config", *SWEEP1K)
-            core = float(now.python(
-                "import glob, xarray as xr; print(sum(xr.open_dataset(f).attrs['compute_s'] "
-                "for f in glob.glob('data/sweeps/*/batches/*.nc')))", work))
-            rows["now"]["1,000-point EN-02 mu x T sweep, 2 cores (core time / 2)"] = (
-                f"{t:.1f} s ({core / 2:.1f} s)")
-            rows["then"]["1,000-point EN-02 mu x T sweep, 2 cores (core time / 2)"] = "not run"
+        path = os.environ.get("PATH", "") if args.keep_slurm else _shim(scratch)
+        root = scratch / "clone"
+        subprocess.run(["git", "clone", "-q", str(REPO), str(root)], check=True)
+        clone = Clone(root, scratch / "numba", path)
+        if args.quick:
+            t = clone.snakemake("off", "all", "-n")
+            rows.append(("snakemake all -n (creatio planning inside)", f"{t:.1f} s",
+                         f"({clone.python(PLAN):.2f} s)", ""))
+            _print(rows, notes, load0, args)
+            return
+        if shutil.which("scontrol") and not args.keep_slurm:
+            t0 = time.perf_counter()
+            subprocess.run(["scontrol", "show", "config"], capture_output=True, timeout=120)
+            notes.append(f"`scontrol show config` (run by Snakemake's SLURM plugin at import) "
+                         f"took {time.perf_counter() - t0:.1f} s here: a stand-in that fails "
+                         "at once was first on PATH for every row")
+        imports = clone.python(IMPORTS)
+        notes.append(f"imports of one job's process (numpy, xarray, netCDF4, numba, "
+                     f"matplotlib, hydra, creatio): {imports:.2f} s")
+
+        if not args.skip_all:  # first: the clone is fresh and the cache cold
+            for mode in MODES:
+                cache = scratch / f"numba-cold-{mode}"
+                clone.numba = cache
+                shutil.rmtree(root / "data", ignore_errors=True)
+                t0 = time.time()
+                cold = clone.snakemake(mode, "all")
+                per_rule = snakemake_log_rules(clone, t0)
+                computed = logged_compute(clone)
+                shutil.rmtree(root / "data")
+                warm = clone.snakemake(mode, "all")
+                jobs = sum(n for n, _ in per_rule.values())
+                where = (f"~{imports * jobs:.0f} s (one per job process)" if mode == "off"
+                         else "once in the worker, beside the planning")
+                rows.append((f"snakemake all -c 2, fresh clone, numba cold ({mode})",
+                             f"{cold:.1f} s", f"warm, data/ removed: {warm:.1f} s", ""))
+                spent = ", ".join(f"{k} {n}x {s:.0f} s" for k, (n, s) in
+                                  sorted(per_rule.items(), key=lambda kv: -kv[1][1]))
+                notes.append(
+                    f"all ({mode}): compile = cold - warm = {cold - warm:.1f} s; {jobs} jobs; "
+                    f"dataset jobs' own computing + writing {computed:.1f} s; imports "
+                    f"{where};"
+                    f" job wall seconds by rule (summed over 2 cores): {spent}")
+            clone.numba = scratch / "numba-cold-worker"
+        else:
+            clone.numba = scratch / "numba"
+            clone.snakemake("off", "all")  # compile once
+
+        compute = clone.python(COMPUTE.format(mu=0.3))
+        run = [sys.executable, "-m", "creatio.cli", "run", "study=en02"]
+        with Daemon(clone):  # started once, as a user would; its first job is not counted
+
+            def creatio_run(mode: str, i: int) -> float:
+                mu = 0.3 + 0.001 * (2 * i + (mode == "worker"))
+                return clone.run([*run, f"sphere.mu={mu}"], mode)[0]
+
+            clone.run([*run, "sphere.mu=0.299"], "worker")
+            guarded(rows, "creatio run study=en02 sphere.mu=... (warm cache; worker: daemon)",
+                    lambda: interleaved(args.repeats, creatio_run), f"two runs {compute:.2f} s")
+
+        def override(mode: str, i: int) -> float:
+            mu = 0.31 + 0.001 * (2 * i + (mode == "worker"))
+            return clone.snakemake(mode, "all", "--config", f'overrides=["sphere.mu={mu}"]',
+                                   'studies=["en02"]')
+
+        guarded(rows, "snakemake all --config overrides=[sphere.mu] studies=[en02]",
+                lambda: interleaved(args.repeats, override), f"two runs {compute:.2f} s")
+
+        def scene(mode: str, i: int) -> float:
+            mu = 0.21 + 0.001 * (2 * i + (mode == "worker"))
+            return clone.snakemake(mode, "scenes", "--config", f'overrides=["sphere.mu={mu}"]',
+                                   'scenes=["en02"]')
+
+        def scenes() -> dict[str, list[float]]:
+            clone.snakemake("off", "scenes", "--config", 'scenes=["en02"]')  # library, once
+            return interleaved(args.repeats, scene)
+
+        guarded(rows, "the en02 scene for one new mu (snakemake scenes)", scenes, "")
+
+        cores: dict[str, list[float]] = {m: [] for m in MODES}
+
+        def sweep(mode: str, i: int) -> float:
+            lo = 0.0001 * (1 + 2 * i + (mode == "worker"))
+            shutil.rmtree(root / "data" / "sweeps", ignore_errors=True)
+            t = clone.snakemake(mode, "sweep", "--config", "study=en02",
+                                f'sweep=["sphere.mu=range({lo},{lo + 0.4},0.01)"]')
+            cores[mode].append(clone.python(SWEEP_CORE))
+            return t
+
+        guarded(rows, "fresh 40-point EN-02 mu sweep, snakemake sweep -c 2",
+                lambda: interleaved(args.repeats, sweep), lambda: "core time / 2: "
+                f"{statistics.median(cores['off'] + cores['worker']) / 2:.2f} s")
+    _print(rows, notes, load0, args)
+
+
+def _print(rows: list[tuple[str, str, str, str]], notes: list[str],
+           load0: tuple[float, float, float], args: argparse.Namespace) -> None:
+    load1 = os.getloadavg()
     print(f"machine: {platform.platform()}, {os.cpu_count()} cores, python "
-          f"{platform.python_version()}")
-    print(f"| what a user runs | then ({args.revision}) | now |")
-    print("|---|---|---|")
-    for key in rows["now"]:
-        print(f"| {key} | {rows['then'].get(key, '')} | {rows['now'][key]} |")
+          f"{platform.python_version()}; load average (1, 5, 15 min) at start "
+          f"{load0[0]:.2f} {load0[1]:.2f} {load0[2]:.2f}, at end "
+          f"{load1[0]:.2f} {load1[1]:.2f} {load1[2]:.2f}; repeats {args.repeats}, median "
+          "(min-max)")
+    print("| what a user runs | one process per job (CREATIO_WORKER=off) | warm worker | "
+          "computation inside |")
+    print("|---|---|---|---|")
+    for row in rows:
+        print("| " + " | ".join(row) + " |")
+    for note in notes:
+        print(f"* {note}")
 
 
 if __name__ == "__main__":

@@ -55,3 +55,90 @@ def en02_config_problem() -> SphereProblem:
     from creatio.pipeline.config import resolve
 
     return resolve("en02").obj.sphere_problem().replace(energy=False)
+
+
+# ------------------------------------------------------------------------------ test tiers
+#: The second tier (marker ``long``: `make test-long`; CI runs it after `make test`): the
+#: end-to-end tests (Snakemake, the CLI in subprocesses, SLURM, Chromium) and the numerical
+#: tests that take seconds each (measured with `pytest --durations`). A whole module, or
+#: module::test (every parametrization of it). Kept here, in one list, rather than as
+#: decorators spread over the modules.
+LONG = (
+    "tests/pipeline/test_slurm.py",
+    "tests/pipeline/test_workflow.py",
+    "tests/scenes/test_browser.py",
+    "tests/scenes/test_browser_family.py",
+    "tests/scenes/test_scene_workflow.py",
+    "tests/core/test_beyond_inclination.py::test_en02g_at_zero_inclination_is_en02_bit_for_bit",
+    "tests/core/test_beyond_inclination.py::"
+    "test_equilibrium_solves_jt_g_to_rounding_and_is_a_minimum",
+    "tests/core/test_beyond_microgravity.py::"
+    "test_base_pull_closes_the_energy_balance_like_gravity",
+    "tests/core/test_beyond_structure.py::test_en03_study_dataset_and_report",
+    "tests/core/test_beyond_structure.py::test_every_integrator_runs_the_structure",
+    "tests/core/test_beyond_structure.py::"
+    "test_point_mass_estimate_approached_as_the_cavity_shrinks_and_stiffens",
+    "tests/core/test_boundaries.py::test_cli_help_lists_the_analysis_config",
+    "tests/core/test_boundaries.py::test_default_run_b_kappa_is_the_cavity_bottom_curvature",
+    "tests/core/test_dynamics_simulation.py::test_frictionless_no_spin_and_auto_rotation_off",
+    "tests/core/test_en04.py::test_report_contract_on_short_cycles",
+    "tests/core/test_en05.py::test_a_synthetic_track_is_fitted_back_within_its_interval",
+    "tests/core/test_flight.py::test_first_impact_time_and_apex_ratio",
+    "tests/core/test_radau_iia.py::"
+    "test_linear_stiff_system_follows_its_tolerance_with_one_jacobian",
+    "tests/core/test_radau_iia.py::test_observed_orders_5_9_13_at_fixed_steps",
+    "tests/core/test_radau_iia.py::"
+    "test_variable_order_agrees_with_radau5_and_scipy_at_a_common_tolerance",
+    "tests/core/test_solvers.py::test_observed_order_on_smooth_case",
+    "tests/core/test_sphere_studies.py::test_trajectory_only_skips_what_it_does_not_need",
+    "tests/core/test_work_precision.py::test_tiny_run_end_to_end",
+    "tests/pipeline/test_calibrate.py::"
+    "test_point_list_runs_through_the_sweep_batches_and_reuses_points",
+    "tests/pipeline/test_calibrate.py::test_the_en05_target_builds_everything_into_its_hash_dir",
+    "tests/pipeline/test_cf.py::test_no_high_priority_failure_on_any_kind_of_dataset",
+    "tests/pipeline/test_hardening.py::"
+    "test_run_help_presents_creatio_and_only_the_groups_a_user_picks",
+    "tests/pipeline/test_sweep.py::test_sweep_workflow_batches_and_reruns_only_new_points",
+    "tests/pipeline/test_trust.py::test_ctrl_c_inside_the_compiled_loop_exits_130_in_one_line",
+    "tests/pipeline/test_trust.py::test_override_text_never_reaches_a_shell",
+    "tests/pipeline/test_trust.py::test_quoted_values_work_end_to_end",
+    "tests/pipeline/test_trust.py::test_sweep_values_with_shell_text_stay_text",
+    "tests/core/test_scripts.py::test_radau_orders_quick",
+    "tests/core/test_solvers.py::test_dense_output_order_at_off_step_times",
+    "tests/core/test_solvers.py::test_harness_measures_the_native_error_on_the_same_solution",
+    "tests/core/test_beyond_microgravity.py::"
+    "test_normal_preload_work_closes_the_energy_balance",
+    "tests/core/test_dynamics_simulation.py::test_stop_edge_crossed_and_left_annulus",
+    "tests/pipeline/test_trust.py::"
+    "test_an_env_interpolation_in_an_override_is_refused_in_one_line",
+    "tests/pipeline/test_trust.py::test_beyond_builds_only_the_selected_studies",
+    "tests/pipeline/test_trust.py::test_a_refused_scene_config_is_one_line",
+    "tests/pipeline/test_trust.py::test_the_sweep_limit_has_a_ceiling",
+    "tests/pipeline/test_trust.py::test_re_invoked_jobs_get_only_shell_inert_config_text",
+    "tests/pipeline/test_worker.py::test_a_job_in_the_worker_writes_the_same_data_as_its_own_process",
+    "tests/pipeline/test_worker.py::"
+    "test_a_worker_killed_mid_job_stops_the_job_and_the_command_runs_alone",
+    "tests/pipeline/test_worker.py::test_ctrl_c_of_a_served_job_exits_130_in_one_line",
+    "tests/pipeline/test_worker.py::test_snakemake_jobs_run_in_the_invocations_worker",
+    "tests/pipeline/test_worker.py::test_a_refused_value_in_the_worker_is_one_line_and_exit_2",
+)
+
+
+@pytest.hookimpl(tryfirst=True)  # before -m and -k deselect: every collected item is here
+def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
+    """Mark the tests LONG names ``long``; an entry that names no test of a module collected
+    whole is an error (a renamed test would otherwise move to the quick tier unseen)."""
+    long_mark = pytest.mark.long
+    used: set[str] = set()
+    modules = set()
+    for item in items:
+        path = item.nodeid.split("::", 1)[0]
+        name = item.nodeid.split("[", 1)[0]
+        modules.add(path)
+        for entry in (path, name):
+            if entry in LONG:
+                item.add_marker(long_mark)
+                used.add(entry)
+    stale = [e for e in LONG if e not in used and e.split("::", 1)[0] in modules]
+    if stale and not any("::" in str(a) for a in config.args):
+        raise pytest.UsageError(f"tests/conftest.py LONG names what no test is: {stale}")

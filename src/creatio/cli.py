@@ -6,6 +6,7 @@
     creatio release VERSION | verify | list             freeze the default outputs
     creatio diff A B                                     compare datasets, dirs or releases
     creatio ls | open NAME                               what is built, and where
+    creatio worker start | stop | status                 a warm process the jobs fork from
     creatio task dataset|report|sweep|compare            one workflow step (the Snakefile's)
     creatio task scene library|dataset|page|media        one step of a scene (scenes.smk)
     creatio --version
@@ -44,6 +45,9 @@ commands:
             creatio ls    creatio ls --json    (the same list: data/index.html)
   open    the file to open of one result (its path; --browser opens it)
             creatio open en02    creatio open sweeps/en02-c781    creatio open scenes/compare
+  worker  a warm process that runs `creatio run` and the workflow's jobs without a fresh
+          interpreter each (start, stop, status; CREATIO_WORKER=off: none)
+            creatio worker start    creatio worker status    creatio worker stop
   task    one workflow step, as the Snakefile calls it
             creatio task dataset ct02 OUT.nc [--part NAME] [--override K=V ...]
             creatio task sweep-batch --study en02 --sweep sphere.mu=0,0.1 --batch 0
@@ -344,7 +348,7 @@ def _completion(argv: list[str]) -> int:
 
     line = os.environ.get("COMP_LINE", "")
     words = line.split()
-    commands = ("run", "probe", "release", "diff", "task", "ls", "open")
+    commands = ("run", "probe", "release", "diff", "task", "ls", "open", "worker")
     if any(a.startswith("query") for a in argv[1:]):
         command = words[1] if len(words) > 1 else ""
         if command not in ("run", "probe") or (len(words) == 2 and not line.endswith(" ")):
@@ -410,6 +414,10 @@ def _dispatch(argv: list[str]) -> int:
         from creatio.diff import main as diff_main
 
         return diff_main(rest)
+    if command == "worker":
+        from creatio.pipeline.worker import main as worker_main
+
+        return worker_main(rest, entry=main)
     if command in ("ls", "open"):
         from creatio.pipeline.index import main as index_main
 
@@ -449,6 +457,12 @@ class _StderrOrStdout:
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the `creatio` console script: every failure is one line naming what
     and why, with a non-zero status; CREATIO_DEBUG=1 shows the traceback instead."""
+    if argv is None:  # a command of its own: a warm worker may run it (creatio.pipeline.worker)
+        from creatio.pipeline.worker import delegate
+
+        code = delegate(sys.argv[1:])
+        if code is not None:
+            return code
     saved = sys.stderr
     if saved is not None and sys.stdout is not None and not isinstance(saved, _StderrOrStdout):
         sys.stderr = _StderrOrStdout(saved, sys.stdout)

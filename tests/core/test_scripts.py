@@ -38,6 +38,15 @@ def test_radau_orders_quick() -> None:
     assert out.count("| 1e-06 |") == 12 and "scipy Radau" not in out
 
 
+def test_radau_thet_one_setting() -> None:
+    out = _run(sys.executable, "scripts/radau_thet.py", "--studies", "en02", "--methods",
+               "radau9", "--thet", "0.001", "--dense", "false", "--rtol", "1e-6",
+               "--repeats", "1")
+    rows = [line.split() for line in out.splitlines()[1:]]
+    assert len(rows) == 1 and rows[0][:5] == ["en02", "radau9", "0.001", "False", "1e-06"]
+    assert 0.0 < float(rows[0][5]) < 1e-5  # the error, m
+
+
 def test_local_slurm_parses_and_refuses_an_unknown_command() -> None:
     """The script parses (bash -n); without a command it prints its usage and exits 2 (up,
     down and status need root and a cluster: tests/pipeline/test_slurm.py runs them)."""
@@ -56,7 +65,7 @@ def test_bench_against_quick() -> None:
 
 @pytest.mark.slow
 def test_bench_workflow_quick() -> None:
-    out = _run(sys.executable, "scripts/bench_workflow.py", "HEAD", "--quick")
+    out = _run(sys.executable, "scripts/bench_workflow.py", "--quick")
     assert "snakemake all -n (creatio planning inside)" in out
 
 

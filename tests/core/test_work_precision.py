@@ -33,6 +33,11 @@ TINY = [
     "study.methods.dop853.dense_rtol=[]", "study.methods.radau5.dense_rtol=[1e-8]",
     "study.methods.radau5.dense_dt=[0.06]", "study.methods.rodas4.rtol=[1e-6]",
     "study.methods.rodas4.steps_per_output=[]",
+    "study.methods.radau9.rtol=[1e-8]", "study.methods.radau9.steps_per_output=[1]",
+    "study.methods.radau9.newton_rtol=[]", "study.methods.radau9.dense_rtol=[]",
+    "study.methods.radau13.rtol=[1e-8]", "study.methods.radau13.steps_per_output=[]",
+    "study.methods.radau13.newton_rtol=[]", "study.methods.radau13.dense_rtol=[]",
+    "study.methods.radau.rtol=[1e-8]", "study.methods.radau.dense_rtol=[1e-8]",
     "study.peers.DOP853=[1e-6]", "study.peers.Radau=[1e-6]", "study.peers.LSODA=[1e-8]",
     "study.peers.CVODE=[1e-8]",
     "study.repeats=2", "study.jit.methods=[rk4]", "study.jit.cold=false",
@@ -61,7 +66,9 @@ def test_tiny_config_validates_and_plans_every_registered_method(tiny) -> None:
     assert [s.label for s in plan if s.method == "rk4"] == ["dt=0.002", "dt=0.005"]
     assert [(s.method, s.label) for s in plan if s.dense] == [
         ("rk4-dense", "dt=0.003"), ("radau5-dense", "rtol=1e-08"),
-        ("radau5-fixed-dense", "dt=0.06")]
+        ("radau5-fixed-dense", "dt=0.06"), ("radau-dense", "rtol=1e-08")]
+    assert [(s.method, s.label) for s in plan if s.solver in ("radau9", "radau13")] == [
+        ("radau9", "rtol=1e-08"), ("radau9-fixed", "dt=0.1"), ("radau13", "rtol=1e-08")]
     dense = next(s for s in plan if s.dense)
     assert wp.native_problem(wp.base_problem(cfg, "en02"), dense, 0.01).solver.dense_output
     assert {s.method for s in plan if s.group == "full"} == {"rk4-full", "radau5-full"}
@@ -90,7 +97,9 @@ def test_default_grids_are_the_notebook_benchmark() -> None:
                        "CVODE": [1e-6, 1e-7, 1e-8, 1e-9, 1e-10, 1e-11, 1e-12, 1e-13]}
     assert [x.method for x in plan if x.solver == "CVODE"] == ["sundials-CVODE-BDF"] * 8
     assert (s.reference.method, s.reference.rtol, s.reference.check_method) == (
-        "dop853", 1e-13, "radau5")
+        "radau13", 1e-14, "dop853")
+    for name in ("radau9", "radau13", "radau"):  # the new methods down to rtol 1e-13
+        assert min(s.methods[name].rtol) == 1e-13
     assert s.repeats == 5 and not s.quick and s.atol_ratio == 0.01
 
 
@@ -396,3 +405,25 @@ def test_fixed_steps_also_run_at_each_newton_tolerance(tiny) -> None:
     assert (plain.rtol, plain.atol) == (base.rtol, base.atol)
     assert (newton.rtol, newton.atol) == (1e-9, pytest.approx(1e-11))
     assert newton.dt == plain.dt == 0.02 and newton.fixed_step and newton.method == "radau5"
+
+
+def test_frontier_against_cvode_names_cvode_and_shows_the_counts() -> None:
+    """The CVODE table compares the fastest native run with CVODE BDF itself even when
+    another peer is faster, and prints the work counts beside the times."""
+    from creatio.reports.work_precision import _cvode_frontier, summary
+
+    native = _entry("radau9", "native", "rtol=1e-10", 5e-11, [4e-3, 5e-3])
+    native.update(rhs_evals=20440, jacobians=976, lu_factorisations=979,
+                  newton_iterations=2481, rejected_steps=0, steps=1202)
+    cvode = _entry("sundials-CVODE-BDF", "peer", "rtol=1e-11", 6e-11, [8e-2, 9e-2])
+    cvode.update(rhs_evals=30000, jacobians=400)
+    runs = [native, cvode, _entry("scipy-LSODA", "peer", "rtol=1e-11", 6e-11, [2e-2, 3e-2])]
+    evidence = {"check_adaptive_max_diff_m": 1e-14, "check_fixed_max_diff_m": 1e-14}
+    row = summary(runs, evidence, [1e-10], 10.0)["fastest"][0]
+    assert row["peer"]["method"] == "scipy-LSODA"
+    assert row["cvode"]["method"] == "sundials-CVODE-BDF"
+    assert row["speed_up_cvode"] == pytest.approx(20.0)
+    assert row["verdict_cvode"] == "faster"
+    lines = _cvode_frontier(summary(runs, evidence, [1e-10], 10.0)["fastest"])
+    assert "| 20440 / 976 / 979 / 2481 / 0 |" in lines[2]
+    assert "| 30000 / 400 |" in lines[2] and "| 20x |" in lines[2]

@@ -160,7 +160,7 @@ def test_run_help_presents_creatio_and_only_the_groups_a_user_picks():
     out = creatio("run", "--help").stdout
     assert out.startswith("creatio run:") and "powered by Hydra" not in out
     groups = out.split("== Configuration groups ==")[1].split("==")[0]
-    assert "solver: dop853, dopri5, radau5, rk4, rodas4" in groups
+    assert "solver: dop853, dopri5, radau, radau13, radau5, radau9, rk4, rodas4" in groups
     assert "schema:" not in groups and "scene:" not in groups and "sweeps:" not in groups
     probe = creatio("probe", "--help").stdout
     assert probe.startswith("creatio probe:") and "solver:" not in probe
@@ -173,8 +173,8 @@ def test_info_prints_once():
 
 @pytest.mark.parametrize(("line", "expected"), [
     ("creatio r", {"run", "release"}),
-    ("creatio run solver=", {"solver=dop853", "solver=dopri5", "solver=radau5", "solver=rk4",
-                             "solver=rodas4"}),
+    ("creatio run solver=", {"solver=dop853", "solver=dopri5", "solver=radau", "solver=radau13",
+                             "solver=radau5", "solver=radau9", "solver=rk4", "solver=rodas4"}),
     ("creatio run study=en02 sphere.m", {"sphere.m=", "sphere.mu="}),
     ("creatio probe geometry.K", {"geometry.Ka=", "geometry.Kr="}),
 ])

@@ -165,7 +165,7 @@ def _caption(name: str, study: str, published: str) -> str:
     job = _Job(study, published)
     ns = type("S", (), {"wildcards": type("W", (), job.wildcards)(),
                         "params": type("P", (), job.params)(), "input": job.input})()
-    return env.from_string((REPO / "workflow" / "report" / name).read_text()).render(
+    return env.from_string((REPO / "workflows" / "report" / name).read_text()).render(
         snakemake=ns)
 
 

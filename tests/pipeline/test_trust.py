@@ -447,12 +447,13 @@ def test_a_problem_refusal_past_the_rules_is_named_by_its_key(monkeypatch):
 
 # ------------------------------ stale names (import circles: tests/pipeline/test_layers.py)
 def test_no_stale_module_names_in_the_workflow():
-    """workflow/rules/release.smk named creatio.release, which does not exist; every
-    creatio.X the Snakefile and the rules name is a module (or a name in one)."""
+    """workflow/rules/release.smk (now workflows/) named creatio.release, which does not
+    exist; every creatio.X the Snakefile and the rules name is a module (or a name in
+    one)."""
     import importlib
     import re
 
-    texts = [REPO / "Snakefile", *sorted((REPO / "workflow").rglob("*.smk"))]
+    texts = [REPO / "Snakefile", *sorted((REPO / "workflows").rglob("*.smk"))]
     for path in texts:
         for name in re.findall(r"(?<![/\w])creatio(?:\.\w+)+", path.read_text()):
             if name.endswith((".yaml", ".yml")):  # a file (envs/creatio.yaml), not a module
@@ -590,7 +591,7 @@ def test_the_diff_rule_reruns_when_a_release_file_changes(tmp_path):
     report.write_bytes(text)
     assert len({before, edited, deleted}) == 3
     assert workflow_release_digest("0.1.0", data) == before
-    rule = (REPO / "workflow" / "rules" / "release.smk").read_text()
+    rule = (REPO / "workflows" / "rules" / "release.smk").read_text()
     assert "release=lambda wc: _release.workflow_release_digest(wc.version)" in rule
 
 
@@ -798,6 +799,21 @@ def test_a_planted_pickle_in_the_config_cache_runs_nothing(config_cache, tmp_pat
     assert json.loads(path.read_text())["sha256"] == resolved.sha256  # rebuilt, ours
 
 
+def test_a_cached_config_keeps_the_order_of_its_keys(config_cache):
+    """An entry read back from the cache is the composed config in its own order: the
+    stability map's axes (mu, eps) name its datasets in that order. Entries were written
+    with sorted keys, and a cache hit listed eps first."""
+    from creatio.pipeline import config
+
+    composed = config.resolve("stability_map")
+    config._resolve.cache_clear()
+    assert config._cache_path(config._cache_spec("stability_map", ())).is_file()
+    cached = config.resolve("stability_map")
+    assert list(composed.data["study"]["axes"]) == ["mu", "eps"]
+    assert list(cached.data["study"]["axes"]) == ["mu", "eps"]
+    assert cached.sha256 == composed.sha256
+
+
 def test_a_swapped_or_forged_config_cache_entry_is_not_used(config_cache):
     """A swapped entry changed mu; now an entry is used only when its own key, HMAC, YAML
     and data agree: swapped (another resolution's entry), forged (data edited, HMAC kept)
@@ -845,12 +861,12 @@ def test_ctrl_c_inside_the_compiled_loop_exits_130_in_one_line(tmp_path):
     import time
 
     proc = subprocess.Popen(
-        [sys.executable, "-m", "creatio.cli", "run", "study=en02", "solver.dt=0.0001"],
+        [sys.executable, "-m", "creatio.cli", "run", "study=en02", "solver.dt=0.00005"],
         cwd=tmp_path, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
         env={**os.environ, "CREATIO_DEBUG": ""})
     lines = []
     for line in proc.stdout:  # (Hydra logs to stdout) the first run written: the second,
-        lines.append(line)  # at dt / 2, is in its compiled loop for about 4 s
+        lines.append(line)  # at dt / 2 = 2.5e-5 s, is in its compiled loop for seconds
         if "wrote" in line:
             break
     time.sleep(1.0)

@@ -576,6 +576,7 @@ class SimulationResult:
     rejected_steps: int = 0
     jacobians: int = 0
     lu_factorisations: int = 0
+    newton_iterations: int = 0
     cell_u: NDArray[np.float64] = field(default_factory=lambda: np.empty(0))
     cell_v: NDArray[np.float64] = field(default_factory=lambda: np.empty(0))
     theta: NDArray[np.float64] = field(default_factory=lambda: np.empty(0))

@@ -166,9 +166,10 @@ def simulate(problem: SphereProblem) -> SimulationResult:
         events = ev[: min(int(n_events), ev.shape[0])].copy()
         max_height = float(fx[X_MAX_GAP])
         in_flight = int(phase) == FLIGHT
+        newton = 0  # the flight loop runs explicit methods only
     else:
-        (status, steps, rows, evals, ext, rejected, jacobians, factorisations, stop_time) = run(
-            *args, **kwargs)
+        (status, steps, rows, evals, ext, rejected, jacobians, factorisations, stop_time,
+         newton) = run(*args, **kwargs)
     if status == st.BUDGET_EXCEEDED:
         message = budget_message(float(stop_time), problem.output.t_end, int(steps),
                                  sv.max_rhs_evals)
@@ -241,6 +242,7 @@ def simulate(problem: SphereProblem) -> SimulationResult:
         rejected_steps=int(rejected),
         jacobians=int(jacobians),
         lu_factorisations=int(factorisations),
+        newton_iterations=int(newton),
         cell_u=h[:, COL_CELL_U].copy(),
         cell_v=h[:, COL_CELL_V].copy(),
         theta=structure_column(COL_THETA),

@@ -11,7 +11,7 @@ import functools
 import hashlib
 from pathlib import Path
 
-__all__ = ["CODE", "code_version"]
+__all__ = ["CODE", "code_version", "package_version"]
 
 
 # The sources whose change changes a rule's outputs (relative to the package): a rule
@@ -36,4 +36,16 @@ def code_version(kind: str, package: Path | None = None) -> str:
         for path in sorted(target.rglob("*.py")) if target.is_dir() else [target]:
             if path.is_file():
                 h.update(str(path.relative_to(package)).encode() + b"\0" + path.read_bytes())
+    return h.hexdigest()[:12]
+
+
+def package_version(package: Path | None = None) -> str:
+    """A short hash of every source of the package, read now (not cached): what a warm
+    worker (creatio.pipeline.worker) was started with must equal it, or it serves no one.
+    Wider than any one kind of code_version, since the worker runs every command."""
+    package = package or Path(__file__).resolve().parents[1]
+    h = hashlib.sha256()
+    for path in sorted(package.rglob("*.py")):
+        if "__pycache__" not in path.parts and path.is_file():
+            h.update(str(path.relative_to(package)).encode() + b"\0" + path.read_bytes())
     return h.hexdigest()[:12]

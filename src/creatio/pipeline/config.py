@@ -413,7 +413,9 @@ def _store(path: Path, spec: str, resolved: Resolved) -> None:
     body = {"spec": spec, "study": resolved.id, "data": resolved.data,
             "yaml": resolved.yaml, "sha256": resolved.sha256}
     try:
-        text = json.dumps({**body, "mac": _mac(key, body)}, sort_keys=True)
+        # the data in its own order (a study's axes and parts are ordered); the MAC is
+        # computed over sorted keys, so it does not depend on it
+        text = json.dumps({**body, "mac": _mac(key, body)})
     except (TypeError, ValueError):  # a value JSON cannot hold: not cached
         return
     try:

@@ -36,7 +36,7 @@ def git_state() -> tuple[str, bool]:
         ).stdout.strip()
         status = subprocess.run(
             ["git", "status", "--porcelain", "--untracked-files=no", "--", "src", "conf",
-             "Snakefile", "workflow", "pyproject.toml", "constraints.txt"],
+             "Snakefile", "workflows", "pyproject.toml", "constraints.txt"],
             cwd=REPO_ROOT, capture_output=True, text=True, check=True,
         ).stdout
         return commit, bool(status.strip())

@@ -46,7 +46,7 @@ __all__ = [
 
 @one_line_errors
 def check_workflow_config(config: Mapping[str, Any], schema: str | Path) -> None:
-    """Validate Snakemake's --config against workflow/schemas/config.schema.yaml with
+    """Validate Snakemake's --config against workflows/schemas/config.schema.yaml with
     snakemake.utils.validate; a refusal is creatio's one line (key, value, rule), not the
     schema dump."""
     import difflib

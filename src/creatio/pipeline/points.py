@@ -228,7 +228,7 @@ def run_study_sample(resolved: Resolved, root: Path) -> list[Path]:
 
 # ---------------------------------------------------------------------------- workflow
 class En05Runs:
-    """EN-05 in one workflow invocation (workflow/rules/en05.smk): its config under the
+    """EN-05 in one workflow invocation (workflows/rules/en05.smk): its config under the
     overrides, its sample, and every file `snakemake en05` makes. Planned on first use."""
 
     def __init__(self, jobs: Any, overrides: Any, data_dir: str = "data") -> None:

@@ -28,7 +28,9 @@ TEXT = ("study", "group", "method", "solver", "setting", "setting_kind", "status
 NUMBERS = ("setting_value", "error_m", "final_error_m", "time_s", "time_median_s",
            "first_call_s")
 COUNTS = ("repeats", "rhs_evals", "steps", "rejected_steps", "jacobians", "lu_factorisations",
-          "state_size")
+          "newton_iterations", "state_size")
+#: The peer every level is also compared with by name (the stiff solver of reference).
+CVODE = "sundials-CVODE-BDF"
 
 
 def entries(ds: Any) -> list[dict[str, Any]]:
@@ -37,7 +39,8 @@ def entries(ds: Any) -> list[dict[str, Any]]:
     for i in range(ds.sizes["entry"]):
         e: dict[str, Any] = {k: str(ds[k].values[i]) for k in TEXT}
         e.update({k: float(ds[k].values[i]) for k in NUMBERS})
-        e.update({k: int(ds[k].values[i]) for k in COUNTS})
+        # -1: not in the dataset (written before the count was)
+        e.update({k: int(ds[k].values[i]) if k in ds else -1 for k in COUNTS})
         times = np.asarray(ds["times_s"].values[i], dtype=float)
         e["times_s"] = [float(t) for t in times[np.isfinite(times)]]
         e["time_max_s"] = max(e["times_s"], default=math.nan)
@@ -60,18 +63,21 @@ def verdict(native: dict[str, Any], peer: dict[str, Any]) -> str:
 
 
 def fastest(runs: Sequence[dict[str, Any]], level: float, group: str,
-            exclude: str | None = None) -> dict[str, Any] | None:
+            exclude: str | None = None, method: str | None = None) -> dict[str, Any] | None:
     """The quickest run of a group (native, peer) whose error is <= level, optionally not
-    of the method exclude."""
+    of the method exclude, or only of the method `method`."""
     ok = [e for e in runs if e["group"] == group and e["error_m"] <= level
-          and e["method"] != exclude]
+          and e["method"] != exclude and (method is None or e["method"] == method)]
     return min(ok, key=lambda e: e["time_s"]) if ok else None
 
 
 def _brief(e: dict[str, Any] | None) -> dict[str, Any] | None:
     keys = ("method", "setting", "error_m", "time_s", "time_median_s", "time_max_s",
             "time_spread")
-    return {k: e[k] for k in keys} if e else None
+    counts = ("rhs_evals", "steps", "jacobians", "lu_factorisations", "newton_iterations",
+              "rejected_steps")
+    # a count a record lacks is -1, as a count a peer does not report
+    return {**{k: e[k] for k in keys}, **{k: e.get(k, -1) for k in counts}} if e else None
 
 
 def _saving(lean: dict[str, Any], full: dict[str, Any]) -> dict[str, Any]:
@@ -99,7 +105,11 @@ def summary(runs: Sequence[dict[str, Any]], evidence: dict[str, Any], levels: Se
         best = fastest(runs, level, "native") if row["resolved"] else None
         peer = fastest(runs, level, "peer") if row["resolved"] else None
         second = fastest(runs, level, "native", best["method"]) if best else None
+        cvode = fastest(runs, level, "peer", method=CVODE) if row["resolved"] else None
         row.update(native=_brief(best), peer=_brief(peer), runner_up=_brief(second),
+                   cvode=_brief(cvode),
+                   speed_up_cvode=cvode["time_s"] / best["time_s"] if best and cvode else None,
+                   verdict_cvode=verdict(best, cvode) if best and cvode else None,
                    tied_with_runner_up=bool(best and second and overlap(best, second)),
                    speed_up=peer["time_s"] / best["time_s"] if best and peer else None,
                    spreads_overlap=bool(best and peer and overlap(best, peer)),
@@ -155,6 +165,37 @@ def _frontier(rows: Sequence[dict[str, Any]], factor: float) -> list[str]:
     return table(FRONTIER, out)
 
 
+CVODE_TABLE = ["error level (m)", "fastest native run", "time (ms)", "spread",
+               "rhs / jac / LU / Newton / rejected", "CVODE BDF run", "CVODE time (ms)",
+               "CVODE spread", "CVODE rhs / jac", "speed-up", "verdict"]
+
+
+def _count(v: int) -> str:
+    return "-" if v < 0 else str(v)
+
+
+def _cvode_frontier(rows: Sequence[dict[str, Any]]) -> list[str]:
+    """Per level the fastest native run against the fastest CVODE BDF run, the work counts
+    beside the times (-: not reported)."""
+    out = []
+    for r in rows:
+        b, c = r["native"], r.get("cvode")
+        if not r["resolved"]:
+            out.append([r["level_m"], "not resolved", *[""] * (len(CVODE_TABLE) - 2)])
+            continue
+        native = (["none reaches it", "", "", ""] if b is None else
+                  [f"{b['method']} {b['setting']}", _ms(b["time_s"]), fmt(b["time_spread"]),
+                   " / ".join(_count(b.get(k, -1)) for k in (
+                       "rhs_evals", "jacobians", "lu_factorisations", "newton_iterations",
+                       "rejected_steps"))])
+        peer = (["none reaches it", "", "", ""] if c is None else
+                [c["setting"], _ms(c["time_s"]), fmt(c["time_spread"]),
+                 f"{_count(c.get('rhs_evals', -1))} / {_count(c.get('jacobians', -1))}"])
+        speed = f"{fmt(r['speed_up_cvode'])}x" if r.get("speed_up_cvode") is not None else ""
+        out.append([r["level_m"], *native, *peer, speed, r.get("verdict_cvode") or ""])
+    return table(CVODE_TABLE, out)
+
+
 def _markdown(studies: dict[str, dict], runs: Sequence[dict], machine: dict, jit: dict,
               levels: Sequence[float], factor: float, missing: Sequence[str] = ()) -> str:
     lines = ["# Work-precision benchmark (EN-02, EN-02R)", "",
@@ -189,6 +230,8 @@ def _markdown(studies: dict[str, dict], runs: Sequence[dict], machine: dict, jit
                   + "".join(f" Load average (1, 5, 15 min) {k} timing: {v}."
                             for k, v in s.get("load_average", {}).items()), ""]
         lines += _frontier(s["fastest"], factor)
+        lines += ["", "Against SUNDIALS CVODE BDF alone, with the work counts:", ""]
+        lines += _cvode_frontier(s["fastest"])
         if s["minimal_state"]:
             lines += ["", "Minimal state (`study.outputs=[trajectory]`) against full "
                       "diagnostics. With friction the spin drives the slip, so only the energy "
@@ -203,12 +246,14 @@ def _markdown(studies: dict[str, dict], runs: Sequence[dict], machine: dict, jit
         lines.append("")
     lines += ["## All runs", ""]
     lines += table(["study", "method", "setting", "error (m)", "final error (m)", "time (ms)",
-                    "median (ms)", "spread", "repeats", "RHS evals", "steps", "status",
-                    "first call extra (s)"],
+                    "median (ms)", "spread", "repeats", "RHS evals", "steps", "rejected",
+                    "Jacobians", "LU", "Newton", "status", "first call extra (s)"],
                    [[e["study"], e["method"], e["setting"], e["error_m"], e["final_error_m"],
                      _ms(e["time_s"]), _ms(e["time_median_s"]), e["time_spread"], e["repeats"],
                      e["rhs_evals"], e["steps"] if e["steps"] >= 0 else "not reported",
-                     e["status"], e["first_call_s"]] for e in runs])
+                     e["rejected_steps"], e["jacobians"], _count(e["lu_factorisations"]),
+                     _count(e["newton_iterations"]), e["status"], e["first_call_s"]]
+                    for e in runs])
     return "\n".join(lines) + "\n"
 
 
@@ -231,8 +276,9 @@ def _figure(runs: Sequence[dict], path: Path) -> None:
              and math.isfinite(e["error_m"]) and e["error_m"] > 0]
     methods = list(dict.fromkeys(e["method"] for e in shown))
     styles = _styles(methods)
-    fig, axes = plt.subplots(max(len(studies), 1), 2, figsize=(12, 4.8 * max(len(studies), 1)),
+    fig, axes = plt.subplots(max(len(studies), 1), 2, figsize=(15, 4.8 * max(len(studies), 1)),
                              squeeze=False)
+    legend: dict[str, Any] = {}
     for row, study in enumerate(studies):
         for col, (key, label) in enumerate((("time_s", "core time (s)"),
                                             ("rhs_evals", "right-hand-side evaluations"))):
@@ -245,7 +291,8 @@ def _figure(runs: Sequence[dict], path: Path) -> None:
                 colour, marker, ls = styles[m]
                 x = np.array([e[key] for e in pts], dtype=float)
                 y = np.array([e["error_m"] for e in pts])
-                ax.loglog(x, y, ls, color=colour, marker=marker, ms=4, label=m)
+                (line,) = ax.loglog(x, y, ls, color=colour, marker=marker, ms=4, label=m)
+                legend.setdefault(m, line)
                 if key == "time_s":
                     upper = np.array([e["time_max_s"] for e in pts]) - x
                     ax.errorbar(x, y, xerr=[np.zeros_like(x), upper], fmt="none",
@@ -255,8 +302,10 @@ def _figure(runs: Sequence[dict], path: Path) -> None:
             ax.set_ylabel("max centre error (m)")
             ax.set_title(f"{study}: error against {label.split(' (')[0]}")
             ax.grid(True, which="both", alpha=0.3)
-            ax.legend(fontsize=8, ncol=2 if len(methods) > 8 else 1)
-    fig.tight_layout()
+    # one legend for every panel, beside them: inside, two dozen entries hid the curves
+    fig.legend(list(legend.values()), list(legend), loc="center right", fontsize=8,
+               ncol=1 if len(legend) <= 30 else 2)
+    fig.tight_layout(rect=(0.0, 0.0, 0.87 if len(legend) <= 30 else 0.77, 1.0))
     save_figure(fig, path, dpi=110)
     plt.close(fig)
 

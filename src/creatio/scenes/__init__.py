@@ -5,5 +5,5 @@ what it must compute from that (frame times only, no energy, no dt / 2 partner, 
 when drawn) or finds a study dataset that already holds it; :mod:`.compute` makes
 ``scene.nc`` (with provenance, :mod:`.run`), :mod:`.page` the offline ``index.html`` and
 :mod:`.media` the animation and poster. ``snakemake scenes`` builds them all
-(workflow/rules/scenes.smk).
+(workflows/rules/scenes.smk).
 """

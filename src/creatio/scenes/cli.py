@@ -1,4 +1,4 @@
-"""`creatio task scene ...`: the steps of the scene rules (workflow/rules/scenes.smk).
+"""`creatio task scene ...`: the steps of the scene rules (workflows/rules/scenes.smk).
 
     creatio task scene library OUT.js                       bundle three.js (npm ci + esbuild)
     creatio task scene dataset SCENE OUT.nc [--config-file F | --config-yaml Y | --override K=V]

@@ -109,6 +109,8 @@ def result_dataset(prob: SphereProblem, res: SimulationResult) -> xr.Dataset:
         "max_b_kappa": res.max_b_kappa,
         "rejected_steps": res.rejected_steps,
         "jacobians": res.jacobians,
+        "lu_factorisations": res.lu_factorisations,
+        "newton_iterations": res.newton_iterations,
         "warnings": "\n".join(res.warnings),
         "comment": "extrema (min_*, max_*) are taken over every integration step",
         "left_cavity_time": res.left_cavity_time,

@@ -1,11 +1,13 @@
 """The integration methods: one record per method, one registry, no compiler at import.
 
 A method is data, as scipy's RungeKutta classes are their constants: a stepper kind
-(``explicit`` reads any Butcher tableau; ``radau`` is the Radau IIA collocation; ``rosenbrock``
-the linearly implicit RODAS4), its order, the order of its error estimate (None without one),
-its tableau, its dense output's order and its real stability interval at a fixed step. The
-compiled loop that runs them all is creatio.dynamics.solvers.driver; config validation, the
-stability estimate, benchmarks and the stability map read this registry.
+(``explicit`` reads any Butcher tableau; ``radau`` is the 3-stage Radau IIA collocation;
+``rosenbrock`` the linearly implicit RODAS4; ``radau_sphere`` Radau IIA with 5 and 7 stages and
+the variable-order 5/9/13 method, told apart by their parameters), its order, the order of its
+error estimate (None without one), its tableau, its dense output's order and its real stability
+interval at a fixed step. The compiled loop that runs them all is creatio.dynamics.solvers
+.driver; config validation, the stability estimate, benchmarks and the stability map read this
+registry.
 
 Adding an explicit method is a tableau (creatio.dynamics.solvers.tableaus) and one entry of
 METHODS below.
@@ -24,15 +26,19 @@ from numpy.typing import NDArray
 from creatio.dynamics.solvers import tableaus as tb
 from creatio.model.numerics import real_stability_bound, rk_stability_polynomial
 
-__all__ = ["EXPLICIT", "METHODS", "RADAU", "ROSENBROCK", "STEPPERS", "DriverTableau", "Method",
-           "Tableau", "get"]
+__all__ = ["EXPLICIT", "IMPLICIT", "METHODS", "RADAU", "RADAU_VO", "ROSENBROCK", "STEPPERS",
+           "DriverTableau", "Method", "Tableau", "get"]
 
 #: Stepper kinds of the compiled driver, and their names (each a module of this package with
 #: the stepper contract: workspace, step, dense).
 EXPLICIT = 0
 RADAU = 1
 ROSENBROCK = 2
-STEPPERS = {EXPLICIT: "explicit", RADAU: "radau", ROSENBROCK: "rosenbrock"}
+RADAU_VO = 3
+STEPPERS = {EXPLICIT: "explicit", RADAU: "radau", ROSENBROCK: "rosenbrock",
+            RADAU_VO: "radau_sphere"}
+#: The kinds with a Newton iteration (fully implicit: a Newton tolerance applies).
+IMPLICIT = (RADAU, RADAU_VO)
 
 #: Error estimators of an explicit tableau: none, one embedded pair (RMS norm), or Hairer's
 #: combined 5th/3rd-order estimate of DOP853.
@@ -162,6 +168,10 @@ class Method:
     #: collocation cubic); None: the tableau's
     dense_order_override: int | None = field(default=None, repr=False)
     exact_stability_bound: float | None = field(default=None, repr=False)
+    #: the stepper's parameters when its kind runs several methods (radau_sphere's PRM_*:
+    #: stage range, first stage count, Jacobian reuse threshold); passed as the stand-in
+    #: tableau's c
+    params: tuple[float, ...] = field(default=(), repr=False)
 
     @property
     def adaptive(self) -> bool:
@@ -184,11 +194,12 @@ class Method:
     @functools.cached_property
     def driver_tableau(self) -> DriverTableau:
         """The tableau argument of the compiled driver (a one-stage stand-in, never read, for
-        an implicit method, so every entry point has one signature)."""
+        an implicit method, so every entry point has one signature, its c the method's params)."""
         error_order = int(self.error_order or 0)
         if self.tableau is None:
             one, none = np.zeros(1), np.zeros(1, dtype=np.int64)
-            return DriverTableau(one, np.zeros(2, dtype=np.int64), none, one, none, one, 1.0,
+            c = np.array(self.params, dtype=float) if self.params else one
+            return DriverTableau(c, np.zeros(2, dtype=np.int64), none, one, none, one, 1.0,
                                  np.zeros(2), np.zeros(2), NO_ESTIMATE, error_order, np.zeros(0),
                                  np.zeros((0, 2)), np.zeros((2, 1)))
         c, a_ptr, a_idx, a_val, b_idx, b_val, e, e3 = self.tableau.arrays()
@@ -210,6 +221,11 @@ class Method:
             rk_stability_polynomial(self.tableau.a, self.tableau.weights()))
 
 
+#: Jacobian reuse threshold of the radau_sphere methods (radau.f's THET): the Jacobian is
+#: recomputed after a step whose Newton contraction was worse. Measured on EN-02 and EN-02R
+#: (scripts/radau_thet.py): see docs/solvers.md.
+_THET = 1e-3
+
 #: The registry: every method the driver runs, by config name.
 METHODS: dict[str, Method] = {
     m.name: m
@@ -230,6 +246,16 @@ METHODS: dict[str, Method] = {
         Method("radau5", RADAU, 5, 3,
                "Radau IIA order 5, adaptive, L-stable (simplified Newton, Gustafsson control)",
                dense_order_override=3),
+        Method("radau9", RADAU_VO, 9, 5,
+               "Radau IIA order 9 (5 stages), adaptive, L-stable (Hairer's RADAU control)",
+               dense_order_override=5, params=(5, 5, 5, _THET)),
+        Method("radau13", RADAU_VO, 13, 7,
+               "Radau IIA order 13 (7 stages), adaptive, L-stable (Hairer's RADAU control)",
+               dense_order_override=7, params=(7, 7, 7, _THET)),
+        Method("radau", RADAU_VO, 5, 3,
+               "Radau IIA of variable order 5, 9, 13 (3, 5, 7 stages) by the Newton "
+               "contraction, adaptive, L-stable (Hairer's RADAU)",
+               dense_order_override=3, params=(3, 7, 3, _THET)),
         Method("rodas4", ROSENBROCK, 4, 3,
                "Rosenbrock RODAS4, adaptive, L-stable, linearly implicit (Jacobian every step)",
                dense_order_override=3),

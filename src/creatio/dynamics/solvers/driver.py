@@ -4,10 +4,12 @@ The driver owns time, step size, output landing, diagnostics, the evaluation bud
 progress lines of a long run (creatio.dynamics.progress); a step is taken by the stepper of
 the method's kind (creatio.dynamics.solvers.STEPPERS). The explicit Runge-Kutta stepper
 (creatio.dynamics.solvers.explicit) reads any tableau of the registry; the implicit kinds,
-Radau IIA and RODAS4, are modules under one contract: ``workspace(n)`` their arrays and
-carried state, ``step(...)`` one try at one step (outcome, step factor, work counters,
-whether the end-of-step evaluation is done), ``dense(ws, t, yout)`` the dense output inside
-the last accepted step. A new implicit kind is such a module and an entry of STEPPERS; the
+Radau IIA (3 stages; 5, 7 and variable order) and RODAS4, are modules under one contract:
+``workspace(n, params)`` their arrays and carried state (params: the method's parameters,
+creatio.dynamics.solvers.Method.params), ``step(...)`` one try at one step (outcome, step
+factor, work counters: evaluations, Jacobians, LU decompositions, Newton iterations; whether
+the end-of-step evaluation is done), ``dense(ws, t, yout)`` the dense output inside the last
+accepted step. A new implicit kind is such a module and an entry of STEPPERS; the
 explicit kind's arrays are the driver's own (see below).
 
 * Fixed step (RK4, or any method with ``fixed``): step i runs from t_i = i dt to t_{i+1};
@@ -50,11 +52,13 @@ from creatio.dynamics.progress import CLOCK_MASK, tick
 from creatio.dynamics.solvers import (
     EXPLICIT,
     RADAU,
+    RADAU_VO,
     ROSENBROCK,
     STEPPERS,
     Method,
     explicit,
     radau,
+    radau_sphere,
     rosenbrock,
 )
 from creatio.dynamics.solvers.explicit import ACCEPTED, ERROR_REJECTED, next_step
@@ -70,11 +74,11 @@ from creatio.dynamics.sphere import (
 __all__ = ["CONTROLLED", "SPECIALISATIONS", "run"]
 
 #: The module of each implicit kind (the contract of the module docstring).
-_IMPLICIT = {RADAU: radau, ROSENBROCK: rosenbrock}
+_IMPLICIT = {RADAU: radau, ROSENBROCK: rosenbrock, RADAU_VO: radau_sphere}
 assert set(_IMPLICIT) | {EXPLICIT} == set(STEPPERS)
 
 
-def _implicit_workspace(stepper, n):
+def _implicit_workspace(stepper, n, params):
     """The implicit stepper's workspace (compiled code only; resolved at compile time)."""
     raise NotImplementedError("called only from compiled code")
 
@@ -92,15 +96,15 @@ def _implicit_dense(stepper, ws, tg, yout):
 
 
 @overload(_implicit_workspace, prefer_literal=True)
-def _implicit_workspace_of(stepper, n):
+def _implicit_workspace_of(stepper, n, params):
     """The kind's workspace; an empty placeholder for the explicit kind."""
     if not isinstance(stepper, types.IntegerLiteral):
         return None
     module = _IMPLICIT.get(stepper.literal_value)
     if module is None:
-        return lambda stepper, n: np.empty(0)
+        return lambda stepper, n, params: np.empty(0)
     workspace = module.workspace
-    return lambda stepper, n: workspace(n)
+    return lambda stepper, n, params: workspace(n, params)
 
 
 @overload(_implicit_step, prefer_literal=True, inline="always")
@@ -116,7 +120,7 @@ def _implicit_step_of(stepper, t, t_next, h, y, f, ynew, fnew, dbuf, ws, tol, fi
 
     def impl(stepper, t, t_next, h, y, f, ynew, fnew, dbuf, ws, tol, fixed, rejected, pp, lc,
              rot, en, free):
-        return ERROR_REJECTED, 1.0, 0, 0, 0, False
+        return ERROR_REJECTED, 1.0, 0, 0, 0, 0, False
     return impl
 
 
@@ -180,7 +184,8 @@ def _drive(stepper, p, lawc, y, arrays, iws, t_end, interval, h0, n_steps, strid
     fixed step need not divide the interval), only the last step lands on t_end, and the rows
     on the grid are the step's dense output (with one more right-hand-side evaluation each
     for their diagnostics). Returns (status, steps, rows, rhs_evals, rejected, jacobians,
-    lu_factorisations, stop_time), the extrema in the arrays; STEP_FAILED when the step
+    lu_factorisations, newton_iterations, stop_time), the extrema in the arrays; STEP_FAILED
+    when the step
     underflows or Newton fails at a fixed step, BUDGET_EXCEEDED when max_evals right-hand-side
     evaluations did not reach t_end (the budget never changes a step). A line of progress
     goes to stderr every `progress` seconds (inf: never). ctl: the controlled path (docs/model.md
@@ -201,6 +206,7 @@ def _drive(stepper, p, lawc, y, arrays, iws, t_end, interval, h0, n_steps, strid
     n_rej = np.int64(0)
     n_jac = np.int64(0)
     n_lu = np.int64(0)
+    n_newton = np.int64(0)
     rows = np.int64(0)
     steps = np.int64(0)
     tries = np.int64(0)
@@ -279,13 +285,15 @@ def _drive(stepper, p, lawc, y, arrays, iws, t_end, interval, h0, n_steps, strid
                     lc, rot, en)
                 nj = 0
                 nl = 0
+                nn = 0
             else:
-                outcome, factor, ev, nj, nl, have_f = _implicit_step(
+                outcome, factor, ev, nj, nl, nn, have_f = _implicit_step(
                     stepper, t, t_next, h_use, y, f, ynew, fnew, dbuf, iws, tol, fixed,
                     rejected, pp, lc, rot, en, free)
             evals += ev
             n_jac += nj
             n_lu += nl
+            n_newton += nn
             if outcome == ACCEPTED:
                 accepted = yes
                 if not fixed:
@@ -351,7 +359,7 @@ def _drive(stepper, p, lawc, y, arrays, iws, t_end, interval, h0, n_steps, strid
         evals += 1
         _, wrote = observe(steps == 0, t, y, d, pp, ext, out, rows, yes, yes, rot, en, free)
         rows += wrote
-    return status, steps, rows, evals, n_rej, n_jac, n_lu, t
+    return status, steps, rows, evals, n_rej, n_jac, n_lu, n_newton, t
 
 
 def _entry(stepper: int, rot: bool, en: bool, free: bool, ctl: bool = False):
@@ -363,11 +371,11 @@ def _entry(stepper: int, rot: bool, en: bool, free: bool, ctl: bool = False):
               progress, tab, out, dense):
         n = y0.size
         arrays = _arrays(n, tab.dense.shape[0], en)
-        status, steps, rows, evals, n_rej, n_jac, n_lu, t = _drive(
-            stepper, p, lawc, y0.copy(), arrays, _implicit_workspace(stepper, n), t_end,
+        status, steps, rows, evals, n_rej, n_jac, n_lu, n_newton, t = _drive(
+            stepper, p, lawc, y0.copy(), arrays, _implicit_workspace(stepper, n, tab.c), t_end,
             interval, h0, n_steps, stride, rtol, atol, fixed, max_evals, progress, tab, out, rot,
             en, free, dense, ctl)
-        return status, steps, rows, evals, arrays[_EXT], n_rej, n_jac, n_lu, t
+        return status, steps, rows, evals, arrays[_EXT], n_rej, n_jac, n_lu, t, n_newton
 
     flags = [name for name, on in (("structure", free), ("rot", rot), ("en", en),
                                    ("control", ctl)) if on]
@@ -409,7 +417,8 @@ def run(
     dense: bool = False,
     control: bool = False,
 ) -> tuple:
-    """Run `method` through its compiled specialisation; see _drive for the result tuple.
+    """Run `method` through its compiled specialisation: (status, steps, rows, rhs_evals,
+    extrema, rejected, jacobians, lu_factorisations, stop_time, newton_iterations), see _drive.
     free selects the structure path (docs/model.md s.9-10); dense the rows from dense output
     instead of steps cut to land on the grid; control the controlled phase (s.12.2: p then
     carries the controller's row after its parameters, y0 the control block last)."""

@@ -59,8 +59,9 @@ RS_HAVE_JAC, RS_CURRENT_JAC, RS_LU_H, RS_HAVE_OLD, RS_T_OLD, RS_H_PREV, RS_H_OLD
 
 
 @njit(cache=True)
-def workspace(n):
-    """Carried state and work arrays of step for a state of size n: nothing computed yet."""
+def workspace(n, params):
+    """Carried state and work arrays of step for a state of size n: nothing computed yet
+    (params, the method's parameters of the driver's contract, are not used)."""
     rs = np.zeros(8)
     rs[RS_LU_H] = -1.0
     rs[RS_H_OLD] = -1.0
@@ -252,10 +253,10 @@ def step(stepper, t, t_next, h, y, f, ynew, fnew, dbuf, ws, tol, fixed, rejected
     """One try at the step t -> t_next = t + h (the driver's implicit-stepper contract;
     `stepper` is its kind, which the driver dispatches on at compile time).
 
-    Returns (outcome, factor, rhs evaluations, jacobians, LU factorisations, whether fnew and
-    dbuf hold the end-of-step evaluation): ACCEPTED (ynew, fnew and the diagnostics dbuf
-    filled; factor proposes the next step), NEWTON_FAILED (halve h) or ERROR_REJECTED
-    (factor shrinks h).
+    Returns (outcome, factor, rhs evaluations, jacobians, LU factorisations, Newton iterations,
+    whether fnew and dbuf hold the end-of-step evaluation): ACCEPTED (ynew, fnew and the
+    diagnostics dbuf filled; factor proposes the next step), NEWTON_FAILED (halve h) or
+    ERROR_REJECTED (factor shrinks h).
     """
     rs, jac, lur, luc, pivr, pivc, Z, Z0, W, F, Qold, yold, rreal, rcplx, err, work, tmp = ws
     rtol, atol = tol
@@ -273,6 +274,7 @@ def step(stepper, t, t_next, h, y, f, ynew, fnew, dbuf, ws, tol, fixed, rejected
     _predict(t, h, y, rs, Z0, Qold, yold)
     converged = False
     n_iter = 0
+    n_newton = 0
     rate = 0.0
     while not converged:
         if abs(h - rs[RS_LU_H]) > 1e-3 * h:
@@ -294,6 +296,7 @@ def step(stepper, t, t_next, h, y, f, ynew, fnew, dbuf, ws, tol, fixed, rejected
                                               pivc, Z0, Z, W, F, rreal, rcplx, work, tmp, pp,
                                               lc, rot, en, free)
         evals += ev
+        n_newton += n_iter
         if not converged:
             if rs[RS_CURRENT_JAC] > 0.0:
                 break
@@ -303,7 +306,7 @@ def step(stepper, t, t_next, h, y, f, ynew, fnew, dbuf, ws, tol, fixed, rejected
             rs[RS_LU_H] = -1.0
     if not converged:
         rs[RS_LU_H] = -1.0
-        return NEWTON_FAILED, 0.5, evals, n_jac, n_lu, False
+        return NEWTON_FAILED, 0.5, evals, n_jac, n_lu, n_newton, False
     for j in range(n):
         ynew[j] = y[j] + Z[2, j]
     # error estimate: (mu_real/h I - J)^-1 (f + Z^T E / h); a fixed step does not use it
@@ -329,7 +332,7 @@ def step(stepper, t, t_next, h, y, f, ynew, fnew, dbuf, ws, tol, fixed, rejected
     factor, recompute = _factor(h, n_iter, rate, en_err, rs, fixed)
     if en_err > 1.0 and not fixed:
         rs[RS_LU_H] = -1.0
-        return ERROR_REJECTED, factor, evals, n_jac, n_lu, False
+        return ERROR_REJECTED, factor, evals, n_jac, n_lu, n_newton, False
     store(rhs_of(free, t_next, ynew, fnew, pp, lc, rot, en, True), dbuf)
     evals += 1
     if recompute:
@@ -350,7 +353,7 @@ def step(stepper, t, t_next, h, y, f, ynew, fnew, dbuf, ws, tol, fixed, rejected
     rs[RS_T_OLD] = t
     rs[RS_H_PREV] = h
     rs[RS_HAVE_OLD] = 1.0
-    return ACCEPTED, factor, evals, n_jac, n_lu, True
+    return ACCEPTED, factor, evals, n_jac, n_lu, n_newton, True
 
 
 @njit(cache=True)

@@ -48,8 +48,9 @@ RS_JAC_T, RS_LU_H, RS_T_OLD, RS_H_OLD = range(4)
 
 
 @njit(cache=True)
-def workspace(n):
-    """Carried state and work arrays of step for a state of size n: nothing computed yet."""
+def workspace(n, params):
+    """Carried state and work arrays of step for a state of size n: nothing computed yet
+    (params, the method's parameters of the driver's contract, are not used)."""
     rs = np.zeros(4)
     rs[RS_JAC_T] = math.nan
     rs[RS_LU_H] = -1.0
@@ -71,7 +72,8 @@ def step(stepper, t, t_next, h, y, f, ynew, fnew, dbuf, ws, tol, fixed, rejected
          en, free):
     """One try at the step t -> t_next = t + h (the driver's implicit-stepper contract, as
     creatio.dynamics.solvers.radau.step): (outcome, factor, rhs evaluations, jacobians, LU
-    factorisations, whether fnew and dbuf hold the end-of-step evaluation)."""
+    factorisations, Newton iterations (none: 0), whether fnew and dbuf hold the end-of-step
+    evaluation)."""
     rs, jac, lu, piv, U, dfdt, work, tmp, hermite = ws
     rtol, atol = tol
     n = y.size
@@ -98,7 +100,7 @@ def step(stepper, t, t_next, h, y, f, ynew, fnew, dbuf, ws, tol, fixed, rejected
         n_lu += 1
         if not lu_factor(lu, piv):
             rs[RS_LU_H] = -1.0
-            return NEWTON_FAILED, 0.5, evals, n_jac, n_lu, False
+            return NEWTON_FAILED, 0.5, evals, n_jac, n_lu, 0, False
         rs[RS_LU_H] = h
     finite = True
     for i in range(_S):
@@ -125,7 +127,7 @@ def step(stepper, t, t_next, h, y, f, ynew, fnew, dbuf, ws, tol, fixed, rejected
             break
         lu_solve(lu, piv, U[i])
     if not finite:
-        return NEWTON_FAILED, 0.5, evals, n_jac, n_lu, False
+        return NEWTON_FAILED, 0.5, evals, n_jac, n_lu, 0, False
     for j in range(n):
         acc = y[j]
         err = 0.0
@@ -140,10 +142,10 @@ def step(stepper, t, t_next, h, y, f, ynew, fnew, dbuf, ws, tol, fixed, rejected
     ok, factor = step_factor(en_err, ERROR_ORDER, rejected)
     if fixed:
         if not math.isfinite(en_err):
-            return NEWTON_FAILED, 0.5, evals, n_jac, n_lu, False
+            return NEWTON_FAILED, 0.5, evals, n_jac, n_lu, 0, False
         factor = 1.0
     elif not ok:
-        return ERROR_REJECTED, factor, evals, n_jac, n_lu, False
+        return ERROR_REJECTED, factor, evals, n_jac, n_lu, 0, False
     store(rhs_of(free, t_next, ynew, fnew, pp, lc, rot, en, True), dbuf)
     evals += 1
     for j in range(n):
@@ -153,7 +155,7 @@ def step(stepper, t, t_next, h, y, f, ynew, fnew, dbuf, ws, tol, fixed, rejected
         hermite[3, j] = fnew[j]
     rs[RS_T_OLD] = t
     rs[RS_H_OLD] = h
-    return ACCEPTED, factor, evals, n_jac, n_lu, True
+    return ACCEPTED, factor, evals, n_jac, n_lu, 0, True
 
 
 @njit(cache=True)

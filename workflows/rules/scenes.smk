@@ -16,6 +16,13 @@ SCENES = SceneRuns(config.get("overrides"), config.get("scenes"))
 SCENE_LIBRARY = "data/scenes/lib/three.min.js"
 
 
+localrules:
+    scenes,
+    scene_config,
+    scene_library,
+    scene_page,
+
+
 rule scenes:
     input:
         lambda wc: SCENES.targets(),
@@ -46,7 +53,8 @@ rule scene_config:
     log:
         "{root}/logs/scenes/{scene}_config.log",
     run:
-        SCENES.write(wildcards.root, wildcards.scene, output[0], log[0])
+        with PLAN.lock:
+            SCENES.write(wildcards.root, wildcards.scene, output[0], log[0])
 
 
 rule scene_family_batch:

@@ -13,6 +13,12 @@
 from creatio.pipeline import release as _release
 
 
+localrules:
+    release,
+    diff,
+    diff_report,
+
+
 rule release:
     input:
         lambda wc: _release.workflow_outputs(RUNS.plans, whole=True),

@@ -10,6 +10,11 @@
 SINGLE_THREAD = "OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 MKL_NUM_THREADS=1 NUMBA_NUM_THREADS=1"
 
 
+localrules:
+    benchmarks,
+    analysis_report,
+
+
 rule benchmarks:
     input:
         lambda wc: ANALYSES.targets(),

@@ -8,15 +8,15 @@
 # sweep of the study computed is reused, so adding points computes only the new ones.
 
 
+localrules:
+    sweep,
+    sweep_en02_mu,
+    sweep_aggregate,
+
+
 rule sweep:
     input:
-        lambda wc: SWEEPS.outputs(
-            config.get("study", ""),
-            config.get("sweep", []),
-            config.get("overrides", []),
-            config.get("sweep_batch"),
-            config.get("sweep_max_points"),
-        ),
+        lambda wc: PLAN.sweep_targets(),
 
 
 rule sweep_en02_mu:

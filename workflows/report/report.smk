@@ -2,9 +2,9 @@
 # `snakemake scenes`, `snakemake benchmarks`, `snakemake sweep_en02_mu` for those to appear).
 #
 # Which outputs it holds, under which category (one per study; Scenes, Comparison, Sweeps,
-# Benchmarks), with which caption (workflow/report/*.rst, rendered with the job's wildcards).
+# Benchmarks), with which caption (workflows/report/*.rst, rendered with the job's wildcards).
 # Rules wrap their outputs with reported(...) / reported_scene(...); captions are resolved
-# from workflow/rules/, where every rule lives.
+# from workflows/rules/, where every rule lives.
 import sys
 from pathlib import Path
 

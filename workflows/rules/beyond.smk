@@ -8,13 +8,8 @@
 #
 # Their dataset and report jobs are the sphere studies' rules (study_dataset, sphere_report);
 # this file adds the target, planned from the study registry (the studies with in_all=False
-# of the sphere kind), and lets a job re-invoked alone find its configuration.
-from creatio.pipeline.planning import beyond_studies, beyond_targets
-
-# --config studies=[...] selects among them too (snakemake beyond --config 'studies=["en02f"]')
-BEYOND = StudyRuns(JOBS, config.get("overrides"), beyond_studies(config.get("studies")))
-# planned last: a job re-invoked alone that no other planner knows is one of these
-JOBS.fallbacks.append(lambda: BEYOND.plans)
+# of the sphere kind: BEYOND, creatio.pipeline.invocation); --config studies=[...] selects
+# among them too (snakemake beyond --config 'studies=["en02f"]').
 
 
 localrules:
@@ -23,4 +18,4 @@ localrules:
 
 rule beyond:
     input:
-        lambda wc: beyond_targets(BEYOND, config.get("studies")),
+        lambda wc: PLAN.beyond_targets(),

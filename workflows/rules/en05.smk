@@ -9,12 +9,8 @@
 # The ishigami, calibration and experiment datasets are the study's registry parts (the
 # generic study_dataset rule); the sample's batches (en05_points) go to the point store
 # data/sweeps/en05/<sample>/ (points reused by config hash), its indices to en05_sobol.nc.
+# EN05 (creatio.pipeline.points.En05Runs) is planned with the invocation.
 from creatio.pipeline.calibrate import EXAMPLE_OVERRIDES, EXAMPLE_TRACK
-from creatio.pipeline.points import En05Runs
-
-EN05 = En05Runs(JOBS, config.get("overrides"))
-# first: the planners before it refuse overrides only EN-05 has (study.sensitivity...)
-JOBS.fallbacks.insert(0, EN05.fallback)
 
 
 localrules:

@@ -8,7 +8,13 @@
 #
 # A report job's `published` parameter names what the notebook publishes of its study (empty
 # for none): the report captions promise only what the study has.
-from creatio.pipeline.planning import published_groups
+
+
+localrules:
+    study_config,
+    kinematic_report,
+    sphere_report,
+    compare,
 
 
 rule study_config:
@@ -21,7 +27,8 @@ rule study_config:
     log:
         "{root}/logs/{study}_config.log",
     run:
-        JOBS.write(wildcards.root, wildcards.study, output[0], log[0])
+        with PLAN.lock:
+            JOBS.write(wildcards.root, wildcards.study, output[0], log[0])
 
 
 rule study_dataset:

@@ -1,0 +1,149 @@
+"""One Snakemake invocation's plan: what the Snakefile and the rules of workflows/ read.
+
+The Snakefile stays thin (config, validation, includes, target rules); the planners live
+here: the studies of `all` and `beyond`, the analyses, the sweeps, EN-05, and the order in
+which a job re-invoked on its own (a ``run:`` job, a cluster job), which parses the workflow
+anew without its targets, looks for the configuration that writes its output. The command
+the rules run (``CREATIO``) and the warm worker of a local invocation are here too.
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+import threading
+from pathlib import Path
+from typing import Any
+
+from creatio.pipeline.planning import (
+    JobConfigs,
+    StudyRuns,
+    SweepRegistry,
+    analysis_ids,
+    beyond_studies,
+    beyond_targets,
+    wildcard_pattern,
+)
+
+__all__ = ["Invocation", "job_command"]
+
+#: Command-line flags of a Snakemake invocation that runs no job.
+NO_RUN_FLAGS = frozenset(("-n", "--dry-run", "--dryrun", "--lint", "--summary",
+                          "--detailed-summary", "--dag", "--rulegraph", "--filegraph",
+                          "--d3dag", "--list-rules", "-l", "--version", "-h", "--help",
+                          "--unlock", "--cleanup-metadata", "--delete-all-output",
+                          "--delete-temp-output", "--touch", "-t", "--containerize"))
+#: The worked sweep of conf/sweeps/, planned for a job re-invoked alone.
+WORKED_SWEEP = "en02_mu"
+
+
+def job_command(executable: str | Path | None = None, cwd: Path | None = None) -> str:
+    """The command a rule runs creatio with: this interpreter, relative to the working
+    directory when it lives there (.venv/bin/python), so that the report's job parameters
+    show no clone's absolute path."""
+    py = Path(executable or sys.executable)
+    cwd = cwd or Path.cwd()
+    py = py.relative_to(cwd) if py.is_relative_to(cwd) else py
+    return f'"{py}" -m creatio.cli'
+
+
+class Invocation:
+    """Every planner of one invocation, planned on first use (a sweep never plans `all`)."""
+
+    def __init__(self, config: dict[str, Any], basedir: str | Path) -> None:
+        from creatio.pipeline.points import En05Runs
+
+        self.config = config
+        self.command = job_command()
+        self.study_ids = wildcard_pattern(folder="studies")
+        self.analysis_ids = wildcard_pattern(folder="benchmarks")
+        self.jobs = JobConfigs()
+        self.runs = StudyRuns(self.jobs, config.get("overrides"), config.get("studies"))
+        self.analyses = StudyRuns(self.jobs, None, analysis_ids())
+        self.sweeps = SweepRegistry(self.jobs, basedir)
+        # --config studies=[...] selects among beyond's studies too
+        self.beyond = StudyRuns(self.jobs, config.get("overrides"),
+                                beyond_studies(config.get("studies")))
+        self.en05 = En05Runs(self.jobs, config.get("overrides"))
+        # A job re-invoked alone asks these in turn: EN-05 first (the planners after it
+        # refuse overrides only EN-05 has), beyond last (what no other planner knows).
+        self.jobs.fallbacks += [self.en05.fallback, lambda: self.runs.plans,
+                                lambda: self.analyses.plans, self._ad_hoc_sweep,
+                                self._worked_sweep, lambda: self.beyond.plans]
+        self.sweeps.fallbacks += [self._ad_hoc_sweep, self._worked_sweep]
+        self._worker: Any = None
+        #: Held by the run: blocks of the rules, which run in threads of Snakemake's process
+        #: (profiles/default): Hydra's composition is not thread-safe.
+        self.lock = threading.Lock()
+
+    # ------------------------------------------------------------------ targets
+    def sweep_targets(self) -> list[str]:
+        """The aggregate of `snakemake sweep --config study=ID 'sweep=[...]'`."""
+        c = self.config
+        return self.sweeps.outputs(c.get("study", ""), c.get("sweep", []), c.get("overrides", []),
+                                   c.get("sweep_batch"), c.get("sweep_max_points"))
+
+    def beyond_targets(self) -> list[str]:
+        """The files of `snakemake beyond`."""
+        return beyond_targets(self.beyond, self.config.get("studies"))
+
+    def _ad_hoc_sweep(self) -> list[str] | None:
+        return self.sweep_targets() if self.config.get("sweep") else None
+
+    def _worked_sweep(self) -> list[str]:
+        return self.sweeps.worked(WORKED_SWEEP)
+
+    # ------------------------------------------------------------------ warm worker
+    def prestart_worker(self, workflow: Any) -> None:
+        """Start the worker while Snakemake builds the DAG (its imports then overlap the
+        planning instead of delaying the first job) when the command line asks for a run:
+        not a dry run, lint, report or listing. start_worker, at onstart, keeps it or stops
+        it once Snakemake knows where the jobs run."""
+        if workflow.exec_mode.name != "DEFAULT" or set(sys.argv[1:]) & NO_RUN_FLAGS:
+            return
+        if any(a.startswith(("--report", "--list", "--lint", "--executor")) or a == "-e"
+               for a in sys.argv[1:]):
+            return
+        self._start()
+
+    def start_worker(self, workflow: Any) -> None:
+        """Run this invocation's jobs in a warm worker of its own (creatio.pipeline.worker)
+        when they run on this machine; it starts with the environment Snakemake gives a
+        one-thread job and stops with the invocation. Jobs on a cluster,
+        ``CREATIO_WORKER=off``, or a system without fork and descriptor passing keep a
+        process each."""
+        if not workflow.local_exec or workflow.dryrun or workflow.exec_mode.name != "DEFAULT":
+            self.stop_worker()
+        elif self._worker is None:
+            self._start()
+
+    def _start(self) -> None:
+        from creatio.pipeline import worker
+
+        if os.environ.get(worker.ENV) == "off" or not _can_fork():
+            return
+        try:
+            path = worker.daemon_socket().with_name(f"s-{os.getpid()}.sock")
+            log = Path(".snakemake") / "log" / f"creatio-worker-{os.getpid()}.log"
+            log.parent.mkdir(parents=True, exist_ok=True)
+            self._worker = worker.start(path, owner=os.getpid(), log=log,
+                                        env=worker.snakemake_job_env(threads=1))
+        except OSError as e:  # no private directory, no socket: a process per job
+            print(f"creatio: no warm worker ({e}): a process per job", file=sys.stderr)
+            return
+        os.environ[worker.ENV] = str(path)
+
+    def stop_worker(self) -> None:
+        """Stop this invocation's worker, if it started one."""
+        from creatio.pipeline import worker
+
+        if self._worker is not None:
+            worker.stop(self._worker)
+            self._worker = None
+            os.environ.pop(worker.ENV, None)
+
+
+def _can_fork() -> bool:
+    import socket
+
+    return hasattr(os, "fork") and hasattr(socket, "send_fds") and hasattr(socket, "AF_UNIX")

@@ -1,0 +1,813 @@
+"""A warm worker: each job runs in a process forked from one that has already imported the
+libraries and loaded the compiled loops, so a job costs its computation, not a fresh
+interpreter (about 1.5 s of imports and 0.3-0.7 s of numba cache loading per job here).
+
+A worker listens on a Unix socket in a directory only its user can open. A client (a
+``creatio task ...`` or ``creatio run ...`` command that finds one through ``CREATIO_WORKER``,
+or a ``creatio worker start`` daemon of its checkout) sends its arguments, working directory,
+environment and its three standard streams (the descriptors themselves, so a job's ``2>
+log`` is the job's log); the worker forks, the child runs ``creatio.cli.main`` exactly as the
+command would have run it, and the client exits with the child's status. Signals the client
+receives are passed on to the child; a client that goes away takes its child with it.
+
+The worker serves only what it would compute the same way as a fresh process: a client of
+another checkout, another interpreter or ``sys.path``, or an environment that differs in a
+variable the libraries read at import (``CREATIO_*``, ``NUMBA_*``, ``OMP_*``, ...) is refused
+and runs in its own process, as does every client once a source of the package has changed
+(creatio.pipeline.code.package_version; the worker then exits): a worker never computes a
+result with older code. A job in a batch scheduler (``SLURM_JOB_ID``, ...) never uses a
+worker; a worker that dies during a job has that job stopped, and the command runs again in
+its own process. The analyses' timing jobs pin thread counts in
+their environment and so always run alone.
+
+Compiled loops: a child tells the worker which specialisations it loaded or compiled, and the
+worker loads them from numba's cache between requests, so the next jobs inherit them; the
+first job that needs a specialisation the cache lacks compiles it while any other job that
+needs the same one waits for it (one compilation, not one per job).
+
+``snakemake`` starts a worker for its invocation (the Snakefile's onstart, creatio.pipeline.
+invocation) when it runs jobs locally; ``creatio worker start`` starts a daemon that
+stays until it has been idle for ``--idle`` seconds, for ``creatio run`` (Snakemake's jobs,
+whose environment sets thread counts, use their invocation's worker).
+``CREATIO_WORKER=off`` runs every command in its own process.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import hashlib
+import json
+import os
+import select
+import signal
+import socket
+import struct
+import subprocess
+import sys
+import tempfile
+import threading
+import time
+from collections.abc import Callable, Iterator, Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+from creatio.pipeline.code import package_version
+
+__all__ = [
+    "COMMANDS",
+    "ENV",
+    "Server",
+    "daemon_socket",
+    "delegate",
+    "env_mismatch",
+    "main",
+    "start",
+    "stop",
+]
+
+#: The variable that names a worker's socket for the commands (or ``off``).
+ENV = "CREATIO_WORKER"
+#: Commands a worker runs (`creatio task ...`, `creatio run ...`); the rest run in place.
+COMMANDS = ("task", "run")
+#: Environment variables the libraries read when they are imported (a job whose values
+#: differ from the worker's would compute differently, or elsewhere): by prefix, and by name.
+IMPORT_TIME_PREFIXES = ("CREATIO_", "NUMBA_", "PYTHON", "OMP_", "MKL_", "OPENBLAS_",
+                        "NUMEXPR_", "VECLIB_", "MPL", "HDF5_", "XDG_", "HYDRA_")
+IMPORT_TIME_NAMES = ("HOME", "TZ", "LANG", "LC_ALL", "LC_NUMERIC", "LC_CTYPE")
+#: Read when a command runs, not at import: a worker serves any value of these.
+CALL_TIME = (ENV, "CREATIO_DEBUG")
+#: Set in a batch scheduler's job (SLURM, PBS, LSF): such a job never uses a worker, even
+#: one of the same user on the same node.
+BATCH_JOB = ("SLURM_JOB_ID", "PBS_JOBID", "LSB_JOBID")
+#: Seconds a client waits for a worker that is still starting before it runs alone.
+START_WAIT = 60.0
+_HEADER = struct.Struct("!I")
+_PACKAGE = Path(__file__).resolve().parents[1]
+
+
+# ----------------------------------------------------------------------------- both sides
+def _send(sock: socket.socket, message: Mapping[str, Any], fds: Sequence[int] = ()) -> None:
+    data = json.dumps(message).encode()
+    payload = _HEADER.pack(len(data)) + data
+    if fds:
+        sent = socket.send_fds(sock, [payload], list(fds))
+        sock.sendall(payload[sent:])
+    else:
+        sock.sendall(payload)
+
+
+def _recv(sock: socket.socket, maxfds: int = 0) -> tuple[dict[str, Any] | None, list[int]]:
+    """One message (None at end of stream) and the descriptors that came with it."""
+    fds: list[int] = []
+    buf = b""
+    while len(buf) < _HEADER.size:
+        if maxfds and not fds:
+            chunk, got, _, _ = socket.recv_fds(sock, 65536, maxfds)
+            fds += got
+        else:
+            chunk = sock.recv(65536)
+        if not chunk:
+            for fd in fds:
+                os.close(fd)
+            return None, []
+        buf += chunk
+    (n,) = _HEADER.unpack(buf[:_HEADER.size])
+    buf = buf[_HEADER.size:]
+    while len(buf) < n:
+        chunk = sock.recv(n - len(buf))
+        if not chunk:
+            for fd in fds:
+                os.close(fd)
+            return None, []
+        buf += chunk
+    return json.loads(buf[:n]), fds
+
+
+def _private_dir() -> Path:
+    """The directory of this user's worker sockets (mode 0700, owned by the user): nobody
+    else can connect to a socket in it."""
+    path = Path(tempfile.gettempdir()) / f"creatio-{os.getuid()}"
+    path.mkdir(mode=0o700, exist_ok=True)
+    st = path.lstat()
+    if st.st_uid != os.getuid() or st.st_mode & 0o077 or not path.is_dir():
+        raise PermissionError(f"{path} is not a private directory of this user")
+    return path
+
+
+def daemon_socket() -> Path:
+    """The socket of this checkout's daemon (`creatio worker start`)."""
+    key = hashlib.sha256(str(_PACKAGE).encode()).hexdigest()[:12]
+    return _private_dir() / f"d-{key}.sock"
+
+
+def _identity() -> dict[str, Any]:
+    """What a client and its worker must share to compute the same way."""
+    return {"package": str(_PACKAGE), "executable": sys.executable, "path": sys.path[1:]}
+
+
+def env_mismatch(worker_env: Mapping[str, str], client_env: Mapping[str, str]) -> str | None:
+    """The first variable read at import whose value differs between a worker's environment
+    (as it started) and a client's, as ``NAME`` (None: they agree)."""
+    names = {k for k in (*worker_env, *client_env)
+             if (k.startswith(IMPORT_TIME_PREFIXES) or k in IMPORT_TIME_NAMES)
+             and k not in CALL_TIME}
+    for name in sorted(names):
+        if worker_env.get(name) != client_env.get(name):
+            return name
+    return None
+
+
+# ----------------------------------------------------------------------------- client
+def _connect(path: Path, wait: float) -> socket.socket | None:
+    """A connection to the worker at path, waiting up to `wait` s while it starts (its
+    ``.starting`` file names a live process); None when there is none."""
+    deadline = time.monotonic() + wait
+    starting = path.with_name(path.name + ".starting")
+    while True:
+        sock = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
+        try:
+            sock.connect(str(path))
+            return sock
+        except OSError:
+            sock.close()
+        try:
+            pid = int(starting.read_text())
+            os.kill(pid, 0)
+        except (OSError, ValueError):
+            return None
+        if time.monotonic() > deadline:
+            return None
+        time.sleep(0.02)
+
+
+def delegate(argv: Sequence[str]) -> int | None:
+    """Run a command in a worker and return its exit status, or None when no worker serves
+    it (then the caller runs it in its own process)."""
+    name = os.environ.get(ENV, "")
+    if name == "off" or not argv or argv[0] not in COMMANDS:
+        return None
+    if any(k in os.environ for k in BATCH_JOB):  # a cluster job computes on its node, alone
+        return None
+    try:
+        path = Path(name) if name else daemon_socket()
+    except OSError:
+        return None
+    if not name and not path.exists():
+        return None
+    sock = _connect(path, START_WAIT if name else 0.0)
+    if sock is None:
+        return None
+    with sock:
+        request = {"argv": list(argv), "sys_argv": sys.argv, "cwd": os.getcwd(),
+                   "env": dict(os.environ), "umask": _umask(), **_identity()}
+        try:
+            _send(sock, request, fds=[0, 1, 2])
+            reply, _ = _recv(sock)
+        except OSError:
+            return None
+        if reply is None or "refused" in reply:
+            if reply is not None and os.environ.get("CREATIO_DEBUG"):
+                print(f"creatio: worker refused the job: {reply['refused']}", file=sys.stderr)
+            return None
+        child = int(reply["pid"])
+        handlers = {signum: signal.getsignal(signum) for signum in FORWARDED}
+        try:
+            code = _wait(sock, child)
+        finally:
+            for signum, handler in handlers.items():
+                signal.signal(signum, handler)
+        if code is None:  # the worker died mid-job: its job is stopped, the command reruns
+            _end(child)
+            print("creatio: the warm worker stopped during the job: it runs again in its "
+                  "own process", file=sys.stderr)
+        return code
+
+
+def _umask() -> int:
+    mask = os.umask(0)
+    os.umask(mask)
+    return mask
+
+
+#: Signals a client passes on to its job.
+FORWARDED = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP, signal.SIGQUIT)
+
+
+def _wait(sock: socket.socket, child: int) -> int | None:
+    """The child's exit status, passing the signals this client gets on to it (None: the
+    worker went away before it said)."""
+    def forward(signum: int, _frame: Any) -> None:
+        with contextlib.suppress(OSError):
+            os.kill(child, signum)
+
+    for signum in FORWARDED:
+        signal.signal(signum, forward)
+    while True:
+        try:
+            reply, _ = _recv(sock)
+        except InterruptedError:
+            continue
+        except OSError:
+            reply = None
+        if reply is None:
+            return None
+        if "exit" in reply:
+            return int(reply["exit"])
+
+
+def _end(child: int, grace: float = 5.0) -> None:
+    """Stop the job of a worker that died (its own process group), so that nothing of it
+    writes after the command's own run starts: SIGTERM, then SIGKILL after grace s."""
+    def alive() -> bool:
+        try:
+            state = Path(f"/proc/{child}/stat").read_text().rsplit(")", 1)[1].split()[0]
+        except (OSError, IndexError):
+            try:
+                os.kill(child, 0)
+            except ProcessLookupError:
+                return False
+            except PermissionError:  # another user's process now: not our job
+                return False
+            return True
+        return state not in ("Z", "X")
+
+    for signum, wait in ((signal.SIGTERM, grace), (signal.SIGKILL, grace)):
+        with contextlib.suppress(OSError):
+            os.killpg(child, signum)
+        deadline = time.monotonic() + wait
+        while alive() and time.monotonic() < deadline:
+            time.sleep(0.02)
+        if not alive():
+            return
+
+
+# ----------------------------------------------------------------------------- server
+#: Imported before the first request: what the jobs of the workflow use.
+WARM_MODULES = (
+    "numpy", "scipy.linalg", "scipy.optimize", "xarray", "netCDF4", "numba", "matplotlib",
+    "hydra", "omegaconf", "yaml", "creatio.pipeline.config",
+    "creatio.pipeline.run", "creatio.pipeline.io", "creatio.pipeline.sweep",
+    "creatio.pipeline.points", "creatio.pipeline.checks", "creatio.pipeline.index",
+    "creatio.scenes.cli",
+)
+
+
+def _warm() -> None:
+    """Import what the jobs use and fill the caches libraries build on first use (xarray's
+    backends, matplotlib's fonts, Hydra's plugins): every forked job inherits them."""
+    import importlib
+
+    import matplotlib
+
+    matplotlib.use("Agg")
+    for module in WARM_MODULES:
+        importlib.import_module(module)
+    from creatio.studies import registry
+
+    for entry in registry.STUDIES.values():
+        with contextlib.suppress(Exception):  # a study whose module cannot load fails alone
+            entry.run_function()
+            entry.report_function()
+    import matplotlib.font_manager
+    import xarray as xr
+    from hydra.core.plugins import Plugins
+
+    xr.backends.list_engines()
+    matplotlib.font_manager.findfont("DejaVu Sans")
+    Plugins.instance()
+    install_compile_lock()
+
+
+class Server:
+    """The worker: warm, then fork a child per request until stopped, orphaned or idle."""
+
+    def __init__(self, path: Path, entry: Callable[[list[str]], int], idle: float | None = None,
+                 owner: int | None = None) -> None:
+        self.path, self.entry, self.idle, self.owner = Path(path), entry, idle, owner
+        self.env = dict(os.environ)  # as started: what import-time reads saw
+        self.jobs: dict[int, dict[str, Any]] = {}  # child pid -> its client and report pipe
+        self.learned: list[tuple[str, str, Any, Any]] = []
+        self.served = 0
+        self.stopping = False
+
+    def serve(self) -> None:
+        """Warm up, listen, and serve until stopped."""
+        starting = self.path.with_name(self.path.name + ".starting")
+        try:
+            self.version = package_version()
+            _warm()
+            self.known = {d: set(disp.signatures) for d, disp in _dispatchers()}
+            with contextlib.suppress(FileNotFoundError):
+                self.path.unlink()
+            self.listener = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
+            self.listener.bind(str(self.path))
+            self.listener.listen(64)
+        finally:
+            with contextlib.suppress(FileNotFoundError):
+                starting.unlink()
+        self._loop()
+
+    def _loop(self) -> None:
+        wake_r, wake_w = os.pipe()
+        os.set_blocking(wake_w, False)
+        os.set_blocking(wake_r, False)
+        signal.set_wakeup_fd(wake_w)
+        signal.signal(signal.SIGCHLD, lambda *_: None)
+        signal.signal(signal.SIGTERM, self._stop)
+        signal.signal(signal.SIGINT, signal.SIG_IGN)  # the terminal's Ctrl-C is the clients'
+        last = time.monotonic()
+        try:
+            while not (self.stopping and not self.jobs):
+                watched: list[Any] = [wake_r]
+                for job in self.jobs.values():
+                    watched += [] if job["gone"] else [job["conn"]]
+                    watched += [] if job["pipe"] is None else [job["pipe"]]
+                if not self.stopping:
+                    watched.append(self.listener)
+                ready, _, _ = select.select(watched, [], [], 0 if self.learned else 1.0)
+                if wake_r in ready:
+                    with contextlib.suppress(BlockingIOError):
+                        os.read(wake_r, 4096)
+                for item in ready:
+                    if item is self.listener:
+                        self._accept()
+                    elif isinstance(item, socket.socket):
+                        self._client_gone(item)
+                    elif item != wake_r:
+                        self._drain(item)
+                self._reap()
+                if not ready and self.learned:
+                    self._load_one()
+                if self.jobs or self.listener in ready:
+                    last = time.monotonic()
+                if self.owner is not None and os.getppid() != self.owner:
+                    self.stopping = True  # its Snakemake is gone
+                if self.idle is not None and time.monotonic() - last > self.idle:
+                    self.stopping = True
+        finally:
+            self.listener.close()
+            with contextlib.suppress(FileNotFoundError):
+                self.path.unlink()
+
+    def _stop(self, *_: Any) -> None:
+        self.stopping = True
+
+    def _accept(self) -> None:
+        conn, _ = self.listener.accept()
+        try:
+            request, fds = _recv(conn, maxfds=3)
+        except OSError:
+            conn.close()
+            return
+        if request is None:
+            conn.close()
+            return
+        if "control" in request:
+            self._control(conn, request["control"])
+            return
+        reason = self._refusal(request, fds)
+        if reason is not None:
+            for fd in fds:
+                os.close(fd)
+            with contextlib.suppress(OSError):
+                _send(conn, {"refused": reason})
+            conn.close()
+            return
+        report_r, report_w = os.pipe()
+        sys.stdout.flush()
+        sys.stderr.flush()
+        pid = os.fork()
+        if pid == 0:  # the job
+            os.close(report_r)
+            self.listener.close()
+            conn.close()
+            for job in self.jobs.values():
+                job["conn"].close()
+                if job["pipe"] is not None:
+                    os.close(job["pipe"])
+            os._exit(_child(self.entry, request, fds, report_w, self.known))
+        os.close(report_w)
+        os.set_blocking(report_r, False)
+        for fd in fds:
+            os.close(fd)
+        self.served += 1
+        self.jobs[pid] = {"conn": conn, "pipe": report_r, "data": b"", "exit": None,
+                          "gone": False}
+        try:
+            _send(conn, {"pid": pid})
+        except OSError:
+            self._kill(pid)
+
+    def _refusal(self, request: Mapping[str, Any], fds: Sequence[int]) -> str | None:
+        """Why this worker would not compute the request as its own process would (None:
+        it would)."""
+        if len(fds) != 3:
+            return "the client's standard streams did not arrive"
+        mine = _identity()
+        for key in ("package", "executable", "path"):
+            if request.get(key) != mine[key]:
+                return f"another {key} ({request.get(key)!r}, the worker's {mine[key]!r})"
+        name = env_mismatch(self.env, request.get("env", {}))
+        if name is not None:
+            return f"the environment differs in {name}"
+        if package_version() != self.version:  # older code never computes a result
+            self.stopping = True
+            return "the sources changed since the worker started (it stops)"
+        return None
+
+    def _control(self, conn: socket.socket, what: str) -> None:
+        with conn:
+            if what == "stop":
+                self.stopping = True
+            with contextlib.suppress(OSError):
+                _send(conn, {"pid": os.getpid(), "jobs": len(self.jobs), "served": self.served,
+                             "package": str(_PACKAGE), "stopping": self.stopping})
+
+    def _reap(self) -> None:
+        """Collect the children that exited: learn what each loaded, tell its client."""
+        for pid in list(self.jobs):
+            try:
+                done, status = os.waitpid(pid, os.WNOHANG)
+            except ChildProcessError:  # reaped elsewhere: its status is unknown
+                done, status = pid, 1 << 8
+            if done == 0:
+                continue
+            job = self.jobs.pop(pid)
+            code = os.waitstatus_to_exitcode(status)
+            if job["pipe"] is not None:  # its writer is closed: read to the end
+                os.set_blocking(job["pipe"], True)
+                while chunk := os.read(job["pipe"], 65536):
+                    job["data"] += chunk
+                os.close(job["pipe"])
+            self._learn(job["data"])
+            with contextlib.suppress(OSError):
+                _send(job["conn"], {"exit": 128 - code if code < 0 else code})
+            job["conn"].close()
+
+    def _client_gone(self, conn: socket.socket) -> None:
+        """A client's connection is readable only when it went away (a killed job): its
+        child is stopped too."""
+        for pid, job in self.jobs.items():
+            if job["conn"] is conn:
+                job["gone"] = True
+                self._kill(pid)
+
+    def _kill(self, pid: int) -> None:
+        with contextlib.suppress(OSError):
+            os.killpg(pid, signal.SIGTERM)
+
+    def _drain(self, fd: int) -> None:
+        """Read what a child has said so far about what it loaded."""
+        for job in self.jobs.values():
+            if job["pipe"] == fd:
+                try:
+                    while chunk := os.read(fd, 65536):
+                        job["data"] += chunk
+                except BlockingIOError:
+                    return
+                os.close(fd)  # the end: the child closed it
+                job["pipe"] = None
+                return
+
+    def _learn(self, data: bytes) -> None:
+        import pickle
+
+        if not data:
+            return
+        try:
+            items = pickle.loads(data)  # from the worker's own child, over its own pipe
+        except Exception:  # noqa: BLE001 - a child killed mid-write said nothing usable
+            return
+        for key, sigs in items:
+            for sig in sigs:
+                if sig not in self.known.get(key, set()) and (key, sig) not in self.learned:
+                    self.learned.append((key, sig))
+
+    def _load_one(self) -> None:
+        """Load one learned specialisation from numba's cache (never compile it here: a
+        compilation belongs to the job that needs it)."""
+        key, sig = self.learned.pop(0)
+        disp = dict(_dispatchers()).get(key)
+        if disp is None or sig in self.known.get(key, set()):
+            return
+        self.known.setdefault(key, set()).add(sig)
+        with contextlib.suppress(Exception):
+            _load_cached(disp, sig)
+
+
+def _dispatchers() -> Iterator[tuple[str, Any]]:
+    """Every numba dispatcher of creatio's modules, by a name that finds it again: module
+    attributes and the entries of a module-level table (dict, list, tuple)."""
+    from numba.core.dispatcher import Dispatcher
+
+    for name, module in list(sys.modules.items()):
+        if not name.startswith("creatio.") or module is None:
+            continue
+        for attr, value in list(vars(module).items()):
+            if isinstance(value, Dispatcher):
+                yield f"{name}:{attr}", value
+            elif isinstance(value, dict | list | tuple):
+                items = value.items() if isinstance(value, dict) else enumerate(value)
+                with contextlib.suppress(Exception):
+                    for k, v in items:
+                        if isinstance(v, Dispatcher):
+                            yield f"{name}:{attr}[{k!r}]", v
+
+
+def _load_cached(disp: Any, sig: Any) -> bool:
+    """Add the specialisation sig of a dispatcher from numba's on-disk cache, as
+    Dispatcher.compile does on a cache hit; False when the cache does not hold it."""
+    from numba.core.compiler_lock import global_compiler_lock
+
+    with global_compiler_lock:
+        if tuple(sig) in disp.overloads:
+            return True
+        cres = disp._cache.load_overload(sig, disp.targetctx)
+        if cres is None:
+            return False
+        if not cres.objectmode:
+            disp.targetctx.insert_user_function(cres.entry_point, cres.fndesc, [cres.library])
+        disp.add_overload(cres)
+        return True
+
+
+def _child(entry: Callable[[list[str]], int], request: Mapping[str, Any], fds: Sequence[int],
+           report: int, known: Mapping[str, set]) -> int:
+    """In the forked job: become the client's process (streams, directory, environment,
+    arguments), run the command (entry: creatio.cli.main), tell the worker which
+    specialisations it loaded."""
+    import io
+    import pickle
+
+    code = 1
+    try:
+        os.setpgid(0, 0)
+        for target, fd in enumerate(fds):
+            os.dup2(fd, target)
+            os.close(fd)
+        os.chdir(request["cwd"])
+        os.umask(int(request["umask"]))
+        os.environ.clear()
+        os.environ.update(request["env"])
+        time.tzset()
+        tempfile.tempdir = None  # read TMPDIR again (Snakemake sets it per job)
+        for signum in (signal.SIGTERM, signal.SIGHUP, signal.SIGQUIT, signal.SIGCHLD):
+            signal.signal(signum, signal.SIG_DFL)
+        signal.signal(signal.SIGINT, signal.default_int_handler)
+        signal.set_wakeup_fd(-1)
+        # streams as a fresh interpreter would open them on these descriptors
+        sys.stdin = io.TextIOWrapper(io.FileIO(0, "r", closefd=False),
+                                     encoding=sys.stdin.encoding, errors=sys.stdin.errors)
+        sys.stdout = io.TextIOWrapper(io.FileIO(1, "w", closefd=False),
+                                      encoding=sys.stdout.encoding, errors=sys.stdout.errors,
+                                      line_buffering=os.isatty(1))
+        sys.stderr = io.TextIOWrapper(io.FileIO(2, "w", closefd=False),
+                                      encoding=sys.stderr.encoding, errors="backslashreplace",
+                                      line_buffering=True)
+        sys.argv = list(request["sys_argv"])
+        try:
+            code = entry(list(request["argv"]))
+        except SystemExit as e:  # a Hydra app exits
+            if e.code is None or isinstance(e.code, int):
+                code = e.code or 0
+            else:
+                print(e.code, file=sys.stderr)
+                code = 1
+        except KeyboardInterrupt:
+            code = 130
+    finally:
+        with contextlib.suppress(Exception):
+            import logging
+
+            logging.shutdown()
+        for stream in (sys.stdout, sys.stderr):
+            with contextlib.suppress(Exception):
+                stream.flush()
+        with contextlib.suppress(Exception):
+            new = [(key, [s for s in disp.signatures if s not in known.get(key, set())])
+                   for key, disp in _dispatchers()]
+            os.write(report, pickle.dumps([(k, s) for k, s in new if s]))
+        with contextlib.suppress(OSError):
+            os.close(report)
+    return code if isinstance(code, int) else 1
+
+
+# ----------------------------------------------------------------------------- compile lock
+_compiling = threading.local()
+
+
+def install_compile_lock() -> None:
+    """One compilation of a specialisation across processes: a process about to compile
+    (or load) a signature a dispatcher lacks first takes a file lock named by the function
+    and signature in numba's cache directory, so that a second job needing it waits and
+    then loads it from the cache instead of compiling it again. Only the outermost
+    compilation of a thread locks (the callees it compiles do not), so locks never nest."""
+    import fcntl
+
+    from numba.core import sigutils
+    from numba.core.dispatcher import Dispatcher
+
+    if getattr(Dispatcher.compile, "_creatio_locked", False):
+        return
+    compile_ = Dispatcher.compile
+
+    def compile(self: Any, sig: Any) -> Any:  # noqa: A001 - numba's method name
+        depth = getattr(_compiling, "depth", 0)
+        where = _lock_dir()
+        try:
+            args, _ = sigutils.normalize_signature(sig)
+            known = tuple(args) in self.overloads
+        except Exception:  # noqa: BLE001 - numba will say what is wrong with sig
+            known = True
+        _compiling.depth = depth + 1
+        try:
+            if depth or known or where is None:
+                return compile_(self, sig)
+            name = f"{self.py_func.__module__}.{self.py_func.__qualname__}{tuple(args)}"
+            path = where / (hashlib.sha256(name.encode()).hexdigest()[:24] + ".lock")
+            fd = os.open(path, os.O_CREAT | os.O_RDWR, 0o600)  # a lock: never any content
+            try:
+                fcntl.flock(fd, fcntl.LOCK_EX)  # released when fd closes, or the process dies
+                return compile_(self, sig)
+            finally:
+                os.close(fd)
+        finally:
+            _compiling.depth = depth
+
+    compile._creatio_locked = True  # type: ignore[attr-defined]
+    Dispatcher.compile = compile
+
+
+def _lock_dir() -> Path | None:
+    """Where the compile locks live (beside numba's cache), or None when it cannot be
+    written (then nothing locks)."""
+    root = os.environ.get("NUMBA_CACHE_DIR")
+    if not root:
+        return None
+    path = Path(root) / ".locks"
+    try:
+        path.mkdir(parents=True, exist_ok=True)
+    except OSError:
+        return None
+    return path if os.access(path, os.W_OK) else None
+
+
+# ----------------------------------------------------------------------------- lifecycle
+def _mark_starting(path: Path, pid: int) -> None:
+    """The ``.starting`` file beside a socket: the pid of the worker that will listen on it
+    (clients wait for it while that process lives)."""
+    target = path.with_name(path.name + ".starting")
+    tmp = target.with_name(f".{target.name}.tmp-{os.getpid()}")
+    tmp.write_text(str(pid))
+    os.replace(tmp, target)
+
+
+#: What Snakemake's shell sets for a job of ``threads`` threads (snakemake/shell.py): a
+#: worker for Snakemake's jobs starts with them at 1, the threads of every creatio rule but
+#: the analyses', whose timing jobs then differ in NUMBA_NUM_THREADS and run alone.
+SNAKEMAKE_THREADS = ("OMP_NUM_THREADS", "GOTO_NUM_THREADS", "OPENBLAS_NUM_THREADS",
+                     "MKL_NUM_THREADS", "VECLIB_MAXIMUM_THREADS", "NUMEXPR_NUM_THREADS")
+
+
+def snakemake_job_env(threads: int = 1) -> dict[str, str]:
+    """This process's environment as Snakemake's shell gives it to a job of `threads`."""
+    return {**os.environ, **dict.fromkeys(SNAKEMAKE_THREADS, str(threads))}
+
+
+def start(path: Path, *, idle: float | None = None, owner: int | None = None,
+          log: Path | None = None, wait: bool = False,
+          env: Mapping[str, str] | None = None) -> subprocess.Popen:
+    """Start a worker at path (a process of its own; a daemon when owner is None), its
+    output appended to log, in env (default: this process's environment): the worker
+    serves only clients whose import-time variables equal env's."""
+    _mark_starting(path, os.getpid())
+    args = [sys.executable, "-m", "creatio.cli", "worker", "serve", str(path)]
+    if idle is not None:
+        args += ["--idle", str(idle)]
+    if owner is not None:
+        args += ["--owner", str(owner)]
+    out = (os.open(log, os.O_WRONLY | os.O_CREAT | os.O_APPEND, 0o600) if log is not None
+           else subprocess.DEVNULL)
+    try:
+        proc = subprocess.Popen(args, stdin=subprocess.DEVNULL, stdout=out, stderr=out,
+                                start_new_session=owner is None,
+                                env={k: v for k, v in (env or os.environ).items() if k != ENV})
+    finally:
+        if log is not None:
+            os.close(out)
+    _mark_starting(path, proc.pid)
+    if wait:
+        sock = _connect(path, START_WAIT)
+        if sock is None:
+            raise RuntimeError(f"the worker at {path} did not start (see {log})")
+        sock.close()
+    return proc
+
+
+def control(path: Path, what: str) -> dict[str, Any] | None:
+    """Ask the worker at path for its status, or to stop (None: no worker answers)."""
+    sock = _connect(path, 0.0)
+    if sock is None:
+        return None
+    with sock:
+        _send(sock, {"control": what})
+        reply, _ = _recv(sock)
+    return reply
+
+
+def stop(proc: subprocess.Popen | None, timeout: float = 10.0) -> None:
+    """Stop a worker this process started (it finishes the jobs it runs)."""
+    if proc is None or proc.poll() is not None:
+        return
+    proc.terminate()
+    try:
+        proc.wait(timeout)
+    except subprocess.TimeoutExpired:
+        proc.kill()
+        proc.wait()
+
+
+def main(argv: Sequence[str], entry: Callable[[list[str]], int] | None = None) -> int:
+    """`creatio worker start|stop|status`, and the worker process itself (`serve`), which
+    runs each request's arguments through entry (creatio.cli.main)."""
+    import argparse
+
+    ap = argparse.ArgumentParser(prog="creatio worker", description=__doc__.splitlines()[0])
+    sub = ap.add_subparsers(dest="what", required=True)
+    s = sub.add_parser("start", help="start this checkout's daemon (creatio run uses it)")
+    s.add_argument("--idle", type=float, default=1800.0,
+                   help="seconds without a job before it stops (default 1800)")
+    sub.add_parser("stop", help="stop this checkout's daemon")
+    sub.add_parser("status", help="whether this checkout's daemon runs, and its jobs")
+    v = sub.add_parser("serve", help=argparse.SUPPRESS)
+    v.add_argument("socket", type=Path)
+    v.add_argument("--idle", type=float, default=None)
+    v.add_argument("--owner", type=int, default=None)
+    args = ap.parse_args(argv)
+    if args.what == "serve":
+        if entry is None:
+            raise ValueError("a worker needs the command it runs (creatio worker serve)")
+        Server(args.socket, entry, args.idle, args.owner).serve()
+        return 0
+    path = daemon_socket()
+    state = control(path, "status")
+    if args.what == "start":
+        if state is not None:
+            print(f"creatio worker: already running (pid {state['pid']}) at {path}")
+            return 0
+        log = path.with_suffix(".log")
+        proc = start(path, idle=args.idle, log=log, wait=True)
+        print(f"creatio worker: pid {proc.pid} at {path}: `creatio run` of this checkout runs "
+              f"in it; it stops after {args.idle:g} s idle "
+              "(creatio worker stop); log: " + str(log))
+        return 0
+    if state is None:
+        print("creatio worker: none running for this checkout")
+        return 0 if args.what == "stop" else 1
+    if args.what == "stop":
+        control(path, "stop")
+        print(f"creatio worker: pid {state['pid']} stops")
+        return 0
+    print(f"creatio worker: pid {state['pid']} at {path}: {state['jobs']} job(s) running, "
+          f"{state['served']} served")
+    return 0

@@ -1,0 +1,204 @@
+"""The warm worker (creatio.pipeline.worker): a job forked from it writes the same bytes of
+data as a fresh process, and a worker that is absent, stale, killed mid-job or asked from a
+SLURM job never gives a result it should not: the command then runs in its own process."""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+import xarray as xr
+
+from creatio.pipeline import worker
+from creatio.pipeline.code import package_version
+
+pytestmark = pytest.mark.skipif(not hasattr(os, "fork"), reason="the worker forks")
+
+CLI = [sys.executable, "-m", "creatio.cli"]
+REPO = Path(__file__).resolve().parents[2]
+
+
+@pytest.fixture
+def warm(tmp_path):
+    """A worker of this test (stops with it), at a socket in tmp_path."""
+    path = tmp_path / "w.sock"
+    proc = worker.start(path, owner=os.getpid(), log=tmp_path / "worker.log", wait=True)
+    yield path
+    worker.stop(proc)
+
+
+def _run(args, env, cwd, **kw):
+    return subprocess.run([*CLI, *args], cwd=cwd, env=env, capture_output=True, text=True,
+                          timeout=600, **kw)
+
+
+def _same_data(a: Path, b: Path) -> None:
+    """Every variable and coordinate of a and b equal bit for bit (NaN where NaN)."""
+    with xr.open_dataset(a) as x, xr.open_dataset(b) as y:
+        assert sorted(x.variables) == sorted(y.variables)
+        for name in x.variables:
+            u, v = x[name].values, y[name].values
+            assert u.dtype == v.dtype and u.shape == v.shape, name
+            if u.dtype.kind == "f":
+                assert np.array_equal(u.view(np.uint64 if u.itemsize == 8 else np.uint32),
+                                      v.view(np.uint64 if v.itemsize == 8 else np.uint32)), name
+            else:
+                assert np.array_equal(u, v), name
+
+
+@pytest.mark.parametrize("study", ["ct02", "en02"])
+def test_a_job_in_the_worker_writes_the_same_data_as_its_own_process(warm, tmp_path, study):
+    """The issue's required test: the warm job path against one process per job."""
+    env = {**os.environ, worker.ENV: str(warm)}
+    before = worker.control(warm, "status")["served"]
+    served = _run(["task", "dataset", study, str(tmp_path / "warm.nc")], env, tmp_path)
+    assert served.returncode == 0, served.stderr
+    assert worker.control(warm, "status")["served"] == before + 1  # the worker ran it
+    alone = _run(["task", "dataset", study, str(tmp_path / "alone.nc")],
+                 {**os.environ, worker.ENV: "off"}, tmp_path)
+    assert alone.returncode == 0, alone.stderr
+    _same_data(tmp_path / "warm.nc", tmp_path / "alone.nc")
+
+
+def test_an_absent_worker_or_a_slurm_job_runs_in_its_own_process(tmp_path, monkeypatch):
+    """No socket, no starting worker: the command runs alone at once (delegate says None);
+    a SLURM job never asks a worker, even a live one."""
+    monkeypatch.setenv(worker.ENV, str(tmp_path / "none.sock"))
+    t0 = time.monotonic()
+    assert worker.delegate(["task", "dataset", "ct02", "x.nc"]) is None
+    assert time.monotonic() - t0 < 1.0
+    path = tmp_path / "w.sock"
+    proc = worker.start(path, owner=os.getpid(), log=tmp_path / "worker.log", wait=True)
+    try:
+        monkeypatch.setenv(worker.ENV, str(path))
+        monkeypatch.setenv("SLURM_JOB_ID", "17")
+        assert worker.delegate(["task", "dataset", "ct02", str(tmp_path / "x.nc")]) is None
+        assert worker.control(path, "status")["served"] == 0
+        assert not (tmp_path / "x.nc").exists()
+    finally:
+        worker.stop(proc)
+
+
+def test_a_worker_with_other_code_or_another_environment_serves_no_one(tmp_path):
+    """The worker compares the package's code version (creatio.pipeline.code) at every
+    request with the one it started with: a difference refuses the job and stops the worker;
+    a variable read at import that differs refuses the job."""
+    server = worker.Server(tmp_path / "s.sock", entry=lambda argv: 0)
+    server.version = package_version()
+    request = {**worker._identity(), "env": dict(os.environ)}
+    assert server._refusal(request, [0, 1, 2]) is None
+    server.version = "0" * 12  # started before an edit of the sources
+    assert "sources changed" in server._refusal(request, [0, 1, 2])
+    assert server.stopping
+    server = worker.Server(tmp_path / "s.sock", entry=lambda argv: 0)
+    server.version = package_version()
+    request["env"] = {**os.environ, "NUMBA_BOUNDSCHECK": "1"}
+    assert server._refusal(request, [0, 1, 2]) == "the environment differs in NUMBA_BOUNDSCHECK"
+    assert worker.env_mismatch({"CREATIO_DEBUG": "1"}, {}) is None  # read when it runs
+
+
+def test_package_version_follows_the_sources(tmp_path):
+    """Any source of the package changes the version, so a worker started before the edit
+    refuses the jobs after it."""
+    pkg = tmp_path / "pkg"
+    (pkg / "sub").mkdir(parents=True)
+    (pkg / "a.py").write_text("x = 1\n")
+    (pkg / "sub" / "b.py").write_text("y = 2\n")
+    v = package_version(pkg)
+    assert package_version(pkg) == v
+    (pkg / "sub" / "b.py").write_text("y = 3\n")
+    assert package_version(pkg) != v
+
+
+#: An EN-02 job of a few seconds (its run at dt = 5e-5 s), long enough to be interrupted.
+LONG_JOB = ("--override", "solver.dt=0.00005")
+
+
+def _served_job(path: Path, tmp_path: Path, out: Path) -> subprocess.Popen:
+    """A client whose job (LONG_JOB) runs in the worker at path, once the worker forked it."""
+    before = worker.control(path, "status")["served"]
+    proc = subprocess.Popen([*CLI, "task", "dataset", "en02", str(out), *LONG_JOB],
+                            cwd=tmp_path,
+                            env={**os.environ, worker.ENV: str(path), "CREATIO_DEBUG": ""},
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    deadline = time.monotonic() + 120
+    while worker.control(path, "status")["served"] == before:
+        assert proc.poll() is None and time.monotonic() < deadline
+        time.sleep(0.05)
+    return proc
+
+
+def test_a_worker_killed_mid_job_stops_the_job_and_the_command_runs_alone(tmp_path):
+    """SIGKILL of the worker while its job computes: the client stops that job and runs the
+    command in its own process; the dataset is the one a process alone writes."""
+    path = tmp_path / "w.sock"
+    proc = worker.start(path, owner=os.getpid(), log=tmp_path / "worker.log", wait=True)
+    out = tmp_path / "killed.nc"
+    client = _served_job(path, tmp_path, out)
+    time.sleep(0.3)
+    proc.kill()
+    proc.wait()
+    _, err = client.communicate(timeout=600)
+    assert client.returncode == 0, err
+    assert "the warm worker stopped during the job" in err
+    alone = _run(["task", "dataset", "en02", str(tmp_path / "alone.nc"), *LONG_JOB],
+                 {**os.environ, worker.ENV: "off"}, tmp_path)
+    assert alone.returncode == 0, alone.stderr
+    _same_data(out, tmp_path / "alone.nc")
+
+
+def test_ctrl_c_of_a_served_job_exits_130_in_one_line(warm, tmp_path):
+    """The client passes SIGINT on to its job: 130 and creatio's one line, as alone."""
+    client = _served_job(warm, tmp_path, tmp_path / "x.nc")
+    time.sleep(0.5)
+    client.send_signal(signal.SIGINT)
+    _, err = client.communicate(timeout=120)
+    assert client.returncode == 130, err
+    assert len(err.strip().splitlines()) == 1 and "interrupted" in err, err
+    assert not (tmp_path / "x.nc").exists()
+
+
+def test_snakemake_jobs_run_in_the_invocations_worker(tmp_path):
+    """A local `snakemake all` starts its worker with the environment Snakemake's shell
+    gives a one-thread job, so its dataset and report jobs are served (none refused), and
+    what they write equals one process per job."""
+    def snakemake(work: Path, worker_env: str | None) -> str:
+        env = {**os.environ, "CREATIO_DEBUG": "1"}
+        env.pop(worker.ENV, None)
+        if worker_env:
+            env[worker.ENV] = worker_env
+        done = subprocess.run(
+            [sys.executable, "-m", "snakemake", "-s", str(REPO / "Snakefile"), "-d", str(work),
+             "-c", "2", "all", "--config", 'studies=["en02"]'],
+            cwd=work, env=env, capture_output=True, text=True, timeout=900)
+        assert done.returncode == 0, done.stderr[-3000:]
+        return "".join(p.read_text() for p in sorted((work / "data" / "logs").rglob("*.log")))
+
+    warm, alone = tmp_path / "warm", tmp_path / "alone"
+    warm.mkdir(), alone.mkdir()
+    logs = snakemake(warm, None)
+    assert "wrote" in logs and "refused" not in logs, logs
+    assert list((warm / ".snakemake" / "log").glob("creatio-worker-*.log"))
+    snakemake(alone, "off")
+    for nc in sorted((alone / "data" / "studies").rglob("*.nc")):
+        _same_data(warm / nc.relative_to(alone), nc)
+
+
+def test_a_refused_value_in_the_worker_is_one_line_and_exit_2(warm, tmp_path):
+    """A failure of a served job is what it is alone: creatio's one line, status 2."""
+    env = {**os.environ, worker.ENV: str(warm), "CREATIO_DEBUG": ""}
+    before = worker.control(warm, "status")["served"]
+    done = _run(["task", "dataset", "en02", str(tmp_path / "x.nc"), "--override",
+                 "sphere.mu=-1"], env, tmp_path)
+    assert worker.control(warm, "status")["served"] == before + 1
+    alone = _run(["task", "dataset", "en02", str(tmp_path / "x.nc"), "--override",
+                  "sphere.mu=-1"], {**env, worker.ENV: "off"}, tmp_path)
+    assert done.returncode == alone.returncode == 2
+    assert done.stderr == alone.stderr and len(done.stderr.splitlines()) == 1, done.stderr
+    assert not (tmp_path / "x.nc").exists()
