@@ -18,7 +18,7 @@ from creatio.model import actuation as act
 from creatio.model.oscillation import regularised_rolling, still_cavity
 from creatio.model.surface import Motion
 from creatio.pipeline.config import resolve
-from creatio.reports.en04 import ACTUATION_KEYS
+from creatio.reports.en04 import ACTUATION_KEYS, CONTROL_CASE_KEYS
 from creatio.studies import en04
 
 
@@ -170,11 +170,16 @@ def test_rolling_limit_at_the_study_friction_is_reached_to_the_regularisation(cf
 
 def test_report_contract_on_short_cycles(tmp_path) -> None:
     """The whole study on 10-s cycles: the JSON has actuation.<study> with exactly the contract
-    keys, oscillation.alpha / .R with theirs, control null (a later part), and the closed
-    forms it prints agree with the measured figures."""
+    keys, oscillation.alpha / .R with theirs, control with its contract on a small grid, and
+    the closed forms it prints agree with the measured figures."""
     from creatio.pipeline.run import run_resolved
 
-    ovs = ["bases.en02.phases.T=10", "bases.en02r.phases.T=10", "study.oscillation.duration=8"]
+    ovs = ["bases.en02.phases.T=10", "bases.en02r.phases.T=10", "study.oscillation.duration=8",
+           "study.control.omega_max=[2.0]", "study.control.delta_max_deg=[5.0,20.0]",
+           "study.control.omega_c=[4.0]", "study.control.omega_n=[20.0]",
+           "study.control.trapezoid.omega_max=[1.5]", "study.control.trapezoid.a_max=[1.5]",
+           "study.control.robustness.mus=[0.15]", "study.control.robustness.mass_factors=[1.0]",
+           "study.control.quintic.tol=0.5"]
     root = run_resolved(resolve("en04", ovs), tmp_path)
     report = json.loads((root / "reports" / "en04.json").read_text())
     assert set(report["actuation"]) == {"en02", "en02r"}
@@ -188,6 +193,18 @@ def test_report_contract_on_short_cycles(tmp_path) -> None:
         assert list(report["oscillation"][d]) == ["slide_rad_s", "slide_closed_form_rad_s",
                                                   "roll_rad_s", "roll_closed_form_rad_s"]
         assert report["oscillation_checks"][d]["within_tolerance"] is True
-    assert report["control"] is None
-    for suffix in (".md", ".png", "_history.csv", "_trajectory.png", "_convergence.png"):
+    c = report["control"]
+    assert list(c) == ["cases", "fastest_arrival_s", "fastest_case", "open_loop_boundary_T_s",
+                       "trapezoid_best", "robustness"]
+    assert len(c["cases"]) == 2
+    for case in c["cases"]:
+        assert list(case) == [k for k, _ in CONTROL_CASE_KEYS]
+    carried = [case["arrival_s"] for case in c["cases"] if case["carried"]]
+    assert carried and c["fastest_arrival_s"] == min(carried)
+    assert set(c["trapezoid_best"]) >= {"Omega_max_rad_s", "a_max_rad_s2", "arrival_s"}
+    assert 4.0 < c["open_loop_boundary_T_s"] < 14.0
+    assert [set(r) >= {"mu", "mass_factor", "closed_loop_carried", "open_loop_carried"}
+            for r in c["robustness"]] == [True]
+    for suffix in (".md", ".png", "_history.csv", "_trajectory.png", "_convergence.png",
+                   "_control.png", "_control_paths.png"):
         assert (root / "reports" / f"en04{suffix}").stat().st_size > 0

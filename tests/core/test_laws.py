@@ -21,6 +21,7 @@ from creatio.model.laws import (
     LawKind,
     law_eval,
     quintic_step,
+    trapezoid_on_grid,
 )
 from creatio.model.surface import Motion, Surface
 
@@ -291,6 +292,8 @@ def test_compiled_law_eval_matches_the_law(name: str) -> None:
     law at times before, inside and after the cycle, to rounding."""
     from numba import njit
 
+    import creatio.dynamics.jit  # noqa: F401  (registers the kernels law_eval calls)
+
     compiled = njit(law_eval)
     law = LAWS[name]
     times = np.array([-0.5, 0.0, 0.37, 1.0, 1.11, 1.99, 2.0, 2.5, 7.0])
@@ -299,3 +302,102 @@ def test_compiled_law_eval_matches_the_law(name: str) -> None:
         got = compiled(law.coefficients(), float(t))
         np.testing.assert_allclose(got, (lv.value[i], lv.d1[i], lv.d2[i]), rtol=1e-13,
                                    atol=1e-14)
+
+
+# ------------------------------------------------------------------------------ trapezoid
+def trapezoid_closed_form(t: np.ndarray, phi0: float, D: float, T: float, ta: float):
+    """Value, rate and acceleration of the trapezoid written out from its kinematics: a
+    constant acceleration a = W / ta for ta seconds up to the cruise rate W = D / (T - ta),
+    the cruise, the mirror deceleration, held at phi0 + D after T."""
+    W = D / (T - ta)
+    a = W / ta
+    v = np.empty_like(t)
+    x = np.empty_like(t)
+    acc = np.empty_like(t)
+    for i, s in enumerate(t):
+        if s <= 0.0:
+            x[i], v[i], acc[i] = 0.0, 0.0, 0.0
+        elif s < ta:
+            x[i], v[i], acc[i] = 0.5 * a * s * s, a * s, a
+        elif s <= T - ta:
+            x[i], v[i], acc[i] = 0.5 * a * ta * ta + W * (s - ta), W, 0.0
+        elif s < T:
+            r = T - s
+            x[i], v[i], acc[i] = D - 0.5 * a * r * r, a * r, -a
+        else:
+            x[i], v[i], acc[i] = D, 0.0, 0.0
+    return phi0 + x, v, acc
+
+
+@pytest.mark.parametrize(("T", "ramp"), [(2.0, 0.25), (3.0, 0.5), (10.0, 0.1)])
+def test_trapezoid_against_its_kinematics(T: float, ramp: float) -> None:
+    """Phase, rate and acceleration away from the switches equal the constant-acceleration
+    kinematics; the cruise rate is D / (T - ta); the compiled law_eval equals the NumPy law."""
+    from numba import njit
+
+    import creatio.dynamics.jit  # noqa: F401  (registers the kernels law_eval calls)
+
+    phi0, D = 0.3, -4.0
+    law = Law.trapezoid(phi0, D, T, ramp)
+    ta = ramp * T
+    t = np.linspace(-0.5, T + 0.5, 997)
+    t = t[np.min(np.abs(t[:, None] - np.array([0.0, ta, T - ta, T])[None, :]), axis=1) > 1e-6]
+    lv = law(t)
+    x, v, a = trapezoid_closed_form(t, phi0, D, T, ta)
+    np.testing.assert_allclose(lv.value, x, rtol=0, atol=1e-13)
+    np.testing.assert_allclose(lv.d1, v, rtol=0, atol=1e-13)
+    np.testing.assert_allclose(lv.d2, a, rtol=0, atol=1e-12)
+    assert abs(law.scalar(0.5 * T)[1]) == pytest.approx(abs(D) / (T - ta), rel=1e-12)
+    assert np.max(np.abs(lv.d1)) <= abs(D) / (T - ta) * (1 + 1e-12)
+    compiled = njit(law_eval)
+    for s in (*t[::50], 0.0, ta, T - ta, T):
+        np.testing.assert_allclose(compiled(law.coefficients(), float(s)),
+                                   [float(q) for q in law.scalar(float(s))], rtol=1e-14,
+                                   atol=1e-15)
+    # the rate is the phase's derivative (5-point differences inside each segment)
+    inside = t[(t > 0.01) & (t < ta - 0.01)]
+    np.testing.assert_allclose(d5(lambda s: law(s).value, inside, 1e-3), law(inside).d1,
+                               rtol=0, atol=1e-10)
+
+
+def test_trapezoid_switches_take_the_mean_acceleration() -> None:
+    """On a switch the acceleration is the mean of its two sides (the ramp's own value at
+    t = 0): a step ending on it and the next starting on it err by opposite amounts."""
+    law = Law.trapezoid(0.0, 2.0, 4.0, 0.25)
+    a = law(np.array([0.5])).d2[0]  # inside the ramp
+    got = [law.scalar(s)[2] for s in (0.0, 1.0, 3.0, 4.0)]
+    assert got == pytest.approx([a, a / 2, -a / 2, -a / 2], rel=1e-14)
+    tri = Law.trapezoid(0.0, 2.0, 4.0, 0.5)
+    assert tri.scalar(2.0)[2] == 0.0
+
+
+@pytest.mark.parametrize(("peak", "accel", "dt"), [
+    (1.0 * 6, 0.5 * 6, 0.002), (3.0 * 6, 1.5 * 6, 0.002), (2.5 * 6, 3.0 * 6, 0.001),
+    (3.0 * 6, 0.5 * 6, 0.002),
+])
+def test_trapezoid_on_grid_lands_on_steps(peak: float, accel: float, dt: float) -> None:
+    """Switch times rounded to the step grid; the law then travels delta exactly, with
+    rate and acceleration within one step's rounding of the ones asked for."""
+    D = 12.0 * np.pi
+    T, ramp, W, a = trapezoid_on_grid(D, peak, accel, dt)
+    law = Law.trapezoid(0.0, D, T, ramp)
+    for s in law.switch_times():
+        assert abs(s / dt - round(s / dt)) < 1e-6
+    assert law.scalar(T)[0] == pytest.approx(D, rel=1e-14)
+    assert law.scalar(0.5 * T)[1] == pytest.approx(W, rel=1e-12)
+    assert W == pytest.approx(min(peak, np.sqrt(D * accel)), rel=2 * dt * accel / W + 1e-3)
+    assert W / (ramp * T) == pytest.approx(a, rel=1e-12)
+
+
+def test_trapezoid_config_refusals() -> None:
+    """A cruise rate outside (D / T, 2 D / T] and switch times off the step grid are refused
+    by key (docs/model.md s.2)."""
+    from creatio.errors import ConfigError
+    from creatio.pipeline.config import resolve
+
+    ok = resolve("en02", ["phases.T=30", "phases.a.kind=trapezoid", "phases.a.rate=115.2"])
+    assert ok.obj.phases.laws()[1].switch_times() == (11.25, 18.75, 30.0)
+    with pytest.raises(ConfigError, match=r"phases.a.rate.*\(72, 144\]"):
+        resolve("en02", ["phases.T=30", "phases.a.kind=trapezoid", "phases.a.rate=150"])
+    with pytest.raises(ConfigError, match="phases.a.*multiples of solver.dt"):
+        resolve("en02", ["phases.T=30", "phases.a.kind=trapezoid", "phases.a.rate=97"])

@@ -124,11 +124,12 @@ _guard_cache()
 from numba import njit  # noqa: E402
 from numba.extending import register_jitable  # noqa: E402
 
-from creatio.model import cavity, flight, laws, offset, sphere, structure  # noqa: E402
+from creatio.model import cavity, control, flight, laws, offset, sphere, structure  # noqa: E402
 
 # offset_jets is inlined into its callers by numba: LLVM would keep it a call that returns
 # its 53 numbers through memory, and the right-hand side runs ~7% slower (bench_against)
 _INLINED = {offset.offset_jets: "always"}
-for _fn in (laws.law_eval, *offset.SCALAR_KERNELS, *sphere.SCALAR_KERNELS,
-            *cavity.SCALAR_KERNELS, *structure.SCALAR_KERNELS, *flight.SCALAR_KERNELS):
+for _fn in (laws.law_eval, laws.trapezoid_scalar, *offset.SCALAR_KERNELS, *sphere.SCALAR_KERNELS,
+            *cavity.SCALAR_KERNELS, *structure.SCALAR_KERNELS, *flight.SCALAR_KERNELS,
+            *control.SCALAR_KERNELS):
     register_jitable(inline=_INLINED.get(_fn, "never"))(_fn)

@@ -11,10 +11,14 @@ this order, each present only in the specialisation that integrates it:
 
 * rotation [omega (3, world), Q (4), cumulative spin];
 * energy [surface work, friction dissipation (, confinement work on the structure path)];
-* structure [theta, Theta] (the structure path of docs/model.md s.9-10).
+* structure [theta, Theta] (the structure path of docs/model.md s.9-10);
+* control [phi_a, phidot_a] (the controlled phase of docs/model.md s.12.2, fixed structure
+  only): present when the law tuple carries the controller's coefficients as a fourth row
+  (LAW_CONTROL, laid out by the C_* slots), which makes it a compile-time property of the
+  types a specialisation is compiled for.
 
-A new block (a controlled phase, say) is a flag, a size and a start computed from the blocks
-before it, like :func:`structure_start`; the blocks before it keep their positions.
+A new block is a flag, a size and a start computed from the blocks before it, like
+:func:`structure_start` and :func:`control_start`; the blocks before it keep their positions.
 """
 
 from __future__ import annotations
@@ -24,7 +28,8 @@ __all__ = [
     "COL_DISSIPATION", "COL_ENERGY", "COL_F", "COL_HZ_ORBITAL", "COL_HZ_SPIN",
     "COL_HZ_STRUCTURE", "COL_KINETIC", "COL_MARKER", "COL_N", "COL_OMEGA", "COL_POTENTIAL",
     "COL_Q", "COL_R", "COL_RESIDUAL", "COL_SLIP", "COL_SPEED", "COL_SPIN", "COL_SPIN_RATE",
-    "COL_T", "COL_THETA", "COL_THETA_RATE", "COL_V", "COL_WORK", "COL_WORLD_AZIMUTH", "COL_X",
+    "COL_ALPHADOT", "COL_PHI_A", "COL_PHI_A_RATE", "COL_T", "COL_THETA", "COL_THETA_RATE",
+    "COL_V", "COL_WORK", "COL_WORLD_AZIMUTH", "COL_X",
     "D_BK", "D_F", "D_GAMMA", "D_N", "D_PHI_A", "D_PHI_R", "D_SLIP", "D_V", "D_X", "E_AZ",
     "E_E0", "E_HZ0", "E_LEFT", "E_MAX_BK", "E_MAX_HZ_DRIFT", "E_MAX_IS_THETA", "E_MAX_N",
     "E_MAX_RES", "E_MAX_RHO", "E_MAX_SLIP", "E_MAX_THETA_RATE", "E_MAX_TRACK", "E_MIN_CLEAR",
@@ -36,6 +41,8 @@ __all__ = [
     "NEXT", "NF", "NFL", "NFX", "NLAWS", "NPAR", "NQ", "NROT", "NSTRUCT", "P_A", "P_B", "P_DR",
     "P_EPS", "P_G", "P_I", "P_INV_IS", "P_IS", "P_K", "P_KA", "P_M", "P_MCAV", "P_MU", "P_NCAV",
     "P_PRELOAD", "P_R0", "P_STOP_LEAVE", "SCALAR_KERNELS", "ST_RATE", "ST_THETA",
+    "C_ALPHA0", "C_DELTA_MAX", "C_GOAL", "C_K_OMEGA", "C_K_THETA", "C_OMEGA_MAX", "C_OMEGA_N",
+    "C_U_MAX", "C_ZETA", "CT_PHI", "CT_RATE", "LAW_CONTROL", "NCTL", "NCTLS", "control_start",
     "state_size", "structure_start", "X_FLIGHT_GAP", "X_FOOT_A", "X_FOOT_R", "X_MAX_GAP",
     "Y_ALPHA", "Y_ALPHADOT", "Y_OMEGA", "Y_Q", "Y_R", "Y_RDOT", "Y_SPIN",
 ]
@@ -79,8 +86,18 @@ def state_size(rot: bool, en: bool, free: bool) -> int:
     return energy_start(rot) + energy_size(False) if en else energy_start(rot)
 
 
+#: The control block, from its start: the angular phase phi_a and its rate phidot_a.
+CT_PHI, CT_RATE = 0, 1
+NCTLS = 2
+
+
+def control_start(rot: bool, en: bool) -> int:
+    """Where the control block starts (fixed structure only): after every other block."""
+    return state_size(rot, en, False)
+
+
 #: The block positions, compiled where the kernels use them (constants once compiled).
-SCALAR_KERNELS = (energy_start, energy_size, structure_start, state_size)
+SCALAR_KERNELS = (energy_start, energy_size, structure_start, state_size, control_start)
 
 # -------------------------------------------------------------------------- flight state
 #: The flight state of the hybrid loop (docs/model.md s.11.7), world frame: centre X,
@@ -106,6 +123,15 @@ NPAR = 17
 #: coefficient vector of creatio.model.laws).
 LAW_R, LAW_A, LAW_GAMMA = 0, 1, 2
 NLAWS = 3
+#: The controller's row of the law tuple (present only on the controlled path, where the
+#: angular phase is the state's, docs/model.md s.12.2), laid out by the slots below: the
+#: commanded travel theta_goal and the alpha it is measured from, the outer loop's gains
+#: K_theta and K_omega, the speed limit Omega_max, the lead limit delta_max, the servo's
+#: omega_n and zeta, and the acceleration limit u_max (inf: none).
+LAW_CONTROL = 3
+(C_GOAL, C_ALPHA0, C_K_THETA, C_K_OMEGA, C_OMEGA_MAX, C_DELTA_MAX, C_OMEGA_N, C_ZETA,
+ C_U_MAX) = range(9)
+NCTL = 9
 
 # ------------------------------------------------------------------- diagnostics tuple
 #: The tuple every right-hand side returns beside dy/dt: N, |v_s|, the centre X (3) and its
@@ -147,7 +173,10 @@ COL_HZ_ORBITAL = 40
 COL_HZ_SPIN = 41
 COL_CONFINE = 42        # W_confine, the normal preload's work (free path only)
 COL_WORLD_AZIMUTH = 43  # centre azimuth in the world frame: relative azimuth + theta
-NCOL = 44
+COL_PHI_A = 44          # the angular phase (the law's, or the controlled state's)
+COL_PHI_A_RATE = 45     # its rate (controlled path only, else NaN)
+COL_ALPHADOT = 46       # the contact's angular rate (the controller's measurement)
+NCOL = 47
 
 # ---------------------------------------------------------------------- running extrema
 #: Slots of the running-extrema array the loops share: the run's reported extrema first

@@ -30,9 +30,11 @@ from numpy.typing import NDArray
 
 from creatio.dynamics import solvers
 from creatio.dynamics.layout import (
+    CT_PHI,
     LAW_A,
     LAW_GAMMA,
     LAW_R,
+    NCTLS,
     NEV,
     NLAWS,
     NPAR,
@@ -59,10 +61,12 @@ from creatio.dynamics.layout import (
     Y_Q,
     Y_R,
     Y_RDOT,
+    control_start,
     state_size,
 )
 from creatio.model import sphere as contact
 from creatio.model.cavity import cavity_angle_branch, cavity_branch
+from creatio.model.control import Controller
 from creatio.model.equilibrium import Equilibrium, static_equilibrium
 from creatio.model.laws import NLAW, Law
 from creatio.model.numerics import steps_in
@@ -192,6 +196,8 @@ class Model:
     motion: Motion
     sphere: Sphere
     structure: Structure = Structure()
+    #: the phase-tracking controller (docs/model.md s.12.2); None: phi_a is its law of time
+    control: Controller | None = None
 
     def __post_init__(self) -> None:
         _positive(self.surface, "R0", "dR")
@@ -352,6 +358,13 @@ class SphereProblem:
         if start.equilibrium and not self.model.vertical_pull > 0.0:
             raise ValueError("equilibrium start needs a pull along -z (g > 0 or a base "
                              "confinement with P > 0): the equilibrium minimises the height")
+        if self.model.control is not None:
+            if solvers.get(sv.method).stepper != solvers.EXPLICIT:
+                raise ValueError(f"the controlled phase needs an explicit method (rk4, dopri5, "
+                                 f"dop853), got {sv.method!r}")
+            if self.structure_free or ev.flight:
+                raise ValueError("the controlled phase needs the fixed structure, no normal "
+                                 "preload and no flight")
         if not ev.flight:
             if start.height > 0.0:
                 raise ValueError(f"height = {start.height} m (a dropped start) needs flight")
@@ -453,6 +466,19 @@ class SphereProblem:
         """The laws as the compiled core reads them (:meth:`Model.law_matrix`)."""
         return self.model.law_matrix()
 
+    @property
+    def controlled(self) -> bool:
+        """Whether phi_a is the controlled state of docs/model.md s.12.2."""
+        return self.model.control is not None
+
+    def run_parameters(self) -> NDArray[np.float64]:
+        """The parameter vector the driver receives: :meth:`parameter_vector`, followed on
+        the controlled path by the controller's row (creatio.dynamics.layout C_*)."""
+        p = self.parameter_vector()
+        if self.model.control is None:
+            return p
+        return np.concatenate([p, self.model.control.coefficients()])
+
     def initial_state(self, rotation: bool, energy: bool) -> NDArray[np.float64]:
         """Initial state vector for the given specialisation (identity orientation, zero sums),
         laid out by creatio.dynamics.layout (docs/model.md s.4.7)."""
@@ -465,6 +491,10 @@ class SphereProblem:
         if rotation:
             y[Y_OMEGA:Y_OMEGA + 3] = self.start.omega
             y[Y_Q] = 1.0
+        if self.model.control is not None:
+            # the control block: the law's phase at t = 0, at rest
+            y = np.concatenate([y, np.zeros(NCTLS)])
+            y[control_start(rotation, energy) + CT_PHI] = self.model.motion.phi_a.scalar(0.0)[0]
         return y
 
 
@@ -569,6 +599,11 @@ class SimulationResult:
     events: NDArray[np.float64] = field(default_factory=lambda: np.empty((0, NEV)))
     max_flight_height: float = math.nan
     ends_in_flight: bool = False
+    #: the angular phase, its rate (controlled path only, else NaN) and the contact's
+    #: angular rate alphadot at each row (docs/model.md s.12.2)
+    phi_a: NDArray[np.float64] = field(default_factory=lambda: np.empty(0))
+    phi_a_rate: NDArray[np.float64] = field(default_factory=lambda: np.empty(0))
+    alphadot: NDArray[np.float64] = field(default_factory=lambda: np.empty(0))
 
     @property
     def carried(self) -> bool:

@@ -15,6 +15,7 @@ from creatio.dynamics import solvers
 from creatio.dynamics import status as st
 from creatio.dynamics.layout import (
     COL_ALPHA,
+    COL_ALPHADOT,
     COL_AZIMUTH,
     COL_CAVITY_R,
     COL_CELL_U,
@@ -30,6 +31,8 @@ from creatio.dynamics.layout import (
     COL_MARKER,
     COL_N,
     COL_OMEGA,
+    COL_PHI_A,
+    COL_PHI_A_RATE,
     COL_POTENTIAL,
     COL_Q,
     COL_R,
@@ -91,7 +94,7 @@ def _run_arguments(problem: SphereProblem) -> tuple[tuple, dict]:
         n_steps = steps_in(out.t_end, sv.dt)
         stride = steps_in(out.interval, sv.dt)
     table = np.empty((n_steps // stride + 3, NCOL))
-    args = (solvers.get(sv.method), problem.parameter_vector(), problem.law_matrix(),
+    args = (solvers.get(sv.method), problem.run_parameters(), problem.law_matrix(),
             problem.initial_state(rot, en), table)
     kwargs = {
         "t_end": out.t_end, "interval": out.interval, "h0": sv.dt,
@@ -100,6 +103,7 @@ def _run_arguments(problem: SphereProblem) -> tuple[tuple, dict]:
         "max_evals": sv.max_rhs_evals, "progress": sv.progress_interval,
         "rotation": rot, "energy": en,
         "free": problem.structure_free, "dense": sv.dense_output,
+        "control": problem.controlled,
     }
     return args, kwargs
 
@@ -152,7 +156,7 @@ def simulate(problem: SphereProblem) -> SimulationResult:
     in_flight = False
     if problem.events.flight:
         ev, fl = _flight_arguments(problem)
-        for key in ("rotation", "energy", "free", "dense"):
+        for key in ("rotation", "energy", "free", "dense", "control"):
             kwargs.pop(key)
         (status, steps, rows, evals, ext, rejected, jacobians, factorisations, stop_time,
          n_events, fx, phase) = run_flight(*args, ev, fl, **kwargs)
@@ -260,6 +264,9 @@ def simulate(problem: SphereProblem) -> SimulationResult:
         events=events,
         max_flight_height=max_height,
         ends_in_flight=in_flight,
+        phi_a=h[:, COL_PHI_A].copy(),
+        phi_a_rate=h[:, COL_PHI_A_RATE].copy(),
+        alphadot=h[:, COL_ALPHADOT].copy(),
     )
 
 

@@ -29,7 +29,17 @@ from creatio.dynamics import layout
 from creatio.dynamics import status as st
 from creatio.dynamics.jit import njit
 from creatio.dynamics.layout import (
+    C_ALPHA0,
+    C_DELTA_MAX,
+    C_GOAL,
+    C_K_OMEGA,
+    C_K_THETA,
+    C_OMEGA_MAX,
+    C_OMEGA_N,
+    C_U_MAX,
+    C_ZETA,
     COL_ALPHA,
+    COL_ALPHADOT,
     COL_AZIMUTH,
     COL_CAVITY_R,
     COL_CELL_U,
@@ -45,6 +55,8 @@ from creatio.dynamics.layout import (
     COL_MARKER,
     COL_N,
     COL_OMEGA,
+    COL_PHI_A,
+    COL_PHI_A_RATE,
     COL_POTENTIAL,
     COL_Q,
     COL_R,
@@ -60,6 +72,8 @@ from creatio.dynamics.layout import (
     COL_WORK,
     COL_WORLD_AZIMUTH,
     COL_X,
+    CT_PHI,
+    CT_RATE,
     D_BK,
     D_N,
     D_SLIP,
@@ -83,10 +97,13 @@ from creatio.dynamics.layout import (
     EN_DISSIPATION,
     EN_WORK,
     LAW_A,
+    LAW_CONTROL,
     LAW_GAMMA,
     LAW_R,
+    NCTL,
     NDIAG,
     NEXT,
+    NLAWS,
     NPAR,
     P_B,
     P_DR,
@@ -112,12 +129,15 @@ from creatio.dynamics.layout import (
     Y_R,
     Y_RDOT,
     Y_SPIN,
+    control_start,
     energy_start,
+    state_size,
     structure_start,
 )
 from creatio.dynamics.structure import rhs_structure
-from creatio.dynamics.surface import surface
+from creatio.dynamics.surface import surface, surface_with_phase
 from creatio.model.cavity import cavity_cell_offsets, cavity_radius, in_cavity_cell
+from creatio.model.control import servo
 from creatio.model.laws import NLAW
 from creatio.model.sphere import (
     acceleration_at_fixed_rates,
@@ -147,7 +167,62 @@ def rhs(t, y, dy, pp, lc, rot, en, diag):
     pp is the parameter tuple (layout P_*), lc the laws' coefficient vectors (layout LAW_*);
     b kappa (the largest principal curvature times b) is computed only when diag is True.
     """
-    return rhs_on(surface(t, y[Y_R], y[Y_ALPHA], pp, lc), y, dy, pp, rot, en, diag)
+    sf, u = surface_state(t, y, pp, lc, rot, en)
+    d = rhs_on(sf, y, dy, pp, rot, en, diag)
+    control_rates(dy, y, u, lc, rot, en)
+    return d
+
+
+def surface_state(t, y, pp, lc, rot, en):
+    """(surface, u): the surface under the contact at (t, y) and the controlled phase's
+    acceleration u (0 where the phase is a law of time; compiled code only)."""
+    raise NotImplementedError("called only from compiled code")
+
+
+def control_rates(dy, y, u, lc, rot, en):
+    """Write the control block's rates (phidot_a, u) into dy on the controlled path; nothing
+    otherwise (compiled code only)."""
+    raise NotImplementedError("called only from compiled code")
+
+
+def _controlled(lc) -> bool:
+    """Whether the law tuple's type carries the controller's row (creatio.dynamics.layout
+    LAW_CONTROL): the controlled path is then compiled, a compile-time property."""
+    return isinstance(lc, types.BaseTuple) and len(lc) > NLAWS
+
+
+@overload(surface_state, inline="always")
+def _surface_state(t, y, pp, lc, rot, en):
+    """The laws' surface (as it always was), or on the controlled path the surface at the
+    state's phase and the servo's u (creatio.model.control.servo)."""
+    if not _controlled(lc):
+        def impl(t, y, pp, lc, rot, en):
+            return surface(t, y[Y_R], y[Y_ALPHA], pp, lc), 0.0
+        return impl
+
+    def controlled(t, y, pp, lc, rot, en):
+        ic = control_start(rot, en)
+        c = lc[LAW_CONTROL]
+        pa = y[ic + CT_PHI]
+        pa1 = y[ic + CT_RATE]
+        u, _, _, _ = servo(y[Y_ALPHA], y[Y_ALPHADOT], pa, pa1, pp[P_KA], c[C_GOAL],
+                           c[C_ALPHA0], c[C_K_THETA], c[C_K_OMEGA], c[C_OMEGA_MAX],
+                           c[C_DELTA_MAX], c[C_OMEGA_N], c[C_ZETA], c[C_U_MAX])
+        return surface_with_phase(t, y[Y_R], y[Y_ALPHA], pp, lc, pa, pa1, u), u
+    return controlled
+
+
+@overload(control_rates, inline="always")
+def _control_rates(dy, y, u, lc, rot, en):
+    """phi_a' = phidot_a, phidot_a' = u on the controlled path; nothing otherwise."""
+    if not _controlled(lc):
+        return lambda dy, y, u, lc, rot, en: None
+
+    def controlled(dy, y, u, lc, rot, en):
+        ic = control_start(rot, en)
+        dy[ic + CT_PHI] = y[ic + CT_RATE]
+        dy[ic + CT_RATE] = u
+    return controlled
 
 
 @njit(cache=True, inline="always")
@@ -261,6 +336,15 @@ def store(d, buf):
 def load(buf):
     """The diagnostics tuple stored by :func:`store`."""
     return to_fixed_tuple(buf, NDIAG)
+
+
+@njit(cache=True)
+def pack_controlled(p, lawc):
+    """:func:`pack` of the controlled path: the parameter vector p holds the controller's row
+    (layout C_*) after its NPAR parameters, and the law tuple gains it as LAW_CONTROL."""
+    lc = (to_fixed_tuple(lawc[LAW_R], NLAW), to_fixed_tuple(lawc[LAW_A], NLAW),
+          to_fixed_tuple(lawc[LAW_GAMMA], NLAW), to_fixed_tuple(p[NPAR:], NCTL))
+    return to_fixed_tuple(p[:NPAR], NPAR), lc
 
 
 @njit(cache=True)
@@ -458,6 +542,11 @@ def observe(first, t, y, d, pp, ext, out, row, final, sample, rot, en, free):
         out[row, COL_HZ_SPIN] = h_w
         out[row, COL_CONFINE] = y[ie + EN_CONFINE] if en else math.nan
         out[row, COL_WORLD_AZIMUTH] = az + theta
+    out[row, COL_PHI_A] = pa
+    out[row, COL_ALPHADOT] = y[Y_ALPHADOT]
+    # the controlled phase's rate, where the state carries it (docs/model.md s.12.2)
+    ic = state_size(rot, en, free)
+    out[row, COL_PHI_A_RATE] = y[ic + CT_RATE] if y.size > ic else math.nan
     return status, 1
 
 

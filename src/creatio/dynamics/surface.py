@@ -13,7 +13,7 @@ from creatio.dynamics.layout import LAW_A, LAW_GAMMA, LAW_R, P_A, P_B, P_K, P_KA
 from creatio.model.laws import law_eval
 from creatio.model.offset import offset_jets
 
-__all__ = ["phases", "surface"]
+__all__ = ["phases", "surface", "surface_with_phase"]
 
 
 #: The law evaluation, inlined where the right-hand sides call it: LLVM keeps it an out-of-line
@@ -37,6 +37,20 @@ def surface(t: float, R: float, a: float, pp: tuple, lc: tuple) -> tuple:
     the law values and the offset jets (creatio.model.offset.offset_jets), in the rotating
     frame; pp the parameter tuple (creatio.dynamics.layout P_*), lc the laws."""
     pr, pr1, pr2, pa, pa1, pa2, gm, g1, g2 = phases(t, lc)
+    rho, z, n1, n2, n3, P, Q, Z = offset_jets(
+        R, a, pp[P_R0], pp[P_K], pp[P_A], pp[P_KA], pp[P_B], pr, pr1, pr2, pa, pa1, pa2, gm, g1,
+        g2
+    )
+    return pr, pa, gm, rho, z, n1, n2, n3, P, Q, Z
+
+
+@njit(cache=True, inline="always")
+def surface_with_phase(t: float, R: float, a: float, pp: tuple, lc: tuple, pa: float,
+                       pa1: float, pa2: float) -> tuple:
+    """:func:`surface` with the angular phase and its two derivatives given (the controlled
+    path of docs/model.md s.12.2, where phi_a is a state) instead of read from its law."""
+    pr, pr1, pr2 = _law(lc[LAW_R], t)
+    gm, g1, g2 = _law(lc[LAW_GAMMA], t)
     rho, z, n1, n2, n3, P, Q, Z = offset_jets(
         R, a, pp[P_R0], pp[P_K], pp[P_A], pp[P_KA], pp[P_B], pr, pr1, pr2, pa, pa1, pa2, gm, g1,
         g2

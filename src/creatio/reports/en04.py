@@ -1,13 +1,15 @@
 """Report of EN-04: what the actuators must deliver, and the still-cavity check (docs/studies.md,
 docs/model.md s.12).
 
-From the study's datasets (``en04_actuation``, ``en04_oscillation``) the sphere kind's files:
-``en04.json`` (the contract: ``actuation.<study>``, ``oscillation.alpha`` / ``oscillation.R``,
-and ``control``, which a later part of the study fills; the checks beside them),
-``en04.md``, ``en04.png`` (the powers over the cycle), ``en04_history.csv`` (the actuation
-histories), ``en04_trajectory.png`` (the still-cavity oscillations) and
-``en04_convergence.png`` (the quadrature's convergence, its closed-form check and the load
-energy against the run's own bookkeeping). Nothing here recomputes a study.
+From the study's datasets (``en04_actuation``, ``en04_oscillation``, ``en04_control``) the
+sphere kind's files: ``en04.json`` (the contract: ``actuation.<study>``, ``oscillation.alpha``
+/ ``oscillation.R`` and ``control``; the checks beside them), ``en04.md``, ``en04.png`` (the
+powers over the cycle), ``en04_history.csv`` (the actuation histories),
+``en04_trajectory.png`` (the still-cavity oscillations), ``en04_convergence.png`` (the
+quadrature's convergence, its closed-form check and the load energy against the run's own
+bookkeeping), and for the closed loop ``en04_control.png`` (arrival over the controller
+grid) and ``en04_control_paths.png`` (the fastest closed loop beside the open-loop laws).
+Nothing here recomputes a study.
 """
 
 from __future__ import annotations
@@ -23,6 +25,7 @@ import xarray as xr
 from creatio.reports.common import (
     finish_figure,
     plt,
+    save_figure,
     start_report,
     table,
     write_markdown,
@@ -30,7 +33,7 @@ from creatio.reports.common import (
 )
 from creatio.studies.en04 import oscillation_tolerance
 
-__all__ = ["ACTUATION_KEYS", "en04_summary", "write_report"]
+__all__ = ["ACTUATION_KEYS", "CONTROL_CASE_KEYS", "en04_summary", "write_report"]
 
 #: The contract keys of ``actuation.<study>`` and the dataset variable each comes from.
 ACTUATION_KEYS = (
@@ -154,8 +157,8 @@ def _oscillation(ds: xr.Dataset) -> tuple[dict, dict]:
 
 
 def en04_summary(datasets: xr.Dataset | Sequence[xr.Dataset]) -> dict[str, Any]:
-    """The JSON report of EN-04: ``actuation``, ``oscillation`` and ``control`` (null until
-    the closed loop is built), each with its checks beside it."""
+    """The JSON report of EN-04: ``actuation``, ``oscillation`` and ``control`` (null when
+    its dataset is not among those given), each with its checks beside it."""
     runs = [datasets] if isinstance(datasets, xr.Dataset) else list(datasets)
     parts = _split(runs)
     out: dict[str, Any] = {"study": "en04"}
@@ -171,7 +174,14 @@ def en04_summary(datasets: xr.Dataset | Sequence[xr.Dataset]) -> dict[str, Any]:
         out["oscillation"] = contract
         out["oscillation_checks"] = checks
         statuses += [str(s) for s in parts["oscillation"].status.values]
-    out["control"] = None  # the closed loop of docs/model.md s.12.2: a later part
+    out["control"] = None
+    if "control" in parts:
+        contract, checks = _control(parts["control"])
+        out["control"] = contract
+        out["control_checks"] = checks
+        # a controller that loses the sphere has failed, and says so in its case; the part
+        # itself fails only when no case carries it
+        statuses.append("ok" if checks["cases_carried"] > 0 else "failed")
     out["status"] = "ok" if all(s == "ok" for s in statuses) else "failed"
     return out
 
@@ -375,8 +385,258 @@ def write_report(datasets: Sequence[Path], outdir: str | Path) -> dict[str, Path
                   "without slip by the last column, and the measurement follows the "
                   "prediction, decay included.", "",
                   f"![oscillations]({paths['trajectory'].name})", ""]
-    lines += ["## Control", "", "Not computed yet: the closed loop of docs/model.md s.12.2 is "
-              "a later part of this study (`control` is null in en04.json).", "",
+    lines += ["## Quadrature and load energy", "",
               f"![convergence]({paths['convergence'].name})", ""]
+    ctl = parts.get("control")
+    if ctl is not None:
+        extra = {"control": paths["md"].with_name("en04_control.png"),
+                 "control_paths": paths["md"].with_name("en04_control_paths.png")}
+        _arrival_figure(ctl, extra["control"])
+        _paths_figure(ctl, extra["control_paths"])
+        paths = {**paths, **extra}
+        lines += _control_lines(s["control"], s["control_checks"], extra)
     write_markdown(paths["md"], "\n".join(lines))
     return paths
+
+
+def _control_lines(c: dict, k: dict, figures: dict[str, Path]) -> list[str]:
+    """The closed-loop section of the markdown report."""
+    def f(v: Any, fmt: str = ".3f") -> str:
+        return "-" if v is None else format(v, fmt)
+
+    fast = c["fastest_case"]
+    trap = c["trapezoid_best"]
+    ex = k["fastest_case_extra"] or {}
+    default = ", ".join(f"{a} {b:g}" for a, b in k["robustness_controller"].items())
+    lines = ["## Closed loop (docs/model.md s.12.2)", "",
+             f"EN-02's sphere commanded through -360 deg by the cascade: gains from "
+             f"k_alpha = {k['k_alpha_rad2_s2']:.4g} rad^2/s^2 (the rolling sphere's still-cavity "
+             f"frequency squared), zeta_c = zeta = 1; RK4 at {k['dt_s']:g} s and "
+             f"{k['fine_dt_s']:g} s; {k['cases_carried']} of {k['cases']} controllers carry "
+             "the sphere.", "",
+             *table(["", "arrival (s)", "how"], [
+                 ("closed loop, fastest", f(c["fastest_arrival_s"]),
+                  "-" if fast is None else
+                  f"Omega_max {fast['Omega_max_rad_s']:g} rad/s, delta_max "
+                  f"{fast['delta_max_deg']:g} deg, omega_c {fast['omega_c_rad_s']:g}, "
+                  f"omega_n {fast['omega_n_rad_s']:g} rad/s"),
+                 ("open loop, quintic at its boundary", f(k["quintic_boundary_arrival_s"]),
+                  f"shortest carried cycle T = {f(c['open_loop_boundary_T_s'])} s (bisection)"),
+                 ("open loop, best trapezoid", "-" if trap is None else f(trap["arrival_s"]),
+                  "-" if trap is None else
+                  f"Omega_max {trap['Omega_max_rad_s']:.4g} rad/s, a_max "
+                  f"{trap['a_max_rad_s2']:.4g} rad/s^2 (asked {trap['Omega_max_asked_rad_s']:g}"
+                  f", {trap['a_max_asked_rad_s2']:g}: switch times on the step grid)"),
+             ]), "",
+             "The first arrival can come with an overshoot; the case that settles first "
+             "(stays within the band to the end of the run) settles at "
+             f"{f(k['fastest_settling_s'])} s"
+             + ("" if k["fastest_settling_case"] is None else
+                " (" + ", ".join(f"{key} {f(v, '.4g') if isinstance(v, float) else v}"
+                                 for key, v in k["fastest_settling_case"].items()) + ")")
+             + ".", "",
+             "Fastest case, beside the contract: " + ", ".join(
+                 f"{key} {f(v, '.4g')}" for key, v in ex.items()) + ".", "",
+             f"![arrival over the grid]({figures['control'].name})", "",
+             f"![closed loop beside open loop]({figures['control_paths'].name})", "",
+             "### Robustness", "",
+             f"The default controller ({default}; "
+             f"gains of the nominal sphere) and the quintic law at T = "
+             f"{k['robustness_quintic_T_s']:g} s:", "",
+             *table(["mu", "m factor", "closed loop carried", "arrival (s)",
+                     "open loop carried", "arrival (s)"],
+                    [(r["mu"], r["mass_factor"], r["closed_loop_carried"],
+                      f(r["closed_loop_arrival_s"]), r["open_loop_carried"],
+                      f(r["open_loop_arrival_s"])) for r in c["robustness"]]), "",
+             "### Every controller", "",
+             f"Energy residual of the carried cases at most "
+             f"{f(k['max_energy_residual_carried_J'], '.3g')} J, dt - dt/2 centre difference "
+             f"at most {f(k['max_timestep_difference_carried_m'], '.3g')} m.", "",
+             *table([key for key, _ in CONTROL_CASE_KEYS],
+                    [tuple("-" if case[key] is None else f(case[key], ".4g")
+                           if isinstance(case[key], float) or case[key] is None else case[key]
+                           for key, _ in CONTROL_CASE_KEYS) for case in c["cases"]]), "",
+             "`-`: the run has no such time (it never arrived, or did not stay within the band "
+             "to its end); a run that ends `contact_lost` or `edge_crossed` stopped there."]
+    return lines
+
+
+# ------------------------------------------------------------------------- closed loop
+def _num(x: Any) -> float | None:
+    """A finite float, or None (JSON null) for NaN."""
+    v = float(x)
+    return v if math.isfinite(v) else None
+
+
+#: The contract keys of each ``control.cases`` entry and the dataset variable of each.
+CONTROL_CASE_KEYS = (
+    ("Omega_max_rad_s", "omega_max"),
+    ("delta_max_deg", "delta_max_deg"),
+    ("omega_c_rad_s", "omega_c"),
+    ("omega_n_rad_s", "omega_n"),
+    ("status", "status"),
+    ("carried", "carried"),
+    ("arrival_s", "arrival"),
+    ("settling_s", "settling"),
+    ("final_error_deg", "final_error"),
+    ("overshoot_deg", "overshoot"),
+    ("max_phidot_a_rad_s", "max_phidot_a"),
+    ("max_u_rad_s2", "max_u"),
+    ("min_normal_reaction_N", "min_normal_reaction"),
+    ("energy_residual_J", "energy_residual"),
+    ("timestep_difference_m", "timestep_difference"),
+)
+
+#: Further figures of each case, beside the contract (``control_checks``).
+_CONTROL_EXTRA = (
+    ("max_delta_deg", "max_delta"),
+    ("max_cavity_tracking_m", "max_cavity_tracking"),
+    ("max_slip_m_s", "max_slip"),
+    ("P_surface_peak_W", "P_surface_peak"),
+    ("P_surface_mean_W", "P_surface_mean"),
+)
+
+
+def _case(ds: xr.Dataset, i: int, keys: Sequence[tuple[str, str]]) -> dict[str, Any]:
+    out: dict[str, Any] = {}
+    for key, var in keys:
+        v = ds[var].values[i]
+        if var == "status":
+            out[key] = str(v)
+        elif var == "carried":
+            out[key] = bool(v)
+        else:
+            out[key] = _num(v)
+    return out
+
+
+def _control(ds: xr.Dataset) -> tuple[dict, dict]:
+    """(contract, checks) of the closed-loop dataset."""
+    cases = [_case(ds, i, CONTROL_CASE_KEYS) for i in range(ds.sizes["case"])]
+    fastest = int(ds.attrs["fastest_case"])
+    best = int(ds.attrs["trapezoid_best"])
+    trap = None
+    if best >= 0:
+        trap = {"Omega_max_rad_s": _num(ds.trap_omega_max.values[best]),
+                "a_max_rad_s2": _num(ds.trap_a_max.values[best]),
+                "arrival_s": _num(ds.trap_arrival.values[best]),
+                "Omega_max_asked_rad_s": _num(ds.trap_omega_max_asked.values[best]),
+                "a_max_asked_rad_s2": _num(ds.trap_a_max_asked.values[best]),
+                "T_s": _num(ds.trap_T.values[best])}
+    robustness = [
+        {"mu": float(mu), "mass_factor": float(f),
+         "closed_loop_carried": bool(ds.robust_closed_carried.values[i, j]),
+         "open_loop_carried": bool(ds.robust_open_carried.values[i, j]),
+         "closed_loop_arrival_s": _num(ds.robust_closed_arrival.values[i, j]),
+         "open_loop_arrival_s": _num(ds.robust_open_arrival.values[i, j])}
+        for i, mu in enumerate(ds.mu.values) for j, f in enumerate(ds.mass_factor.values)]
+    contract = {
+        "cases": cases,
+        "fastest_arrival_s": _num(ds.attrs["fastest_arrival"]),
+        "fastest_case": ({**_case(ds, fastest, CONTROL_CASE_KEYS[:4]), "index": fastest}
+                         if fastest >= 0 else None),
+        "open_loop_boundary_T_s": _num(ds.attrs["open_loop_boundary_T"]),
+        "trapezoid_best": trap,
+        "robustness": robustness,
+    }
+    carried = ds.carried.values.astype(bool)
+    res = ds.energy_residual.values[carried]
+    settling = np.where(carried, ds.settling.values, np.nan)
+    settled = int(np.nanargmin(settling)) if np.isfinite(settling).any() else -1
+    checks = {
+        "k_alpha_rad2_s2": float(ds.attrs["k_alpha"]),
+        "dt_s": float(ds.attrs["dt"]), "fine_dt_s": float(ds.attrs["fine_dt"]),
+        "cases_carried": int(carried.sum()), "cases": int(carried.size),
+        "max_energy_residual_carried_J": _num(np.max(res)) if res.size else None,
+        "max_timestep_difference_carried_m": (
+            _num(np.max(ds.timestep_difference.values[carried])) if res.size else None),
+        "quintic_boundary_arrival_s": _num(ds.attrs["quintic_boundary_arrival"]),
+        "quintic_bisection": [{"T_s": float(T), "carried": bool(c)} for T, c in
+                              zip(ds.quintic_T.values, ds.quintic_carried.values, strict=True)],
+        "robustness_quintic_T_s": float(ds.attrs["robust_quintic_T"]),
+        "robustness_controller": {k: float(ds.attrs[f"default_{k}"]) for k in
+                                  ("omega_max", "delta_max_deg", "omega_c", "omega_n")},
+        "fastest_case_extra": (_case(ds, fastest, _CONTROL_EXTRA) if fastest >= 0 else None),
+        "fastest_settling_s": _num(settling[settled]) if settled >= 0 else None,
+        "fastest_settling_case": (_case(ds, settled, CONTROL_CASE_KEYS) if settled >= 0
+                                  else None),
+    }
+    return contract, checks
+
+
+def _arrival_figure(ds: xr.Dataset, path: Path) -> None:
+    """Arrival time over the grid: one panel per (omega_c, omega_n), Omega_max across and
+    delta_max up; cases that lost the sphere crossed, the open-loop figures in the title."""
+    wcs = np.unique(ds.omega_c.values)
+    wns = np.unique(ds.omega_n.values)
+    oms = np.unique(ds.omega_max.values)
+    dms = np.unique(ds.delta_max_deg.values)
+    arrival = np.where(ds.carried.values.astype(bool), ds.arrival.values, np.nan)
+    finite = arrival[np.isfinite(arrival)]
+    vmin, vmax = (float(finite.min()), float(finite.max())) if finite.size else (0.0, 1.0)
+    fig, axes = plt.subplots(len(wns), len(wcs), figsize=(3.6 * len(wcs) + 1.2,
+                                                         2.7 * len(wns) + 0.8), squeeze=False)
+    image = None
+    for r, wn in enumerate(wns):
+        for c, wc in enumerate(wcs):
+            ax = axes[r, c]
+            grid = np.full((dms.size, oms.size), np.nan)
+            lost = np.zeros_like(grid, dtype=bool)
+            for i in range(ds.sizes["case"]):
+                if ds.omega_c.values[i] != wc or ds.omega_n.values[i] != wn:
+                    continue
+                a = int(np.searchsorted(dms, ds.delta_max_deg.values[i]))
+                b = int(np.searchsorted(oms, ds.omega_max.values[i]))
+                grid[a, b] = arrival[i]
+                lost[a, b] = not bool(ds.carried.values[i])
+            image = ax.imshow(grid, origin="lower", aspect="auto", cmap="viridis_r", vmin=vmin,
+                              vmax=vmax)
+            for a in range(dms.size):
+                for b in range(oms.size):
+                    text = "lost" if lost[a, b] else (
+                        "-" if math.isnan(grid[a, b]) else f"{grid[a, b]:.2f}")
+                    ax.text(b, a, text, ha="center", va="center", fontsize=7,
+                            color="red" if lost[a, b] else "white")
+            ax.set_xticks(range(oms.size), [f"{v:g}" for v in oms], fontsize=7)
+            ax.set_yticks(range(dms.size), [f"{v:g}" for v in dms], fontsize=7)
+            ax.set_title(f"omega_c = {wc:g}, omega_n = {wn:g} rad/s", fontsize=8)
+            if r == len(wns) - 1:
+                ax.set_xlabel("Omega_max (rad/s)", fontsize=8)
+            if c == 0:
+                ax.set_ylabel("delta_max (deg)", fontsize=8)
+    if image is not None:
+        fig.colorbar(image, ax=axes, shrink=0.8, label="arrival (s)")
+    T = float(ds.attrs["open_loop_boundary_T"])
+    best = int(ds.attrs["trapezoid_best"])
+    trap = float(ds.trap_arrival.values[best]) if best >= 0 else math.nan
+    fig.suptitle(f"Closed loop: arrival within {float(ds.attrs['arrival_tol_deg']):g} deg of "
+                 f"{float(ds.attrs['theta_goal_deg']):g} deg (s); fastest "
+                 f"{float(ds.attrs['fastest_arrival']):.3f} s. Open loop: quintic boundary "
+                 f"T = {T:.3f} s (arrival {float(ds.attrs['quintic_boundary_arrival']):.3f} s), "
+                 f"best trapezoid arrival {trap:.3f} s", fontsize=9)
+    save_figure(fig, path, dpi=100)
+    plt.close(fig)
+
+
+def _paths_figure(ds: xr.Dataset, path: Path) -> None:
+    """The fastest closed loop beside the open-loop quintic boundary case and the best
+    trapezoid: travel, pattern speed, lead and load power over the run."""
+    t = ds.time.values
+    fig, axes = plt.subplots(4, 1, figsize=(10, 11), sharex=True)
+    rows = (("path_theta", "travel theta (deg)"), ("path_pattern_speed",
+                                                    "pattern speed -phidot_a / Ka (rad/s)"),
+            ("path_lead", "lead delta (deg)"), ("path_power", "load power P_surface (W)"))
+    for k, label in enumerate(ds.path_label.values):
+        for ax, (var, _) in zip(axes, rows, strict=True):
+            ax.plot(t, ds[var].values[k], lw=1.1, label=str(label))
+    goal = float(ds.attrs["theta_goal_deg"])
+    tol = float(ds.attrs["arrival_tol_deg"])
+    axes[0].axhspan(goal - tol, goal + tol, color="0.85", label="arrival band")
+    for ax, (_, label) in zip(axes, rows, strict=True):
+        ax.set_ylabel(label, fontsize=8)
+        ax.grid(alpha=0.3)
+        ax.axhline(0.0, color="0.6", lw=0.5)
+    axes[0].legend(fontsize=8)
+    axes[-1].set_xlabel("t (s)")
+    fig.suptitle("Closed loop (fastest carried case) beside the open-loop laws", fontsize=10)
+    finish_figure(fig, path)

@@ -14,7 +14,9 @@ Two datasets, each a part of the study:
   R and along alpha in a still cavity, at each friction coefficient and two amplitudes; the
   measured frequencies beside the closed forms of docs/model.md s.12.3.
 
-The closed loop of docs/model.md s.12.2 (``control``) is a later part of this study.
+* ``en04_control``: the closed loop of docs/model.md s.12.2 on the sphere of
+  ``study.control.base``, beside the open-loop quintic and trapezoidal laws, and its
+  robustness (creatio.studies.en04_control).
 The config (``conf/study/en04.yaml``) holds the settings under ``study`` and the full configs
 of the studies it works on under ``bases``.
 """
@@ -42,6 +44,7 @@ from creatio.model.numerics import steps_in
 from creatio.model.oscillation import StillCavity, regularised_rolling, still_cavity
 from creatio.model.sphere import inertia
 from creatio.model.surface import Motion, Surface, Wave, wavenumber
+from creatio.studies.en04_control import ControlConfig, run_control
 from creatio.studies.registry import Part
 from creatio.studies.schema import MISSING, DynamicConfig, require
 
@@ -213,18 +216,19 @@ class StillCavityConfig:
 
 @dataclass
 class En04Study:
-    """EN-04's settings: the actuation demand and the still-cavity check (the closed loop
-    of docs/model.md s.12.2 is added by a later part)."""
+    """EN-04's settings: the actuation demand, the still-cavity check and the closed loop."""
 
     id: str = MISSING
     title: str = ""
     actuation: ActuationConfig = field(default_factory=ActuationConfig)
     oscillation: StillCavityConfig = field(default_factory=StillCavityConfig)
+    control: ControlConfig = field(default_factory=ControlConfig)
 
     def check(self, path: str, bases: dict[str, DynamicConfig]) -> None:
         """Each part's rules against the bases."""
         self.actuation.check(f"{path}.actuation", bases)
         self.oscillation.check(f"{path}.oscillation", bases)
+        self.control.check(f"{path}.control", bases)
 
 
 @dataclass
@@ -253,9 +257,10 @@ class En04Config:
 
 
 def parts(cfg: En04Config) -> list[Part]:
-    """The actuation demand, then the still-cavity verification."""
+    """The actuation demand, the still-cavity verification, the closed loop."""
     return [Part("en04_actuation", {"part": "actuation"}),
-            Part("en04_oscillation", {"part": "oscillation"})]
+            Part("en04_oscillation", {"part": "oscillation"}),
+            Part("en04_control", {"part": "control"})]
 
 
 def run(cfg: En04Config, part: str) -> xr.Dataset:
@@ -264,7 +269,11 @@ def run(cfg: En04Config, part: str) -> xr.Dataset:
         return run_actuation(cfg)
     if part == "oscillation":
         return run_oscillation(cfg)
-    raise ValueError(f"part must be actuation or oscillation, got {part!r}")
+    if part == "control":
+        c = cfg.study.control
+        base = cfg.bases[c.base]
+        return run_control(c, base, closed_forms(base).roll_alpha ** 2)
+    raise ValueError(f"part must be actuation, oscillation or control, got {part!r}")
 
 
 # --------------------------------------------------------------------- actuation demand

@@ -227,6 +227,7 @@ _USED = {
     LawKind.quintic: {"phi0", "delta"},
     LawKind.sinusoid: {"phi0", "amplitude", "omega"},
     LawKind.cosine_ramp: {"phi0", "delta"},
+    LawKind.trapezoid: {"phi0", "delta", "rate"},  # rate: the trapezoid's cruise rate
 }
 
 
@@ -244,8 +245,12 @@ class LawConfig:
     unit: AngleUnit = AngleUnit.rad
 
     def to_law(self, T: float = 1.0) -> Law:
-        """Convert to a :class:`Law` in radians (T is the quintic cycle length)."""
+        """Convert to a :class:`Law` in radians (T is the quintic cycle length; a trapezoid
+        travels delta in T at the cruise rate ``rate``, which sets its ramp fraction)."""
         f = math.pi / 180.0 if self.unit is AngleUnit.deg else 1.0
+        if self.kind is LawKind.trapezoid:
+            ramp = 1.0 - abs(self.delta) / (abs(self.rate) * T) if self.rate else 0.0
+            return Law.trapezoid(self.phi0 * f, self.delta * f, T, ramp)
         return Law(
             phi0=self.phi0 * f,
             rate=self.rate * f,
@@ -337,6 +342,21 @@ class PhasesConfig:
         self.r.check(f"{path}.r")
         self.a.check(f"{path}.a")
         self.gamma.check(f"{path}.gamma", inclination=True)
+        for name in ("r", "a", "gamma"):
+            law = getattr(self, name)
+            if law.kind is LawKind.trapezoid:
+                D = abs(law.delta)
+                require(D > 0.0 and law.rate * law.delta > 0.0
+                        and D / self.T < abs(law.rate) <= 2.0 * D / self.T + 1e-12 * D,
+                        f"{path}.{name}.rate", law.rate,
+                        f"a trapezoid's cruise rate has delta's sign and a size in (|delta| / T, "
+                        f"2 |delta| / T] = ({D / self.T:.6g}, {2 * D / self.T:.6g}] "
+                        f"{law.unit.value}/s (its ramp fraction in (0, 1/2])")
+
+    def switch_times(self) -> list[tuple[str, float]]:
+        """(law, time) of every acceleration jump of the laws (the trapezoids' switches)."""
+        return [(name, t) for name, law in zip(("r", "a", "gamma"), self.laws(), strict=True)
+                for t in law.switch_times()]
 
     def laws(self) -> tuple[Law, Law, Law]:
         """(phi_r, phi_a, gamma) as numeric-core laws."""
@@ -521,6 +541,12 @@ class DynamicConfig:
             self.study.duration,
             f"must be an integer multiple of solver.dt = {self.solver.dt}",
         )
+        if not (self.solver.adaptive or self.solver.dense_output):
+            # a fixed step lands on every jump of a law's acceleration (docs/model.md s.2)
+            for name, t in self.phases.switch_times():
+                require(steps_in(t, self.solver.dt) is not None, f"phases.{name}", f"{t:.9g} s",
+                        f"the trapezoid's switch times must be multiples of solver.dt = "
+                        f"{self.solver.dt} s (its steps land on them)")
         self._check_stability()
 
     def durations(self) -> list[float]:

@@ -62,9 +62,16 @@ from creatio.dynamics.solvers import (
     rosenbrock,
 )
 from creatio.dynamics.solvers.explicit import ACCEPTED, ERROR_REJECTED, next_step
-from creatio.dynamics.sphere import load, new_extrema, observe, pack, rhs_of
+from creatio.dynamics.sphere import (
+    load,
+    new_extrema,
+    observe,
+    pack,
+    pack_controlled,
+    rhs_of,
+)
 
-__all__ = ["SPECIALISATIONS", "run"]
+__all__ = ["CONTROLLED", "SPECIALISATIONS", "run"]
 
 #: The module of each implicit kind (the contract of the module docstring).
 _IMPLICIT = {RADAU: radau, ROSENBROCK: rosenbrock, RADAU_VO: radau_sphere}
@@ -129,6 +136,23 @@ def _implicit_dense_of(stepper, ws, tg, yout):
     return lambda stepper, ws, tg, yout: dense(ws, tg, yout)
 
 
+def _pack(ctl, p, lawc):
+    """The parameter and law tuples of the loop (compiled code only; resolved at compile
+    time on the literal ctl)."""
+    raise NotImplementedError("called only from compiled code")
+
+
+@overload(_pack, prefer_literal=True, inline="always")
+def _pack_of(ctl, p, lawc):
+    """creatio.dynamics.sphere.pack, or pack_controlled on the controlled path (the law tuple
+    then carries the controller's row, which selects that path in the right-hand side)."""
+    if not isinstance(ctl, types.BooleanLiteral):
+        return None
+    if ctl.literal_value:
+        return lambda ctl, p, lawc: pack_controlled(p, lawc)
+    return lambda ctl, p, lawc: pack(p, lawc)
+
+
 @njit(cache=True)
 def _arrays(n, n_dense, en):
     """Every array the loop writes for a state of size n, allocated once per run (the loop
@@ -146,7 +170,7 @@ _EXT = 8
 
 @njit(cache=True, _nrt=False)
 def _drive(stepper, p, lawc, y, arrays, iws, t_end, interval, h0, n_steps, stride, rtol, atol,
-           fixed, max_evals, progress, tab, out, rot, en, free, dense):
+           fixed, max_evals, progress, tab, out, rot, en, free, dense, ctl):
     """Integrate from t = 0 to t_end, from the initial state y (overwritten), with the
     stepper of kind `stepper` (a compile-time constant); rows of `out` are the sampled
     histories. The arrays it writes come from _arrays and, for an implicit kind, its
@@ -164,9 +188,10 @@ def _drive(stepper, p, lawc, y, arrays, iws, t_end, interval, h0, n_steps, strid
     when the step
     underflows or Newton fails at a fixed step, BUDGET_EXCEEDED when max_evals right-hand-side
     evaluations did not reach t_end (the budget never changes a step). A line of progress
-    goes to stderr every `progress` seconds (inf: never).
+    goes to stderr every `progress` seconds (inf: never). ctl: the controlled path (docs/model.md
+    s.12.2), whose parameter vector carries the controller's row after its parameters.
     """
-    pp, lc = pack(p, lawc)
+    pp, lc = _pack(ctl, p, lawc)
     (c, a_ptr, a_idx, a_val, b_idx, b_val, b_divisor, e, e3, estimator, error_order, c_extra,
      a_extra, dense_p) = tab
     n = y.size
@@ -337,7 +362,7 @@ def _drive(stepper, p, lawc, y, arrays, iws, t_end, interval, h0, n_steps, strid
     return status, steps, rows, evals, n_rej, n_jac, n_lu, n_newton, t
 
 
-def _entry(stepper: int, rot: bool, en: bool, free: bool):
+def _entry(stepper: int, rot: bool, en: bool, free: bool, ctl: bool = False):
     """The compiled entry point of one specialisation: _drive with the stepper kind and the
     rotation, energy and structure flags as constants (numba freezes a closure's variables),
     so a run compiles only the stepper, right-hand side and bookkeeping it uses. Its name
@@ -349,10 +374,11 @@ def _entry(stepper: int, rot: bool, en: bool, free: bool):
         status, steps, rows, evals, n_rej, n_jac, n_lu, n_newton, t = _drive(
             stepper, p, lawc, y0.copy(), arrays, _implicit_workspace(stepper, n, tab.c), t_end,
             interval, h0, n_steps, stride, rtol, atol, fixed, max_evals, progress, tab, out, rot,
-            en, free, dense)
+            en, free, dense, ctl)
         return status, steps, rows, evals, arrays[_EXT], n_rej, n_jac, n_lu, t, n_newton
 
-    flags = [name for name, on in (("structure", free), ("rot", rot), ("en", en)) if on]
+    flags = [name for name, on in (("structure", free), ("rot", rot), ("en", en),
+                                   ("control", ctl)) if on]
     entry.__name__ = entry.__qualname__ = "_".join(["", STEPPERS[stepper], *flags])
     return njit(cache=True)(entry)
 
@@ -361,6 +387,11 @@ def _entry(stepper: int, rot: bool, en: bool, free: bool):
 #: generated from STEPPERS and the three flags; each is compiled and cached on first use.
 SPECIALISATIONS = {key: _entry(*key) for key in itertools.product(
     STEPPERS, (True, False), (True, False), (True, False))}
+#: The controlled path's entry points (docs/model.md s.12.2), (stepper kind, rotation,
+#: energy) -> entry point: explicit steppers on the fixed structure (the implicit kinds'
+#: Jacobian has no columns for the controlled phase yet).
+CONTROLLED = {(EXPLICIT, rot, en): _entry(EXPLICIT, rot, en, False, True)
+              for rot, en in itertools.product((True, False), (True, False))}
 
 
 def run(
@@ -384,12 +415,17 @@ def run(
     energy: bool,
     free: bool = False,
     dense: bool = False,
+    control: bool = False,
 ) -> tuple:
     """Run `method` through its compiled specialisation: (status, steps, rows, rhs_evals,
     extrema, rejected, jacobians, lu_factorisations, stop_time, newton_iterations), see _drive.
     free selects the structure path (docs/model.md s.9-10); dense the rows from dense output
-    instead of steps cut to land on the grid."""
-    fn = SPECIALISATIONS[(method.stepper, bool(rotation), bool(energy), bool(free))]
+    instead of steps cut to land on the grid; control the controlled phase (s.12.2: p then
+    carries the controller's row after its parameters, y0 the control block last)."""
+    if control:
+        fn = CONTROLLED[(method.stepper, bool(rotation), bool(energy))]
+    else:
+        fn = SPECIALISATIONS[(method.stepper, bool(rotation), bool(energy), bool(free))]
     return fn(p, lawc, y0, float(t_end), float(interval), float(h0), int(n_steps), int(stride),
               float(rtol), float(atol), bool(fixed), int(max_evals), float(progress),
               method.driver_tableau, out, bool(dense))

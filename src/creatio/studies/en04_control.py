@@ -1,0 +1,489 @@
+"""EN-04's closed loop (docs/studies.md "EN-04", docs/model.md s.12.2): the controller grid,
+the open-loop boundaries it is measured against, and the robustness runs.
+
+One dataset, ``en04_control``, from the sphere of ``bases.<control.base>`` (EN-02's):
+
+* the grid Omega_max x delta_max x omega_c x omega_n (zeta_c = zeta = 1), each case run for
+  ``duration`` seconds at dt and at dt / refine with every step recorded: status, whether
+  the sphere stayed in its cavity, arrival, settling, final error, overshoot, max |delta|,
+  max |R - R_cavity|, max |phidot_a|, max |u|, min N, max slip, peak and mean load power,
+  energy residual, the dt - dt/2 difference of the centre;
+* the open-loop quintic cycle's shortest carried T (bisection on T) and the trapezoidal law's
+  grid Omega_max x a_max (its switch times rounded onto the step grid), each run as long
+  and judged by the same arrival rule;
+* robustness: the default controller and the quintic law at a fixed T, at each mu and mass
+  factor (the controller's gains stay the nominal sphere's);
+* the paths of the fastest carried closed loop, the quintic boundary case and the best
+  trapezoid on a common time grid, for the figures.
+
+The gains come from the design rule of docs/model.md s.12.2: k_alpha is the square of the
+rolling sphere's small-oscillation frequency along alpha in the base's still cavity
+(creatio.studies.en04.closed_forms).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from creatio.dynamics import (
+    SimulationResult,
+    SphereProblem,
+    UnstableStepError,
+    check_stable,
+    solvers,
+)
+from creatio.model.control import Controller, lead, outer_gains
+from creatio.model.laws import Law, trapezoid_on_grid
+from creatio.model.surface import Motion
+from creatio.studies.schema import DynamicConfig, require
+
+if TYPE_CHECKING:
+    import xarray as xr
+
+__all__ = ["ControlConfig", "ControllerPoint", "controller", "run_control"]
+
+
+@dataclass
+class ControllerPoint:
+    """One controller: speed limit (rad/s of the sphere's alpha), lead limit (deg), outer
+    loop frequency omega_c and servo frequency omega_n (rad/s)."""
+
+    omega_max: float = 2.0
+    delta_max_deg: float = 10.0
+    omega_c: float = 3.0
+    omega_n: float = 20.0
+
+
+@dataclass
+class BisectionConfig:
+    """The bracket [lo, hi] (s) of the quintic cycle's carried boundary and its width at
+    which the bisection stops."""
+
+    lo: float = 4.0
+    hi: float = 14.0
+    tol: float = 0.01
+
+
+@dataclass
+class TrapezoidGridConfig:
+    """The trapezoidal laws: pattern speed limits (rad/s) x accelerations (rad/s^2)."""
+
+    omega_max: list[float] = field(default_factory=lambda: [1.0, 1.5, 2.0, 2.5, 3.0])
+    a_max: list[float] = field(default_factory=lambda: [0.5, 1.0, 1.5, 2.0, 3.0])
+
+
+@dataclass
+class RobustnessConfig:
+    """The default controller and the quintic law of cycle quintic_T (s) at each friction
+    coefficient and mass factor."""
+
+    mus: list[float] = field(default_factory=lambda: [0.05, 0.15, 0.3])
+    mass_factors: list[float] = field(default_factory=lambda: [0.5, 1.0, 2.0])
+    quintic_T: float = 7.0
+
+
+@dataclass
+class ControlConfig:
+    """The closed loop of docs/model.md s.12.2 on the sphere of ``base``."""
+
+    base: str = "en02"
+    duration: float = 15.0
+    theta_goal_deg: float = -360.0
+    arrival_tol_deg: float = 2.0
+    zeta_c: float = 1.0
+    zeta: float = 1.0
+    u_max: float | None = None
+    path_interval: float = 0.02
+    omega_max: list[float] = field(default_factory=lambda: [1.0, 1.5, 2.0, 2.5, 3.0])
+    delta_max_deg: list[float] = field(default_factory=lambda: [5.0, 10.0, 20.0])
+    omega_c: list[float] = field(default_factory=lambda: [2.0, 3.0, 4.0])
+    omega_n: list[float] = field(default_factory=lambda: [10.0, 20.0, 40.0])
+    default: ControllerPoint = field(default_factory=ControllerPoint)
+    quintic: BisectionConfig = field(default_factory=BisectionConfig)
+    trapezoid: TrapezoidGridConfig = field(default_factory=TrapezoidGridConfig)
+    robustness: RobustnessConfig = field(default_factory=RobustnessConfig)
+
+    def check(self, path: str, bases: dict[str, DynamicConfig]) -> None:
+        """A fixed-step explicit base, positive gains and limits, delta_max below half a
+        cavity, u_max > 0 (null: none), a duration and sampling on the base's steps."""
+        require(self.base in bases, f"{path}.base", self.base,
+                f"must be a key of bases ({', '.join(sorted(bases))})")
+        base = bases[self.base]
+        sv = base.solver
+        require(solvers.get(str(sv.method)).stepper == solvers.EXPLICIT and not sv.adaptive
+                and not sv.dense_output, f"bases.{self.base}.solver.method", str(sv.method),
+                "the closed loop runs a fixed-step explicit method (rk4, or dopri5 / dop853 "
+                "with fixed_step) without dense output")
+        half = 180.0 / base.geometry.Ka
+        require(self.duration > 0.0, f"{path}.duration", self.duration, "must be > 0 s")
+        for step in sv.timesteps():
+            for key, v in (("duration", self.duration), ("path_interval", self.path_interval)):
+                require(abs(v / step - round(v / step)) < 1e-9 and v > 0.0, f"{path}.{key}", v,
+                        f"must be a positive multiple of bases.{self.base}.solver.dt and of "
+                        f"dt / refine ({step:g} s)")
+        require(self.theta_goal_deg != 0.0 and math.isfinite(self.theta_goal_deg),
+                f"{path}.theta_goal_deg", self.theta_goal_deg, "must be a nonzero travel")
+        require(self.arrival_tol_deg > 0.0, f"{path}.arrival_tol_deg", self.arrival_tol_deg,
+                "must be > 0 deg")
+        require(self.zeta_c > 0.0, f"{path}.zeta_c", self.zeta_c, "must be > 0 (a gain)")
+        require(self.zeta >= 0.0, f"{path}.zeta", self.zeta, "must be >= 0 (a gain)")
+        require(self.u_max is None or self.u_max > 0.0, f"{path}.u_max", self.u_max,
+                "must be > 0 rad/s^2 (null: no limit)")
+        points = [(f"{path}.omega_max", self.omega_max), (f"{path}.omega_c", self.omega_c),
+                  (f"{path}.omega_n", self.omega_n)]
+        for key, values in points:
+            require(len(values) >= 1, key, list(values), "needs at least 1 value")
+            for i, v in enumerate(values):
+                require(v > 0.0, f"{key}[{i}]", v, "must be > 0 (a gain or a limit)")
+        require(len(self.delta_max_deg) >= 1, f"{path}.delta_max_deg", list(self.delta_max_deg),
+                "needs at least 1 value")
+        for i, v in enumerate(self.delta_max_deg):
+            require(0.0 <= v < half, f"{path}.delta_max_deg[{i}]", v,
+                    f"must lie in [0, 180 / Ka = {half:g}) deg: at half a cavity the lead "
+                    "reaches the next cavity")
+        d = self.default
+        for key in ("omega_max", "omega_c", "omega_n"):
+            require(getattr(d, key) > 0.0, f"{path}.default.{key}", getattr(d, key),
+                    "must be > 0 (a gain or a limit)")
+        require(0.0 <= d.delta_max_deg < half, f"{path}.default.delta_max_deg",
+                d.delta_max_deg, f"must lie in [0, 180 / Ka = {half:g}) deg")
+        q = self.quintic
+        require(0.0 < q.lo < q.hi, f"{path}.quintic.lo", q.lo,
+                f"must satisfy 0 < lo < hi = {q.hi} s")
+        require(0.0 < q.tol < q.hi - q.lo, f"{path}.quintic.tol", q.tol,
+                "must be > 0 and below the bracket's width")
+        require(q.hi <= self.duration, f"{path}.quintic.hi", q.hi,
+                f"must be <= duration = {self.duration} s (a cycle ends within the run)")
+        for key in ("omega_max", "a_max"):
+            values = getattr(self.trapezoid, key)
+            require(len(values) >= 1, f"{path}.trapezoid.{key}", list(values),
+                    "needs at least 1 value")
+            for i, v in enumerate(values):
+                require(v > 0.0, f"{path}.trapezoid.{key}[{i}]", v, "must be > 0")
+        r = self.robustness
+        for i, mu in enumerate(r.mus):
+            require(mu >= 0.0, f"{path}.robustness.mus[{i}]", mu, "must be >= 0")
+        for i, f in enumerate(r.mass_factors):
+            require(f > 0.0, f"{path}.robustness.mass_factors[{i}]", f, "must be > 0")
+        require(0.0 < r.quintic_T <= self.duration, f"{path}.robustness.quintic_T",
+                r.quintic_T, f"must lie in (0, duration = {self.duration}] s")
+
+
+# ------------------------------------------------------------------------------- runs
+def controller(cfg: ControlConfig, problem: SphereProblem, k_alpha: float, point: ControllerPoint
+               ) -> Controller:
+    """The controller of one grid point on problem's start, gains by the design rule."""
+    k_theta, k_omega = outer_gains(point.omega_c, cfg.zeta_c, k_alpha)
+    return Controller(goal=math.radians(cfg.theta_goal_deg), alpha0=problem.start_point[1],
+                      k_theta=k_theta, k_omega=k_omega, omega_max=point.omega_max,
+                      delta_max=math.radians(point.delta_max_deg), omega_n=point.omega_n,
+                      zeta=cfg.zeta, u_max=math.inf if cfg.u_max is None else cfg.u_max)
+
+
+def _stable(problem: SphereProblem) -> SphereProblem:
+    """problem at its dt, or at dt halved until the friction stability limit allows it (a
+    robustness run at a larger mu; the step used is recorded)."""
+    while True:
+        try:
+            check_stable(problem)
+            return problem
+        except UnstableStepError:
+            problem = problem.replace(dt=problem.solver.dt / 2.0,
+                                      interval=problem.output.interval / 2.0)
+
+
+def _simulate(problem: SphereProblem) -> SimulationResult:
+    from creatio.dynamics import simulate
+
+    return simulate(_stable(problem))
+
+
+@dataclass
+class Measured:
+    """What one run's histories say against the arrival rule (angles in deg, times in s)."""
+
+    status: str
+    carried: bool
+    arrival: float
+    settling: float
+    final_error: float
+    overshoot: float
+    max_delta: float
+    max_phidot: float
+    max_u: float
+    min_N: float
+    max_slip: float
+    max_track: float
+    P_peak: float
+    P_mean: float
+    residual: float
+    end_time: float
+
+
+def measure(res: SimulationResult, goal: float, tol: float, Ka: float,
+            ctl: Controller | None) -> Measured:
+    """The arrival rule of docs/model.md s.12.2 on theta = alpha - alpha(0): arrival the first
+    time |theta - goal| <= tol, settling the time from which it stays so to the end (NaN if
+    it does not end so, or the run stopped early), overshoot past the goal; u recomputed from
+    the histories by the controller's own formula."""
+    t = res.t
+    if t.size == 0:
+        nan = math.nan
+        return Measured(res.status, False, nan, nan, nan, nan, nan, nan, nan, nan, nan, nan,
+                        nan, nan, nan, 0.0)
+    theta = res.alpha - res.alpha[0]
+    err = theta - goal
+    within = np.abs(err) <= tol
+    arrival = float(t[np.argmax(within)]) if within.any() else math.nan
+    settling = math.nan
+    ran = res.status == "ok"
+    if ran and within[-1]:
+        outside = np.nonzero(~within)[0]
+        settling = float(t[outside[-1] + 1]) if outside.size else float(t[0])
+    sign = math.copysign(1.0, goal)
+    overshoot = max(0.0, float(np.max(sign * err)))
+    delta = np.array([lead(a, p, Ka) for a, p in zip(res.alpha, res.phi_a, strict=True)])
+    if ctl is not None:
+        u, _, _ = ctl.acceleration(Ka, res.alpha, res.alphadot, res.phi_a, res.phi_a_rate)
+        phidot = res.phi_a_rate
+        max_u = float(np.max(np.abs(u)))
+    else:
+        phidot = np.gradient(res.phi_a, t) if t.size > 1 else np.zeros(1)
+        max_u = math.nan
+    P = np.gradient(res.surface_work, t) if t.size > 1 else np.zeros(1)
+    span = float(t[-1] - t[0])
+    return Measured(
+        status=res.status, carried=bool(res.carried and ran), arrival=arrival,
+        settling=settling, final_error=math.degrees(float(err[-1])),
+        overshoot=math.degrees(overshoot), max_delta=math.degrees(float(np.max(np.abs(delta)))),
+        max_phidot=float(np.max(np.abs(phidot))), max_u=max_u, min_N=res.min_N,
+        max_slip=res.max_slip_speed, max_track=res.max_cavity_tracking_error,
+        P_peak=float(np.max(np.abs(P))),
+        P_mean=float(res.surface_work[-1] - res.surface_work[0]) / span if span > 0 else 0.0,
+        residual=res.max_energy_residual, end_time=float(t[-1]))
+
+
+def _difference(a: SimulationResult, b: SimulationResult) -> float:
+    """Largest distance between the centres of two runs at their common times."""
+    common, ia, ib = np.intersect1d(np.round(a.t, 9), np.round(b.t, 9), return_indices=True)
+    if common.size == 0:
+        return math.nan
+    return float(np.max(np.linalg.norm(a.X[ia] - b.X[ib], axis=1)))
+
+
+@dataclass
+class Path:
+    """A run's path on the common time grid: travel (deg), pattern speed (rad/s), lead (deg),
+    load power (W)."""
+
+    name: str
+    label: str
+    t: np.ndarray
+    theta: np.ndarray
+    pattern_speed: np.ndarray
+    lead: np.ndarray
+    power: np.ndarray
+
+
+def _path(name: str, label: str, res: SimulationResult, Ka: float, grid: np.ndarray) -> Path:
+    """res's histories on grid (NaN after its last row)."""
+    theta = np.degrees(res.alpha - res.alpha[0])
+    rate = res.phi_a_rate if np.isfinite(res.phi_a_rate).all() else np.gradient(res.phi_a, res.t)
+    delta = np.degrees([lead(a, p, Ka) for a, p in zip(res.alpha, res.phi_a, strict=True)])
+    power = np.gradient(res.surface_work, res.t)
+
+    def on(y: np.ndarray) -> np.ndarray:
+        return np.interp(grid, res.t, y, right=math.nan)
+
+    return Path(name, label, grid, on(theta), on(-rate / Ka), on(delta), on(power))
+
+
+def run_control(cfg: ControlConfig, base: DynamicConfig, k_alpha: float) -> xr.Dataset:
+    """The ``en04_control`` dataset (see the module docstring)."""
+    import xarray as xr
+
+    Ka = float(base.geometry.Ka)
+    goal = math.radians(cfg.theta_goal_deg)
+    tol = math.radians(cfg.arrival_tol_deg)
+    dts = base.solver.timesteps()
+    nominal = base.sphere_problem().replace(t_end=cfg.duration)
+
+    def at(dt: float, **changes: Any) -> SphereProblem:
+        return nominal.replace(dt=dt, interval=dt, **changes)
+
+    # ---- the controller grid
+    keys = ("omega_max", "delta_max_deg", "omega_c", "omega_n")
+    grid = [ControllerPoint(om, dm, wc, wn) for om in cfg.omega_max for dm in cfg.delta_max_deg
+            for wc in cfg.omega_c for wn in cfg.omega_n]
+    cases: list[Measured] = []
+    diffs: list[float] = []
+    results: list[SimulationResult] = []
+    for point in grid:
+        ctl = controller(cfg, nominal, k_alpha, point)
+        coarse = _simulate(at(dts[0], control=ctl))
+        fine = _simulate(at(dts[1], control=ctl))
+        cases.append(measure(coarse, goal, tol, Ka, ctl))
+        diffs.append(_difference(coarse, fine))
+        results.append(coarse)
+    arrivals = np.array([c.arrival if c.carried else math.nan for c in cases])
+    fastest = int(np.nanargmin(arrivals)) if np.isfinite(arrivals).any() else -1
+
+    # ---- open loop: the quintic cycle's carried boundary
+    phase_travel = -Ka * goal
+    pa0 = float(nominal.model.motion.phi_a.scalar(0.0)[0])
+    motion = nominal.model.motion
+
+    def quintic(T: float, problem: SphereProblem | None = None) -> SimulationResult:
+        law = Law.quintic(pa0, phase_travel, T)
+        p = problem or at(dts[0])
+        return _simulate(p.replace(motion=Motion(motion.phi_r, law, motion.gamma)))
+
+    q = cfg.quintic
+    lo, hi = q.lo, q.hi
+    tried: list[tuple[float, bool]] = []
+    hi_res = quintic(hi)
+    tried.append((hi, bool(hi_res.carried and hi_res.status == "ok")))
+    lo_res = quintic(lo)
+    tried.append((lo, bool(lo_res.carried and lo_res.status == "ok")))
+    boundary_found = tried[0][1] and not tried[1][1]
+    best_quintic = hi_res
+    while boundary_found and hi - lo > q.tol:
+        mid = 0.5 * (lo + hi)
+        r = quintic(mid)
+        ok = bool(r.carried and r.status == "ok")
+        tried.append((mid, ok))
+        if ok:
+            hi, best_quintic = mid, r
+        else:
+            lo = mid
+    boundary_T = hi if boundary_found else math.nan
+    quintic_measure = measure(best_quintic, goal, tol, Ka, None)
+
+    # ---- open loop: the trapezoidal laws, switch times on the step grid
+    trap_rows: list[tuple[float, float, float, float, float, float, Measured]] = []
+    trap_results: list[SimulationResult] = []
+    for om in cfg.trapezoid.omega_max:
+        for am in cfg.trapezoid.a_max:
+            T, ramp, W, a = trapezoid_on_grid(phase_travel, Ka * om, Ka * am, dts[0])
+            law = Law.trapezoid(pa0, phase_travel, T, ramp)
+            r = _simulate(at(dts[0]).replace(motion=Motion(motion.phi_r, law, motion.gamma)))
+            trap_rows.append((om, am, W / Ka, a / Ka, T, ramp * T,
+                              measure(r, goal, tol, Ka, None)))
+            trap_results.append(r)
+    trap_arrival = np.array([m.arrival if m.carried else math.nan for *_, m in trap_rows])
+    best_trap = int(np.nanargmin(trap_arrival)) if np.isfinite(trap_arrival).any() else -1
+
+    # ---- robustness: default controller and quintic at a fixed T, mu x mass
+    rb = cfg.robustness
+    closed = np.zeros((len(rb.mus), len(rb.mass_factors)), dtype=bool)
+    opened = np.zeros_like(closed)
+    closed_arrival = np.full(closed.shape, math.nan)
+    open_arrival = np.full(closed.shape, math.nan)
+    closed_status = np.full(closed.shape, "", dtype=object)
+    open_status = np.full(closed.shape, "", dtype=object)
+    robust_dt = np.full(closed.shape, math.nan)
+    default_ctl = controller(cfg, nominal, k_alpha, cfg.default)
+    for i, mu in enumerate(rb.mus):
+        for j, f in enumerate(rb.mass_factors):
+            p = at(dts[0], mu=float(mu), m=nominal.model.sphere.m * f)
+            rc = _simulate(p.replace(control=default_ctl))
+            ro = quintic(rb.quintic_T, p)
+            mc, mo = measure(rc, goal, tol, Ka, default_ctl), measure(ro, goal, tol, Ka, None)
+            closed[i, j], opened[i, j] = mc.carried, mo.carried
+            closed_arrival[i, j], open_arrival[i, j] = mc.arrival, mo.arrival
+            closed_status[i, j], open_status[i, j] = rc.status, ro.status
+            robust_dt[i, j] = rc.dt
+
+    # ---- paths for the figures
+    tgrid = np.arange(0.0, cfg.duration + 0.5 * cfg.path_interval, cfg.path_interval)
+    paths = []
+    if fastest >= 0:
+        paths.append(_path("closed_loop", "fastest closed loop", results[fastest], Ka, tgrid))
+    paths.append(_path("quintic", f"quintic T = {boundary_T:.3f} s", best_quintic, Ka, tgrid))
+    if best_trap >= 0:
+        paths.append(_path("trapezoid", "best trapezoid", trap_results[best_trap], Ka, tgrid))
+
+    def col(name: str) -> np.ndarray:
+        return np.array([getattr(c, name) for c in cases], dtype=float)
+
+    ds = xr.Dataset(
+        {
+            "status": ("case", np.array([c.status for c in cases], dtype=str)),
+            "carried": ("case", np.array([c.carried for c in cases])),
+            "arrival": ("case", col("arrival"), {"units": "s"}),
+            "settling": ("case", col("settling"), {"units": "s"}),
+            "final_error": ("case", col("final_error"), {"units": "degree"}),
+            "overshoot": ("case", col("overshoot"), {"units": "degree"}),
+            "max_delta": ("case", col("max_delta"), {"units": "degree"}),
+            "max_phidot_a": ("case", col("max_phidot"), {"units": "rad s-1"}),
+            "max_u": ("case", col("max_u"), {"units": "rad s-2"}),
+            "min_normal_reaction": ("case", col("min_N"), {"units": "N"}),
+            "max_slip": ("case", col("max_slip"), {"units": "m s-1"}),
+            "max_cavity_tracking": ("case", col("max_track"), {"units": "m"}),
+            "P_surface_peak": ("case", col("P_peak"), {"units": "W"}),
+            "P_surface_mean": ("case", col("P_mean"), {"units": "W"}),
+            "energy_residual": ("case", col("residual"), {"units": "J"}),
+            "timestep_difference": ("case", np.array(diffs), {"units": "m"}),
+            "quintic_T": ("bisection", np.array([T for T, _ in tried]), {"units": "s"}),
+            "quintic_carried": ("bisection", np.array([ok for _, ok in tried])),
+            "trap_omega_max_asked": ("trap", np.array([r[0] for r in trap_rows]),
+                                     {"units": "rad s-1"}),
+            "trap_a_max_asked": ("trap", np.array([r[1] for r in trap_rows]),
+                                 {"units": "rad s-2"}),
+            "trap_omega_max": ("trap", np.array([r[2] for r in trap_rows]),
+                               {"units": "rad s-1", "long_name": "pattern speed limit used "
+                                "(switch times rounded to the step grid)"}),
+            "trap_a_max": ("trap", np.array([r[3] for r in trap_rows]), {"units": "rad s-2"}),
+            "trap_T": ("trap", np.array([r[4] for r in trap_rows]), {"units": "s"}),
+            "trap_ramp_time": ("trap", np.array([r[5] for r in trap_rows]), {"units": "s"}),
+            "trap_carried": ("trap", np.array([r[6].carried for r in trap_rows])),
+            "trap_status": ("trap", np.array([r[6].status for r in trap_rows], dtype=str)),
+            "trap_arrival": ("trap", np.array([r[6].arrival for r in trap_rows]),
+                             {"units": "s"}),
+            "robust_closed_carried": (("mu", "mass_factor"), closed),
+            "robust_open_carried": (("mu", "mass_factor"), opened),
+            "robust_closed_arrival": (("mu", "mass_factor"), closed_arrival, {"units": "s"}),
+            "robust_open_arrival": (("mu", "mass_factor"), open_arrival, {"units": "s"}),
+            "robust_closed_status": (("mu", "mass_factor"), closed_status.astype(str)),
+            "robust_open_status": (("mu", "mass_factor"), open_status.astype(str)),
+            "robust_dt": (("mu", "mass_factor"), robust_dt, {"units": "s"}),
+            "path_theta": (("path", "time"), np.array([p.theta for p in paths]),
+                           {"units": "degree"}),
+            "path_pattern_speed": (("path", "time"), np.array([p.pattern_speed for p in paths]),
+                                   {"units": "rad s-1"}),
+            "path_lead": (("path", "time"), np.array([p.lead for p in paths]),
+                          {"units": "degree"}),
+            "path_power": (("path", "time"), np.array([p.power for p in paths]),
+                           {"units": "W"}),
+        },
+        coords={
+            **{k: ("case", np.array([getattr(p, k) for p in grid], dtype=float))
+               for k in keys},
+            "mu": np.array(rb.mus, dtype=float),
+            "mass_factor": np.array(rb.mass_factors, dtype=float),
+            "path": [p.name for p in paths],
+            "path_label": ("path", [p.label for p in paths]),
+            "time": ("time", tgrid, {"units": "s"}),
+        },
+    )
+    ds.attrs.update({
+        "part": "control", "k_alpha": k_alpha, "theta_goal_deg": cfg.theta_goal_deg,
+        "arrival_tol_deg": cfg.arrival_tol_deg, "duration": cfg.duration, "dt": dts[0],
+        "fine_dt": dts[1], "zeta_c": cfg.zeta_c, "zeta": cfg.zeta,
+        "u_max": math.inf if cfg.u_max is None else cfg.u_max,
+        "fastest_case": fastest,
+        "fastest_arrival": float(arrivals[fastest]) if fastest >= 0 else math.nan,
+        "open_loop_boundary_T": boundary_T,
+        "open_loop_boundary_found": int(boundary_found),
+        "quintic_boundary_arrival": quintic_measure.arrival,
+        "trapezoid_best": best_trap,
+        "robust_quintic_T": rb.quintic_T,
+        "default_omega_max": cfg.default.omega_max,
+        "default_delta_max_deg": cfg.default.delta_max_deg,
+        "default_omega_c": cfg.default.omega_c, "default_omega_n": cfg.default.omega_n,
+    })
+    return ds
