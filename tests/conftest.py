@@ -121,6 +121,16 @@ LONG = (
     "tests/pipeline/test_worker.py::test_ctrl_c_of_a_served_job_exits_130_in_one_line",
     "tests/pipeline/test_worker.py::test_snakemake_jobs_run_in_the_invocations_worker",
     "tests/pipeline/test_worker.py::test_a_refused_value_in_the_worker_is_one_line_and_exit_2",
+    # the Radau IIA orders 9/13 and the controlled phase (each compiles a specialisation of
+    # its own: 15-65 s apiece in the quick tier's --durations, load 2-3)
+    "tests/core/test_radau_sphere.py",
+    "tests/core/test_progress.py::test_budget_stops_a_run_without_changing_its_steps",
+    "tests/core/test_control.py::test_energy_residual_rk4_order",
+    "tests/core/test_radau_iia.py::test_dense_output_order_is_s_plus_1_off_the_steps",
+    "tests/core/test_radau_iia.py::test_order_switch_picks_higher_orders_at_tighter_tolerance",
+    "tests/core/test_beyond_inclination.py::test_a_short_cycle_leaves_its_cavity_yet_ends_ok",
+    "tests/core/test_dynamics_simulation.py::"
+    "test_trajectory_only_matches_full_run_when_frictionless",
 )
 
 
