@@ -164,18 +164,22 @@ def test_ctrl_c_of_a_served_job_exits_130_in_one_line(warm, tmp_path):
     assert not (tmp_path / "x.nc").exists()
 
 
-def test_snakemake_jobs_run_in_the_invocations_worker(tmp_path):
-    """A local `snakemake all` starts its worker with the environment Snakemake's shell
-    gives a one-thread job, so its dataset and report jobs are served (none refused), and
-    what they write equals one process per job."""
-    def snakemake(work: Path, worker_env: str | None) -> str:
-        env = {**os.environ, "CREATIO_DEBUG": "1"}
-        env.pop(worker.ENV, None)
+def test_snakemake_jobs_run_in_the_shared_worker_across_invocations(tmp_path):
+    """A local `snakemake all` runs its jobs in the shared worker of the environment
+    Snakemake gives a one-thread job (started on demand), so its dataset and report jobs
+    are served (none refused); the next invocation finds the same worker, warm; what both
+    write equals one process per job."""
+    base = {**os.environ, "CREATIO_DEBUG": "1", "CREATIO_WORKER_IDLE": "120"}
+    base.pop(worker.ENV, None)
+    shared = worker.shared_socket({**base, **dict.fromkeys(worker.SNAKEMAKE_THREADS, "1")})
+
+    def snakemake(work: Path, worker_env: str | None, overrides: str = "[]") -> str:
+        env = dict(base)
         if worker_env:
             env[worker.ENV] = worker_env
         done = subprocess.run(
             [sys.executable, "-m", "snakemake", "-s", str(REPO / "Snakefile"), "-d", str(work),
-             "-c", "2", "all", "--config", 'studies=["en02"]'],
+             "-c", "2", "all", "--config", 'studies=["en02"]', f"overrides={overrides}"],
             cwd=work, env=env, capture_output=True, text=True, timeout=900)
         assert done.returncode == 0, done.stderr[-3000:]
         return "".join(p.read_text() for p in sorted((work / "data" / "logs").rglob("*.log")))
@@ -184,9 +188,14 @@ def test_snakemake_jobs_run_in_the_invocations_worker(tmp_path):
     warm.mkdir(), alone.mkdir()
     logs = snakemake(warm, None)
     assert "wrote" in logs and "refused" not in logs, logs
-    assert list((warm / ".snakemake" / "log").glob("creatio-worker-*.log"))
+    state = worker.control(shared, "status")
+    assert state is not None and state["served"] >= 3, state  # 2 datasets, 1 report
+    snakemake(warm, None, '["sphere.mu=0.2"]')  # the next invocation: the same worker
+    again = worker.control(shared, "status")
+    assert again["pid"] == state["pid"] and again["served"] >= state["served"] + 3, again
     snakemake(alone, "off")
-    for nc in sorted((alone / "data" / "studies").rglob("*.nc")):
+    snakemake(alone, "off", '["sphere.mu=0.2"]')
+    for nc in sorted((alone / "data").rglob("*.nc")):
         _same_data(warm / nc.relative_to(alone), nc)
 
 

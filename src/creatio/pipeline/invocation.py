@@ -71,7 +71,8 @@ class Invocation:
                                 lambda: self.analyses.plans, self._ad_hoc_sweep,
                                 self._worked_sweep, lambda: self.beyond.plans]
         self.sweeps.fallbacks += [self._ad_hoc_sweep, self._worked_sweep]
-        self._worker: Any = None
+        self._worker: Any = None  # the shared worker's process, when this invocation started it
+        self._path: Path | None = None  # the socket of the worker its jobs use
         #: Held by the run: blocks of the rules, which run in threads of Snakemake's process
         #: (profiles/default): Hydra's composition is not thread-safe.
         self.lock = threading.Lock()
@@ -95,10 +96,10 @@ class Invocation:
 
     # ------------------------------------------------------------------ warm worker
     def prestart_worker(self, workflow: Any) -> None:
-        """Start the worker while Snakemake builds the DAG (its imports then overlap the
-        planning instead of delaying the first job) when the command line asks for a run:
-        not a dry run, lint, report or listing. start_worker, at onstart, keeps it or stops
-        it once Snakemake knows where the jobs run."""
+        """Find or start the worker while Snakemake builds the DAG (a new one's imports then
+        overlap the planning instead of delaying the first job) when the command line asks
+        for a run: not a dry run, lint, report or listing. start_worker, at onstart, keeps
+        it or stops one started for nothing once Snakemake knows where the jobs run."""
         if workflow.exec_mode.name != "DEFAULT" or set(sys.argv[1:]) & NO_RUN_FLAGS:
             return
         if any(a.startswith(("--report", "--list", "--lint", "--executor")) or a == "-e"
@@ -107,14 +108,16 @@ class Invocation:
         self._start()
 
     def start_worker(self, workflow: Any) -> None:
-        """Run this invocation's jobs in a warm worker of its own (creatio.pipeline.worker)
-        when they run on this machine; it starts with the environment Snakemake gives a
-        one-thread job and stops with the invocation. Jobs on a cluster,
+        """Run this invocation's jobs in the shared warm worker (creatio.pipeline.worker)
+        when they run on this machine: the one of this checkout and of the environment
+        Snakemake gives a one-thread job, started now if none serves (it outlives the
+        invocation until it has been idle for ``CREATIO_WORKER_IDLE`` s, default 900, so
+        that the next invocation's jobs start warm). Jobs on a cluster,
         ``CREATIO_WORKER=off``, or a system without fork and descriptor passing keep a
         process each."""
         if not workflow.local_exec or workflow.dryrun or workflow.exec_mode.name != "DEFAULT":
             self.stop_worker()
-        elif self._worker is None:
+        elif self._path is None:
             self._start()
 
     def _start(self) -> None:
@@ -122,25 +125,38 @@ class Invocation:
 
         if os.environ.get(worker.ENV) == "off" or not _can_fork():
             return
+        env = worker.snakemake_job_env(threads=1)
         try:
-            path = worker.daemon_socket().with_name(f"s-{os.getpid()}.sock")
-            log = Path(".snakemake") / "log" / f"creatio-worker-{os.getpid()}.log"
-            log.parent.mkdir(parents=True, exist_ok=True)
-            self._worker = worker.start(path, owner=os.getpid(), log=log,
-                                        env=worker.snakemake_job_env(threads=1))
+            idle = float(os.environ.get("CREATIO_WORKER_IDLE", worker.SHARED_IDLE))
+        except ValueError:
+            idle = worker.SHARED_IDLE
+        try:
+            path = worker.shared_socket(env)
+            self._worker = worker.ensure(path, env, idle, path.with_suffix(".log"))
         except OSError as e:  # no private directory, no socket: a process per job
             print(f"creatio: no warm worker ({e}): a process per job", file=sys.stderr)
             return
+        self._path = path
         os.environ[worker.ENV] = str(path)
 
     def stop_worker(self) -> None:
-        """Stop this invocation's worker, if it started one."""
+        """No worker for this invocation's jobs: one it started for them is stopped (one
+        that another invocation started, or that this one found, keeps serving)."""
         from creatio.pipeline import worker
 
-        if self._worker is not None:
+        if self._worker is not None and self._path is not None:
+            worker.control(self._path, "stop")
             worker.stop(self._worker)
-            self._worker = None
-            os.environ.pop(worker.ENV, None)
+        self._worker = self._path = None
+        os.environ.pop(worker.ENV, None)
+
+    def release_worker(self) -> None:
+        """At the end of the invocation: its jobs are done; the shared worker keeps serving
+        the next invocations until it has been idle long enough."""
+        from creatio.pipeline import worker
+
+        self._worker = self._path = None
+        os.environ.pop(worker.ENV, None)
 
 
 def _can_fork() -> bool:
