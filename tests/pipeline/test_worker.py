@@ -5,6 +5,7 @@ SLURM job never gives a result it should not: the command then runs in its own p
 from __future__ import annotations
 
 import os
+import re
 import signal
 import subprocess
 import sys
@@ -211,3 +212,28 @@ def test_a_refused_value_in_the_worker_is_one_line_and_exit_2(warm, tmp_path):
     assert done.returncode == alone.returncode == 2
     assert done.stderr == alone.stderr and len(done.stderr.splitlines()) == 1, done.stderr
     assert not (tmp_path / "x.nc").exists()
+
+
+def test_creatio_run_without_hydra_options_runs_as_the_hydra_app(tmp_path):
+    """`creatio run` with overrides only runs the config its check composed, without Hydra's
+    app (which composes it twice more): the same lines on stdout and stderr, the same
+    datasets bit for bit and the same report files as with a Hydra option (hydra.job.name),
+    which takes Hydra's path."""
+    env = {**os.environ, worker.ENV: "off"}
+    out = {}
+    for name, extra in (("plain", []), ("hydra", ["hydra.job.name=x"])):
+        (tmp_path / name).mkdir()
+        done = _run(["run", "study=ct02", "geometry.A=0.1", *extra], env, tmp_path / name)
+        assert done.returncode == 0, done.stderr
+        out[name] = (re.sub(r"in [\d.]+ s", "in X s", done.stdout), done.stderr)
+    assert out["plain"] == out["hydra"] and "wrote" in out["plain"][0], out
+    plain, hydra = tmp_path / "plain" / "data", tmp_path / "hydra" / "data"
+    files = sorted(p.relative_to(plain) for p in plain.rglob("*") if p.is_file())
+    assert files == sorted(p.relative_to(hydra) for p in hydra.rglob("*") if p.is_file())
+    for rel in files:
+        if rel.suffix == ".nc":
+            _same_data(plain / rel, hydra / rel)
+        elif rel.suffix in (".png", ".csv", ".md", ".json") and "index" not in rel.name:
+            assert (plain / rel).read_bytes() == (hydra / rel).read_bytes(), rel
+    bad = _run(["run", "study=ct02", "geometry.A=0.9"], env, tmp_path)
+    assert bad.returncode == 2 and len(bad.stderr.splitlines()) == 1, bad.stderr
