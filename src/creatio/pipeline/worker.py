@@ -84,7 +84,7 @@ IMPORT_TIME_NAMES = ("HOME", "TZ", "LANG", "LC_ALL", "LC_NUMERIC", "LC_CTYPE")
 #: (``CREATIO_WORKER_IDLE`` sets it).
 SHARED_IDLE = 900.0
 #: Read when a command runs, not at import: a worker serves any value of these.
-CALL_TIME = (ENV, "CREATIO_DEBUG", "CREATIO_WORKER_IDLE")
+CALL_TIME = (ENV, "CREATIO_DEBUG", "CREATIO_WORKER_IDLE", "CREATIO_FORK")
 #: Set in a batch scheduler's job (SLURM, PBS, LSF): such a job never uses a worker, even
 #: one of the same user on the same node.
 BATCH_JOB = ("SLURM_JOB_ID", "PBS_JOBID", "LSB_JOBID")
