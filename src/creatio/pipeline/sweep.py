@@ -56,7 +56,7 @@ HARD_MAX_POINTS = 10_000_000
 #: Default batching: about this many batches, each of MIN_BATCH to MAX_BATCH points. A
 #: batch of fewer points costs more in its job's start (a process or a fork, composing the
 #: base config, writing the batch file: about 1 s here) than in its computing (EN-02: about
-#: 0.15 s a point), so a small sweep is a few batches, not eight (40 points: two of 20).
+#: 0.15 s a point), so a small sweep is a few batches, not eight (40 or 41 points: two).
 TARGET_BATCHES = 8
 MIN_BATCH = 20
 MAX_BATCH = 250
@@ -267,7 +267,8 @@ def plan_sweep(
             raise ConfigError(key, values[0], f"unknown key (not in {study}'s config)")
     n = math.prod(len(v) for _, v in axes)
     if batch_size is None:
-        batch_size = min(MAX_BATCH, max(MIN_BATCH, math.ceil(n / TARGET_BATCHES)))
+        batches = max(1, min(TARGET_BATCHES, n // MIN_BATCH))
+        batch_size = min(MAX_BATCH, math.ceil(n / batches))
     if not (isinstance(batch_size, int) and batch_size >= 1):
         raise ConfigError("sweep_batch", batch_size, "must be a positive integer")
     spec = json.dumps({"study": study, "axes": axes, "base": base}, sort_keys=True)
