@@ -71,6 +71,7 @@ class Invocation:
                                 lambda: self.analyses.plans, self._ad_hoc_sweep,
                                 self._worked_sweep, lambda: self.beyond.plans]
         self.sweeps.fallbacks += [self._ad_hoc_sweep, self._worked_sweep]
+        self._compiler: tuple[str, str, str] | None = None  # see dataset_priority
         self._worker: Any = None  # the shared worker's process, when this invocation started it
         self._path: Path | None = None  # the socket of the worker its jobs use
         #: Held by the run: blocks of the rules, which run in threads of Snakemake's process
@@ -93,6 +94,24 @@ class Invocation:
 
     def _worked_sweep(self) -> list[str]:
         return self.sweeps.worked(WORKED_SWEEP)
+
+    # ------------------------------------------------------------------ scheduling
+    def dataset_priority(self, study: str, root: str, name: str) -> int:
+        """The Snakemake priority of a dataset job. The first sphere dataset job asked about
+        gets 2: on a cold numba cache it compiles the loop every sphere job of the run
+        waits for (one compilation: creatio.pipeline.worker's compile lock), so it starts
+        first; the kinematic studies' jobs (no compiled loop) get 1, so that the other core
+        runs them meanwhile instead of a second sphere job that would only wait for the
+        first one's compilation; the rest 0."""
+        from creatio.studies import registry
+
+        entry = registry.STUDIES.get(study)
+        if entry is None or entry.kind.name != "sphere":
+            return 1 if entry is not None and entry.kind.name == "kinematic" else 0
+        key = (root, study, name)
+        if self._compiler is None:
+            self._compiler = key
+        return 2 if key == self._compiler else 0
 
     # ------------------------------------------------------------------ warm worker
     def prestart_worker(self, workflow: Any) -> None:
