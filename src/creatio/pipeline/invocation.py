@@ -171,11 +171,17 @@ class Invocation:
 
     def release_worker(self) -> None:
         """At the end of the invocation: its jobs are done; the shared worker keeps serving
-        the next invocations until it has been idle long enough."""
+        the next invocations until it has been idle long enough. Snakemake's scheduler
+        leaves a timer (threading.Timer, its job rate limiter's re-evaluation, 1 s by
+        default) that the interpreter waits for before it exits: with every job done it
+        has nothing left to wake, so it is cancelled (up to 1 s of every invocation)."""
         from creatio.pipeline import worker
 
         self._worker = self._path = None
         os.environ.pop(worker.ENV, None)
+        for thread in threading.enumerate():
+            if isinstance(thread, threading.Timer):
+                thread.cancel()
 
 
 def _can_fork() -> bool:
