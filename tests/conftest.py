@@ -128,6 +128,8 @@ LONG = (
     "tests/pipeline/test_worker.py::test_a_refused_value_in_the_worker_is_one_line_and_exit_2",
     "tests/pipeline/test_worker.py::test_creatio_run_without_hydra_options_runs_as_the_hydra_app",
     "tests/pipeline/test_forked.py::test_a_sphere_report_is_the_same_bytes_with_children_or_without",
+    "tests/pipeline/test_worker.py::"
+    "test_the_shared_worker_is_found_or_started_and_older_code_is_replaced",
     # the Radau IIA orders 9/13 and the controlled phase (each compiles a specialisation of
     # its own: 15-65 s apiece in the quick tier's --durations, load 2-3)
     "tests/core/test_radau_sphere.py",

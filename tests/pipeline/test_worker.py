@@ -237,3 +237,32 @@ def test_creatio_run_without_hydra_options_runs_as_the_hydra_app(tmp_path):
             assert (plain / rel).read_bytes() == (hydra / rel).read_bytes(), rel
     bad = _run(["run", "study=ct02", "geometry.A=0.9"], env, tmp_path)
     assert bad.returncode == 2 and len(bad.stderr.splitlines()) == 1, bad.stderr
+
+
+def test_the_shared_worker_is_found_or_started_and_older_code_is_replaced(tmp_path,
+                                                                         monkeypatch):
+    """ensure() starts a worker where none answers, finds it the next time, and replaces
+    one that runs other code (it finishes and leaves the new one's socket in place)."""
+    path = tmp_path / "j.sock"
+    env = dict(os.environ)
+    first = worker.ensure(path, env, 60.0, tmp_path / "j.log")
+    assert first is not None
+    sock = worker._connect(path, worker.START_WAIT)
+    assert sock is not None
+    sock.close()
+    try:
+        assert worker.ensure(path, env, 60.0, tmp_path / "j.log") is None  # found, warm
+        assert worker.control(path, "status")["pid"] == first.pid
+        monkeypatch.setattr(worker, "package_version", lambda: "changed")
+        second = worker.ensure(path, env, 60.0, tmp_path / "j.log")
+        assert second is not None and second.pid != first.pid
+        first.wait(timeout=60)  # the older worker stops
+        sock = worker._connect(path, worker.START_WAIT)
+        assert sock is not None  # and the new one's socket is still there
+        sock.close()
+        assert worker.control(path, "status")["pid"] == second.pid
+        worker.stop(second)
+    finally:
+        worker.stop(first)
+    assert worker.shared_socket(env) != worker.shared_socket({**env, "OMP_NUM_THREADS": "7"})
+    assert worker.shared_socket(env) == worker.shared_socket({**env, "CREATIO_DEBUG": "1"})
