@@ -23,6 +23,7 @@ printed; --keep-slurm measures with the real one.
 
     python scripts/bench_workflow.py                 # every case, 3 repeats (about 20 min)
     python scripts/bench_workflow.py --repeats 2 --skip-all
+    python scripts/bench_workflow.py --only-all      # `snakemake all` cold and warm only
     python scripts/bench_workflow.py --quick         # the planning row only (a smoke test)
 """
 
@@ -243,6 +244,7 @@ def main() -> None:
     ap.add_argument("--repeats", type=int, default=3)
     ap.add_argument("--skip-all", action="store_true", help="leave out `snakemake all` cold")
     ap.add_argument("--keep-slurm", action="store_true", help="the real scontrol on PATH")
+    ap.add_argument("--only-all", action="store_true", help="`snakemake all` cold only")
     ap.add_argument("--quick", action="store_true", help="the planning row only")
     args = ap.parse_args()
     loads = [os.getloadavg()]
@@ -321,6 +323,8 @@ def _measure(clone: Clone, scratch: Path, args: argparse.Namespace, rows: list[R
         row.inside = "compile, computation, figures: see below"
         row.verdict = _met(cold["worker"] <= 20.0, "see where the seconds go below")
         clone.numba = scratch / "numba-cold-worker"
+        if args.only_all:
+            return
     else:
         clone.numba = scratch / "numba"
         clone.snakemake("off", "all")  # compile once
