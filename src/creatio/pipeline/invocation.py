@@ -4,7 +4,8 @@ The Snakefile stays thin (config, validation, includes, target rules); the plann
 here: the studies of `all` and `beyond`, the analyses, the sweeps, EN-05, and the order in
 which a job re-invoked on its own (a ``run:`` job, a cluster job), which parses the workflow
 anew without its targets, looks for the configuration that writes its output. The command
-the rules run (``CREATIO``) and the warm worker of a local invocation are here too.
+the rules run (``CREATIO``), the shared warm worker its local jobs use and the priority
+that lets the one job that compiles the loop start first are here too.
 """
 
 from __future__ import annotations
