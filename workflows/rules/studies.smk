@@ -24,6 +24,7 @@ rule study_config:
         study=f"{STUDY_IDS}|{ANALYSIS_IDS}",
     params:
         config_sha256=lambda wc: JOBS.sha(wc.root, wc.study),
+    priority: lambda wc: PLAN.dataset_priority(wc.study, wc.root)  # see study_dataset
     log:
         "{root}/logs/{study}_config.log",
     run:

@@ -72,7 +72,7 @@ class Invocation:
                                 lambda: self.analyses.plans, self._ad_hoc_sweep,
                                 self._worked_sweep, lambda: self.beyond.plans]
         self.sweeps.fallbacks += [self._ad_hoc_sweep, self._worked_sweep]
-        self._compiler: tuple[str, str, str] | None = None  # see dataset_priority
+        self._compiler: tuple[str, str, str | None] | None = None  # see dataset_priority
         self._worker: Any = None  # the shared worker's process, when this invocation started it
         self._path: Path | None = None  # the socket of the worker its jobs use
         #: Held by the run: blocks of the rules, which run in threads of Snakemake's process
@@ -97,22 +97,28 @@ class Invocation:
         return self.sweeps.worked(WORKED_SWEEP)
 
     # ------------------------------------------------------------------ scheduling
-    def dataset_priority(self, study: str, root: str, name: str) -> int:
-        """The Snakemake priority of a dataset job. The first sphere dataset job asked about
-        gets 2: on a cold numba cache it compiles the loop every sphere job of the run
-        waits for (one compilation: creatio.pipeline.worker's compile lock), so it starts
-        first; the kinematic studies' jobs (no compiled loop) get 1, so that the other core
-        runs them meanwhile instead of a second sphere job that would only wait for the
-        first one's compilation; the rest 0."""
+    def dataset_priority(self, study: str, root: str, name: str | None = None) -> int:
+        """The Snakemake priority of a study's config job (name None) or dataset job. One
+        sphere dataset job, the first asked about, and its config job get 2: on a cold
+        numba cache it compiles the loop every sphere job of the run waits for (one
+        compilation: creatio.pipeline.worker's compile lock), so it starts first; the
+        kinematic studies' jobs (no compiled loop) get 1, so that the other core runs them
+        meanwhile instead of a second sphere job that would only wait for the first one's
+        compilation; the rest 0. (Priorities are per job: a config job needs its own.)"""
         from creatio.studies import registry
 
         entry = registry.STUDIES.get(study)
         if entry is None or entry.kind.name != "sphere":
             return 1 if entry is not None and entry.kind.name == "kinematic" else 0
-        key = (root, study, name)
         if self._compiler is None:
-            self._compiler = key
-        return 2 if key == self._compiler else 0
+            self._compiler = (root, study, name)
+        first_root, first_study, first_name = self._compiler
+        if (root, study) != (first_root, first_study):
+            return 0
+        if name is not None and first_name is None:
+            self._compiler = (root, study, name)
+            first_name = name
+        return 2 if name is None or name == first_name else 0
 
     # ------------------------------------------------------------------ warm worker
     def prestart_worker(self, workflow: Any) -> None:
