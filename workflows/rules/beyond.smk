@@ -19,6 +19,7 @@ from creatio.scenes.plan import scenes_of
 
 BEYOND_SCENES = SceneRuns(config.get("overrides"), scenes_of(BEYOND.studies), strict=False)
 SCENES.fallbacks.append(BEYOND_SCENES)
+JOBS.fallbacks.insert(0, lambda: BEYOND_SCENES.study_jobs(JOBS))
 
 
 localrules:

@@ -247,8 +247,9 @@ def _sense(angle_deg: float) -> str:
 # ----------------------------------------------------------------------------- EN-04 scene
 #: Each EN-04 readout: (label, unit, the en04_control path variable it is).
 EN04_READOUTS: dict[En04Readout, tuple[str, str, str]] = {
-    En04Readout.lead: ("lead delta (cavity ahead of the contact)", "degree", "path_lead"),
-    En04Readout.pattern_speed: ("pattern speed -dphi_a/dt / Ka", "rad s-1",
+    En04Readout.lead: ("lead delta = alpha_p - alpha (cavity minus contact)", "degree",
+                       "path_lead"),
+    En04Readout.pattern_speed: ("pattern speed dalpha_p/dt = -dphi_a/dt / Ka", "rad s-1",
                                 "path_pattern_speed"),
     En04Readout.travel: ("travel theta = alpha - alpha(0)", "degree", "path_theta"),
     En04Readout.load_power: ("load power (membrane into sphere)", "W", "path_power"),
@@ -303,10 +304,11 @@ def en04_scene(resolved: Any, reuse: Mapping[str, str | Path] | None = None) -> 
     case = {k: float(src[k].values[fastest])
             for k in ("omega_max", "delta_max_deg", "omega_c", "omega_n")}
     direction = {
-        "closed_loop": (f"fastest carried controller of {int(src.carried.sum())}, arrival "
-                        f"{float(src.attrs['fastest_arrival']):.2f} s, Omega_max "
-                        f"{case['omega_max']:g} rad/s, delta_max {case['delta_max_deg']:g} deg, "
-                        f"omega_c {case['omega_c']:g} rad/s, omega_n {case['omega_n']:g} rad/s"),
+        # the media break the line at each ", " (three short lines in a panel's title)
+        "closed_loop": (f"fastest carried controller (of {int(src.carried.sum())}): arrival "
+                        f"{float(src.attrs['fastest_arrival']):.2f} s, limits Omega_max "
+                        f"{case['omega_max']:g} rad/s · delta_max {case['delta_max_deg']:g} deg, "
+                        f"gains omega_c {case['omega_c']:g} · omega_n {case['omega_n']:g} rad/s"),
         "quintic": (f"quintic cycle at its carried boundary T = {T:.3f} s, arrival "
                     f"{float(src.attrs['quintic_boundary_arrival']):.2f} s"),
     }

@@ -147,6 +147,27 @@ class SceneRuns:
             raise ConfigError("overrides", unused, "no selected scene has these keys")
         return out
 
+    def study_jobs(self, jobs: Any) -> None:
+        """Register with ``jobs`` (creatio.pipeline.planning.JobConfigs) the study configs
+        whose datasets the selected scenes read, so that the study's own rules build them
+        under these overrides (``bases.en04.bases.en02.sphere.mu`` is the study's
+        ``bases.en02.sphere.mu``). A JobConfigs fallback: if these scenes cannot be planned
+        it registers nothing, and the invocation's own planners say why."""
+        if not any(registry.SCENES[s].reads for s in self.scenes if s in registry.SCENES):
+            return
+        try:
+            plans = self.plans
+        except ConfigError:
+            return
+        for plan in plans.values():
+            if plan.entry.reads is None:
+                continue
+            study = plan.entry.reads[0]
+            base = plan.resolved.bases[study]
+            prefix = f"bases.{study}."
+            overrides = [o[len(prefix):] if o.startswith(prefix) else o for o in plan.overrides]
+            jobs.add(str(study_root(base, self.data_dir)), base, overrides)
+
     @one_line_errors
     def targets(self) -> list[str]:
         """Every file of every selected scene."""
