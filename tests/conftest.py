@@ -137,6 +137,7 @@ LONG = (
     "tests/scenes/test_scene_en04.py::test_the_recorded_path_is_the_runs_own",
     "tests/scenes/test_scene_en04.py::test_a_dataset_of_another_config_is_refused",
     "tests/scenes/test_scene_en04.py::test_the_page_draws_the_dataset_at_the_chosen_time",
+    "tests/scenes/test_scene_en04.py::test_beyond_builds_the_scene_after_its_studys_dataset",
 )
 
 

@@ -194,3 +194,28 @@ def test_the_page_draws_the_dataset_at_the_chosen_time(scene, need_chromium):
         # the page prints the dataset's value at that frame (fmt: a few significant digits)
         for r, text in enumerate(values):
             assert float(text) == pytest.approx(float(ds[key].values[r, k]), rel=1e-3, abs=1e-9)
+
+
+def test_beyond_builds_the_scene_after_its_studys_dataset(tmp_path):
+    """`snakemake beyond` with EN-04 plans the scene under the same overrides, its dataset job
+    waiting for the study's control dataset of that config; `snakemake scenes` without a
+    selection leaves it out."""
+    import re
+
+    repo = Path(__file__).resolve().parents[2]
+
+    def dry(*args: str) -> str:
+        proc = subprocess.run([sys.executable, "-m", "snakemake", "-s", str(repo / "Snakefile"),
+                               "-d", str(tmp_path), "-c", "1", "-n", *args],
+                              capture_output=True, text=True, timeout=600, cwd=tmp_path)
+        assert proc.returncode == 0, proc.stderr[-3000:]
+        return proc.stdout + proc.stderr
+
+    out = dry("beyond", "--config", 'studies=["en04"]',
+              'overrides=["bases.en02.sphere.mu=0.2"]')
+    study = resolve_study("en04", ["bases.en02.sphere.mu=0.2"]).key
+    scene = resolve("en04", ["bases.en04.bases.en02.sphere.mu=0.2"]).key
+    inputs = re.search(rf"input: (.*)\n\s+output: data/runs/{scene}/scenes/en04/scene.nc", out)
+    assert inputs is not None, out[-3000:]
+    assert f"data/runs/{study}/studies/en04/en04_control.nc" in inputs.group(1).split(", ")
+    assert "scenes/en04/" not in dry("scenes")
