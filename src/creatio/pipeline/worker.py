@@ -361,6 +361,7 @@ class Server:
         try:
             self.version = package_version()
             _warm()
+            _freeze()
             self.known = {d: set(disp.signatures) for d, disp in _dispatchers()}
             with contextlib.suppress(FileNotFoundError):
                 self.path.unlink()
@@ -571,6 +572,18 @@ class Server:
         self.known.setdefault(key, set()).add(sig)
         with contextlib.suppress(Exception):
             _load_cached(disp, sig)
+        _freeze()
+
+
+def _freeze() -> None:
+    """Move everything the worker holds out of the garbage collector's reach (gc.freeze): a
+    forked job's collections then scan only what the job allocates, not the worker's whole
+    inherited heap (and do not copy its pages by touching them). A cold compilation in a job
+    collects some 30 times: 26.0 s against 29.6 s unfrozen here (one pair, load 1)."""
+    import gc
+
+    gc.collect()
+    gc.freeze()
 
 
 def _dispatchers() -> Iterator[tuple[str, Any]]:
