@@ -14,7 +14,11 @@ One dataset, ``en04_control``, from the sphere of ``bases.<control.base>`` (EN-0
 * robustness: the default controller and the quintic law at a fixed T, at each mu and mass
   factor (the controller's gains stay the nominal sphere's);
 * the paths of the fastest carried closed loop, the quintic boundary case and the best
-  trapezoid on a common time grid, for the figures.
+  trapezoid on a common time grid, for the figures;
+* what the actuators delivered along each controlled run (every grid case, the robustness
+  runs' controller) and along the three paths: the figures of docs/model.md s.12.1 from the
+  run's recorded histories (creatio.model.actuation with the controlled phase as samples),
+  the membrane quadrature converged once, on the fastest case (:func:`demand_figures`).
 
 The gains come from the design rule of docs/model.md s.12.2: k_alpha is the square of the
 rolling sphere's small-oscillation frequency along alpha in the base's still cavity
@@ -36,15 +40,17 @@ from creatio.dynamics import (
     check_stable,
     solvers,
 )
+from creatio.model import actuation as act
 from creatio.model.control import Controller, lead, outer_gains
 from creatio.model.laws import Law, trapezoid_on_grid
-from creatio.model.surface import Motion
+from creatio.model.surface import Motion, Surface
 from creatio.studies.schema import DynamicConfig, require
 
 if TYPE_CHECKING:
     import xarray as xr
 
-__all__ = ["ControlConfig", "ControllerPoint", "controller", "run_control"]
+__all__ = ["DEMAND_FIGURES", "ControlConfig", "ControllerPoint", "DemandSettings",
+           "controller", "demand_figures", "run_control"]
 
 
 @dataclass
@@ -98,6 +104,7 @@ class ControlConfig:
     zeta: float = 1.0
     u_max: float | None = None
     path_interval: float = 0.02
+    demand_interval: float = 0.004
     omega_max: list[float] = field(default_factory=lambda: [1.0, 1.5, 2.0, 2.5, 3.0])
     delta_max_deg: list[float] = field(default_factory=lambda: [5.0, 10.0, 20.0])
     omega_c: list[float] = field(default_factory=lambda: [2.0, 3.0, 4.0])
@@ -121,7 +128,8 @@ class ControlConfig:
         half = 180.0 / base.geometry.Ka
         require(self.duration > 0.0, f"{path}.duration", self.duration, "must be > 0 s")
         for step in sv.timesteps():
-            for key, v in (("duration", self.duration), ("path_interval", self.path_interval)):
+            for key, v in (("duration", self.duration), ("path_interval", self.path_interval),
+                           ("demand_interval", self.demand_interval)):
                 require(abs(v / step - round(v / step)) < 1e-9 and v > 0.0, f"{path}.{key}", v,
                         f"must be a positive multiple of bases.{self.base}.solver.dt and of "
                         f"dt / refine ({step:g} s)")
@@ -200,6 +208,120 @@ def _simulate(problem: SphereProblem) -> SimulationResult:
     from creatio.dynamics import simulate
 
     return simulate(_stable(problem))
+
+
+# ------------------------------------------------------------------ actuation demand
+@dataclass(frozen=True)
+class DemandSettings:
+    """The settings of the actuation figures along each run, study.actuation's (EN-04):
+    areal density and damping, the quadrature's first grid, growth, tolerance and most
+    grids, the (alpha, R) grid of the stroke, the energy fraction of the bandwidth."""
+
+    sigma: float = 0.5
+    c_d: float = 0.0
+    n_alpha: int = 9
+    n_R: int = 5
+    growth: float = 1.5
+    rtol: float = 1e-10
+    max_levels: int = 12
+    extrema_n_alpha: int = 48
+    extrema_n_R: int = 33
+    energy_fraction: float = 0.99
+
+
+#: The actuation figures of each controlled run (docs/model.md s.12.1): dataset variable,
+#: unit and long name.
+DEMAND_FIGURES = (
+    ("P_actuator_peak", "W", "largest |P_actuator|, P_surface + P_inertia + P_gravity + "
+                             "P_damping along the run"),
+    ("E_actuator", "J", "int P_actuator dt over the run"),
+    ("P_inertia_peak", "W", "largest |P_inertia| = |dK_m/dt| along the run"),
+    ("K_m_max", "J", "largest membrane kinetic energy along the run"),
+    ("stroke", "m", "largest max_t W - min_t W over the membrane's points"),
+    ("max_W_t", "m s-1", "largest |W_t| over the membrane and the run"),
+    ("max_W_tt", "m s-2", "largest |W_tt| over the membrane and the run"),
+    ("bandwidth", "Hz", "largest local frequency (|phi_r'| + |phi_a'|) / (2 pi)"),
+    ("bandwidth99", "Hz", "frequency below which 99 % of the energy of W_t at the worst "
+                          "point lies"),
+    ("inertia_energy_error", "J", "int P_inertia dt - (K_m(end) - K_m(0)): the error of the "
+                                  "time sampling"),
+    ("K_m_closed_form_rel_error", "1", "largest |K_m - flat-annulus closed form| over the "
+                                       "largest K_m (NaN off the flat annulus)"),
+)
+
+
+@dataclass
+class DemandAlong:
+    """The actuation figures of one run (keys of DEMAND_FIGURES) and the powers and K_m at
+    its demand samples t."""
+
+    figures: dict[str, float]
+    t: np.ndarray
+    histories: dict[str, np.ndarray]
+
+
+def _rows(res: SimulationResult, interval: float) -> np.ndarray:
+    """Every row of res at the interval (rounded to its step), and its last row."""
+    every = max(1, round(interval / res.dt))
+    rows = np.arange(0, res.t.size, every)
+    if rows.size and rows[-1] != res.t.size - 1:
+        rows = np.append(rows, res.t.size - 1)
+    return rows
+
+
+def _motion_along(res: SimulationResult, motion: Motion, ctl: Controller | None, Ka: float,
+                  rows: np.ndarray) -> Motion:
+    """The surface's motion along res at its rows: the laws of an open-loop run, or the
+    controlled phase as samples (phi_a, its rate, and u recomputed by the controller)."""
+    if ctl is None:
+        return motion
+    u, _, _ = ctl.acceleration(Ka, res.alpha[rows], res.alphadot[rows], res.phi_a[rows],
+                               res.phi_a_rate[rows])
+    return act.sampled_motion(motion, res.t[rows], res.phi_a[rows], res.phi_a_rate[rows],
+                              np.asarray(u, float))
+
+
+def demand_figures(res: SimulationResult, surface: Surface, motion: Motion,
+                   ctl: Controller | None, rule: act.Quadrature, settings: DemandSettings,
+                   g: float, interval: float, grid_interval: float) -> DemandAlong:
+    """What the actuators delivered along res (docs/model.md s.12.1): the load power from
+    its recorded contact, the membrane powers by ``rule``, at its rows every ``interval``;
+    the stroke on the (alpha, R) grid at its rows every ``grid_interval``, the closed-form
+    maxima of |W_t|, |W_tt| and the local frequency over the run, and the energy frequency
+    of W_t at the worst point. ``motion`` is the run's (its angular law replaced by the
+    controlled phase when ``ctl`` is given)."""
+    rows = _rows(res, interval)
+    if rows.size < 2:
+        return DemandAlong({k: math.nan for k, *_ in DEMAND_FIGURES}, res.t[rows], {})
+    s = settings
+    t = res.t[rows]
+    m = _motion_along(res, motion, ctl, float(surface.Ka), rows)
+    P_s = act.load_power(surface, m, t, res.R[rows], res.alpha[rows], res.N[rows],
+                         res.f[rows])
+    step = max(1, round(grid_interval / interval))
+    d = act.actuation_demand(surface, m, t, P_s, rule, s.sigma, s.c_d, g, grid=t[::step],
+                             span=(float(t[0]), float(t[-1])),
+                             extrema=(s.extrema_n_alpha, s.extrema_n_R),
+                             energy_fraction=s.energy_fraction, polish=False)
+    duration = float(t[-1] - t[0])
+    powers = d.powers()
+    actuator = act.power_figures(powers["P_actuator"], t, duration)
+    inertia = act.power_figures(powers["P_inertia"], t, duration)
+    K = d.integrals.kinetic
+    try:
+        K_cf, _ = act.annulus_kinetic_energy(surface, m, t, s.sigma)
+        K_rel = float(np.max(np.abs(K - K_cf)) / np.max(np.abs(K_cf)))
+    except ValueError:  # an inclined membrane: no closed form
+        K_rel = math.nan
+    figures = {
+        "P_actuator_peak": actuator["peak"], "E_actuator": actuator["energy"],
+        "P_inertia_peak": inertia["peak"], "K_m_max": d.K_m_max, "stroke": d.extrema.stroke,
+        "max_W_t": d.max_W_t_closed_form, "max_W_tt": d.max_W_tt_closed_form,
+        "bandwidth": d.bandwidth, "bandwidth99": d.bandwidth99,
+        "inertia_energy_error": inertia["energy"] - float(K[-1] - K[0]),
+        "K_m_closed_form_rel_error": K_rel,
+    }
+    return DemandAlong(figures, t, {**powers, "K_m": K})
 
 
 @dataclass
@@ -302,8 +424,10 @@ def _path(name: str, label: str, res: SimulationResult, Ka: float, grid: np.ndar
     return Path(name, label, grid, on(theta), on(-rate / Ka), on(delta), on(power))
 
 
-def run_control(cfg: ControlConfig, base: DynamicConfig, k_alpha: float) -> xr.Dataset:
-    """The ``en04_control`` dataset (see the module docstring)."""
+def run_control(cfg: ControlConfig, base: DynamicConfig, k_alpha: float,
+                demand: DemandSettings | None = None) -> xr.Dataset:
+    """The ``en04_control`` dataset (see the module docstring); ``demand`` holds the settings
+    of the actuation figures (default DemandSettings())."""
     import xarray as xr
 
     Ka = float(base.geometry.Ka)
@@ -366,6 +490,7 @@ def run_control(cfg: ControlConfig, base: DynamicConfig, k_alpha: float) -> xr.D
     # ---- open loop: the trapezoidal laws, switch times on the step grid
     trap_rows: list[tuple[float, float, float, float, float, float, Measured]] = []
     trap_results: list[SimulationResult] = []
+    trap_laws: list[Law] = []
     for om in cfg.trapezoid.omega_max:
         for am in cfg.trapezoid.a_max:
             T, ramp, W, a = trapezoid_on_grid(phase_travel, Ka * om, Ka * am, dts[0])
@@ -374,6 +499,7 @@ def run_control(cfg: ControlConfig, base: DynamicConfig, k_alpha: float) -> xr.D
             trap_rows.append((om, am, W / Ka, a / Ka, T, ramp * T,
                               measure(r, goal, tol, Ka, None)))
             trap_results.append(r)
+            trap_laws.append(law)
     trap_arrival = np.array([m.arrival if m.carried else math.nan for *_, m in trap_rows])
     best_trap = int(np.nanargmin(trap_arrival)) if np.isfinite(trap_arrival).any() else -1
 
@@ -387,10 +513,12 @@ def run_control(cfg: ControlConfig, base: DynamicConfig, k_alpha: float) -> xr.D
     open_status = np.full(closed.shape, "", dtype=object)
     robust_dt = np.full(closed.shape, math.nan)
     default_ctl = controller(cfg, nominal, k_alpha, cfg.default)
+    robust_runs: list[SimulationResult] = []
     for i, mu in enumerate(rb.mus):
         for j, f in enumerate(rb.mass_factors):
             p = at(dts[0], mu=float(mu), m=nominal.model.sphere.m * f)
             rc = _simulate(p.replace(control=default_ctl))
+            robust_runs.append(rc)
             ro = quintic(rb.quintic_T, p)
             mc, mo = measure(rc, goal, tol, Ka, default_ctl), measure(ro, goal, tol, Ka, None)
             closed[i, j], opened[i, j] = mc.carried, mo.carried
@@ -486,4 +614,88 @@ def run_control(cfg: ControlConfig, base: DynamicConfig, k_alpha: float) -> xr.D
         "default_delta_max_deg": cfg.default.delta_max_deg,
         "default_omega_c": cfg.default.omega_c, "default_omega_n": cfg.default.omega_n,
     })
-    return ds
+    # ---- what the actuators delivered along each controlled run and along the paths
+    along = [(results[fastest], motion, controller(cfg, nominal, k_alpha, grid[fastest]))
+             ] if fastest >= 0 else []
+    along.append((best_quintic, Motion(motion.phi_r, Law.quintic(pa0, phase_travel, hi),
+                                       motion.gamma), None))
+    if best_trap >= 0:
+        along.append((trap_results[best_trap],
+                      Motion(motion.phi_r, trap_laws[best_trap], motion.gamma), None))
+    cases_along = [(r, motion, controller(cfg, nominal, k_alpha, point))
+                   for r, point in zip(results, grid, strict=True)]
+    robust_along = [(r, motion, default_ctl) for r in robust_runs]
+    return _with_demand(ds, cfg, base, demand or DemandSettings(), cases_along,
+                        max(fastest, 0), robust_along, along)
+
+
+def _with_demand(ds: xr.Dataset, cfg: ControlConfig, base: DynamicConfig,
+                 settings: DemandSettings,
+                 cases: list[tuple[SimulationResult, Motion, Controller | None]], reference: int,
+                 robust: list[tuple[SimulationResult, Motion, Controller | None]],
+                 paths: list[tuple[SimulationResult, Motion, Controller | None]]) -> xr.Dataset:
+    """ds with the actuation figures of docs/model.md s.12.1 along every grid case (``case``),
+    every robustness run's controller (``mu`` x ``mass_factor``) and the paths (their powers
+    and K_m on ``demand_time``).
+
+    The membrane quadrature is converged once, on the reference case (the fastest, else the
+    first) at its path samples, and the grid before the last refinement is used for every run
+    (the last refinement changed no integral by more than the tolerance, so that grid is
+    within it); the time sampling is checked once too, on the same case, against every
+    recorded step (both recorded as attributes)."""
+    surface = base.geometry.surface()
+    g = base.sphere.g
+    s = settings
+    ref_res, ref_motion, ref_ctl = cases[reference]
+    check_rows = _rows(ref_res, cfg.path_interval)
+    conv = act.converge_quadrature(surface, _motion_along(ref_res, ref_motion, ref_ctl,
+                                                          float(surface.Ka), check_rows),
+                                   ref_res.t[check_rows], s.sigma, s.c_d, g, s.n_alpha, s.n_R,
+                                   s.rtol, s.growth, s.max_levels)
+    levels = conv.levels[-2] if conv.converged else conv.levels[-1]
+    rule = act.quadrature(surface, *levels)
+
+    def along(res: SimulationResult, motion: Motion, ctl: Controller | None,
+              interval: float = cfg.demand_interval) -> DemandAlong:
+        return demand_figures(res, surface, motion, ctl, rule, s, g, interval,
+                              cfg.path_interval)
+
+    case_demand = [along(*c) for c in cases]
+    every_step = along(*cases[reference], interval=ref_res.dt)
+    sampling = {k: _rel(case_demand[reference].figures[k], every_step.figures[k])
+                for k in ("P_actuator_peak", "E_actuator", "P_inertia_peak", "K_m_max",
+                          "max_W_tt")}
+    robust_demand = [along(*r) for r in robust]
+    path_demand = [along(*p) for p in paths]
+    shape = (ds.sizes["mu"], ds.sizes["mass_factor"])
+    data: dict[str, Any] = {}
+    for key, unit, long_name in DEMAND_FIGURES:
+        attrs = {"units": unit, "long_name": long_name}
+        data[key] = ("case", np.array([d.figures[key] for d in case_demand]), attrs)
+        data[f"robust_closed_{key}"] = (("mu", "mass_factor"), np.array(
+            [d.figures[key] for d in robust_demand]).reshape(shape), attrs)
+    n = max((d.t.size for d in path_demand), default=0)
+    tgrid = np.arange(n) * cfg.demand_interval
+    for key in (*act.POWERS, "K_m"):
+        rows = np.full((len(path_demand), n), math.nan)
+        for i, d in enumerate(path_demand):
+            if key in d.histories:
+                rows[i] = np.interp(tgrid, d.t, d.histories[key], right=math.nan)
+        data[f"demand_{key}"] = (("path", "demand_time"), rows,
+                                 {"units": "J" if key == "K_m" else "W"})
+    out = ds.assign(data).assign_coords(demand_time=("demand_time", tgrid, {"units": "s"}))
+    out.attrs.update({
+        "demand_sigma": s.sigma, "demand_c_d": s.c_d, "demand_interval": cfg.demand_interval,
+        "demand_quadrature_n_alpha": levels[0], "demand_quadrature_n_R": levels[1],
+        "demand_quadrature_levels": np.array(conv.levels, dtype=np.int32).ravel(),
+        "demand_quadrature_rel_change": conv.final_rel_change,
+        "demand_quadrature_converged": int(conv.converged),
+        "demand_reference_case": reference,
+        **{f"demand_sampling_rel_change_{k}": v for k, v in sampling.items()},
+    })
+    return out
+
+
+def _rel(a: float, b: float) -> float:
+    """|a - b| / |b| (NaN where b is 0 or not finite)."""
+    return abs(a - b) / abs(b) if math.isfinite(b) and b != 0.0 else math.nan
