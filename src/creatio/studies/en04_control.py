@@ -104,7 +104,6 @@ class ControlConfig:
     zeta: float = 1.0
     u_max: float | None = None
     path_interval: float = 0.02
-    demand_interval: float = 0.004
     omega_max: list[float] = field(default_factory=lambda: [1.0, 1.5, 2.0, 2.5, 3.0])
     delta_max_deg: list[float] = field(default_factory=lambda: [5.0, 10.0, 20.0])
     omega_c: list[float] = field(default_factory=lambda: [2.0, 3.0, 4.0])
@@ -128,8 +127,7 @@ class ControlConfig:
         half = 180.0 / base.geometry.Ka
         require(self.duration > 0.0, f"{path}.duration", self.duration, "must be > 0 s")
         for step in sv.timesteps():
-            for key, v in (("duration", self.duration), ("path_interval", self.path_interval),
-                           ("demand_interval", self.demand_interval)):
+            for key, v in (("duration", self.duration), ("path_interval", self.path_interval)):
                 require(abs(v / step - round(v / step)) < 1e-9 and v > 0.0, f"{path}.{key}", v,
                         f"must be a positive multiple of bases.{self.base}.solver.dt and of "
                         f"dt / refine ({step:g} s)")
@@ -234,7 +232,8 @@ class DemandSettings:
 DEMAND_FIGURES = (
     ("P_actuator_peak", "W", "largest |P_actuator|, P_surface + P_inertia + P_gravity + "
                              "P_damping along the run"),
-    ("E_actuator", "J", "int P_actuator dt over the run"),
+    ("E_actuator", "J", "int P_actuator dt over the run (int P_inertia dt as K_m(end) - "
+                        "K_m(0))"),
     ("P_inertia_peak", "W", "largest |P_inertia| = |dK_m/dt| along the run"),
     ("K_m_max", "J", "largest membrane kinetic energy along the run"),
     ("stroke", "m", "largest max_t W - min_t W over the membrane's points"),
@@ -243,8 +242,6 @@ DEMAND_FIGURES = (
     ("bandwidth", "Hz", "largest local frequency (|phi_r'| + |phi_a'|) / (2 pi)"),
     ("bandwidth99", "Hz", "frequency below which 99 % of the energy of W_t at the worst "
                           "point lies"),
-    ("inertia_energy_error", "J", "int P_inertia dt - (K_m(end) - K_m(0)): the error of the "
-                                  "time sampling"),
     ("K_m_closed_form_rel_error", "1", "largest |K_m - flat-annulus closed form| over the "
                                        "largest K_m (NaN off the flat annulus)"),
 )
@@ -281,47 +278,81 @@ def _motion_along(res: SimulationResult, motion: Motion, ctl: Controller | None,
                               np.asarray(u, float))
 
 
+def _around_peaks(rows: np.ndarray, samples: list[np.ndarray], fraction: float = 0.5,
+                  most: int = 8) -> np.ndarray:
+    """The recorded rows between the neighbours of each sample's largest local maxima of
+    |y| (those within ``fraction`` of its largest, at most ``most`` per history)."""
+    out: list[np.ndarray] = []
+    for y in samples:
+        a = np.abs(y)
+        if a.size < 3 or not np.isfinite(a).all():
+            continue
+        left = np.r_[-np.inf, a[:-1]]
+        right = np.r_[a[1:], -np.inf]
+        tops = np.flatnonzero((a >= left) & (a >= right) & (a >= fraction * a.max()))
+        for j in tops[np.argsort(a[tops])[::-1][:most]]:
+            out.append(np.arange(rows[max(j - 1, 0)], rows[min(j + 1, rows.size - 1)] + 1))
+    return np.unique(np.concatenate(out)) if out else np.empty(0, dtype=int)
+
+
 def demand_figures(res: SimulationResult, surface: Surface, motion: Motion,
                    ctl: Controller | None, rule: act.Quadrature, settings: DemandSettings,
-                   g: float, interval: float, grid_interval: float) -> DemandAlong:
-    """What the actuators delivered along res (docs/model.md s.12.1): the load power from
-    its recorded contact, the membrane powers by ``rule``, at its rows every ``interval``;
-    the stroke on the (alpha, R) grid at its rows every ``grid_interval``, the closed-form
-    maxima of |W_t|, |W_tt| and the local frequency over the run, and the energy frequency
-    of W_t at the worst point. ``motion`` is the run's (its angular law replaced by the
-    controlled phase when ``ctl`` is given)."""
-    rows = _rows(res, interval)
-    if rows.size < 2:
-        return DemandAlong({k: math.nan for k, *_ in DEMAND_FIGURES}, res.t[rows], {})
+                   g: float, interval: float) -> DemandAlong:
+    """What the actuators delivered along res (docs/model.md s.12.1). ``motion`` is the
+    run's (its angular law replaced by the controlled phase, sampled at every recorded step,
+    when ``ctl`` is given).
+
+    The load power at every recorded step; the membrane integrals by ``rule`` at the rows
+    every ``interval``, and again at every recorded step around the largest samples of
+    |P_actuator| and |P_inertia| (a servo's transients are shorter than a path interval:
+    the peaks are those of the recorded steps); E_actuator = int P_surface dt over every
+    step + K_m(end) - K_m(0) (P_inertia is dK_m/dt) + int (P_gravity + P_damping) dt over
+    the rows (rate-level integrands, smooth). The stroke on the (alpha, R) grid at the
+    rows, the closed-form maxima of |W_t|, |W_tt| and the local frequency over the run, the
+    energy frequency of W_t at the worst point at the rows."""
+    n = res.t.size
+    if n < 3:
+        return DemandAlong({k: math.nan for k, *_ in DEMAND_FIGURES}, res.t, {})
     s = settings
-    t = res.t[rows]
-    m = _motion_along(res, motion, ctl, float(surface.Ka), rows)
-    P_s = act.load_power(surface, m, t, res.R[rows], res.alpha[rows], res.N[rows],
-                         res.f[rows])
-    step = max(1, round(grid_interval / interval))
-    d = act.actuation_demand(surface, m, t, P_s, rule, s.sigma, s.c_d, g, grid=t[::step],
+    t_all = res.t
+    m = _motion_along(res, motion, ctl, float(surface.Ka), np.arange(n))
+    P_all = act.load_power(surface, m, t_all, res.R, res.alpha, res.N, res.f)
+    rows = _rows(res, interval)
+    t = t_all[rows]
+    d = act.actuation_demand(surface, m, t, P_all[rows], rule, s.sigma, s.c_d, g,
                              span=(float(t[0]), float(t[-1])),
                              extrema=(s.extrema_n_alpha, s.extrema_n_R),
                              energy_fraction=s.energy_fraction, polish=False)
-    duration = float(t[-1] - t[0])
-    powers = d.powers()
-    actuator = act.power_figures(powers["P_actuator"], t, duration)
-    inertia = act.power_figures(powers["P_inertia"], t, duration)
+    coarse = d.powers()
+    near = np.setdiff1d(_around_peaks(rows, [coarse["P_actuator"], coarse["P_inertia"]]),
+                        rows)
+    mi = act.membrane_integrals(surface, m, t_all[near], rule, s.sigma, s.c_d, g)
+    fine = {"P_surface": P_all[near], "P_inertia": mi.inertia, "P_gravity": mi.gravity,
+            "P_damping": mi.damping,
+            "P_actuator": P_all[near] + mi.inertia + mi.gravity + mi.damping,
+            "K_m": mi.kinetic}
+    order = np.argsort(np.concatenate([rows, near]), kind="stable")
+    histories = {key: np.concatenate([y, fine[key]])[order]
+                 for key, y in {**coarse, "K_m": d.integrals.kinetic}.items()}
     K = d.integrals.kinetic
+    membrane = d.integrals.gravity + d.integrals.damping
+    energy = (act.time_integral(P_all, t_all) + float(K[-1] - K[0])
+              + act.time_integral(membrane, t))
     try:
         K_cf, _ = act.annulus_kinetic_energy(surface, m, t, s.sigma)
         K_rel = float(np.max(np.abs(K - K_cf)) / np.max(np.abs(K_cf)))
     except ValueError:  # an inclined membrane: no closed form
         K_rel = math.nan
     figures = {
-        "P_actuator_peak": actuator["peak"], "E_actuator": actuator["energy"],
-        "P_inertia_peak": inertia["peak"], "K_m_max": d.K_m_max, "stroke": d.extrema.stroke,
+        "P_actuator_peak": float(np.max(np.abs(histories["P_actuator"]))),
+        "E_actuator": energy,
+        "P_inertia_peak": float(np.max(np.abs(histories["P_inertia"]))),
+        "K_m_max": d.K_m_max, "stroke": d.extrema.stroke,
         "max_W_t": d.max_W_t_closed_form, "max_W_tt": d.max_W_tt_closed_form,
         "bandwidth": d.bandwidth, "bandwidth99": d.bandwidth99,
-        "inertia_energy_error": inertia["energy"] - float(K[-1] - K[0]),
         "K_m_closed_form_rel_error": K_rel,
     }
-    return DemandAlong(figures, t, {**powers, "K_m": K})
+    return DemandAlong(figures, t_all[np.concatenate([rows, near])[order]], histories)
 
 
 @dataclass
@@ -641,8 +672,10 @@ def _with_demand(ds: xr.Dataset, cfg: ControlConfig, base: DynamicConfig,
     The membrane quadrature is converged once, on the reference case (the fastest, else the
     first) at its path samples, and the grid before the last refinement is used for every run
     (the last refinement changed no integral by more than the tolerance, so that grid is
-    within it); the time sampling is checked once too, on the same case, against every
-    recorded step (both recorded as attributes)."""
+    within it). Each run's figures come from its rows every path interval, refined at its
+    recorded steps around the peaks (:func:`demand_figures`); that sampling is checked
+    once, on the same case, against every recorded step (P_actuator's integral there by
+    Simpson's rule, the definition), and the relative changes recorded as attributes."""
     surface = base.geometry.surface()
     g = base.sphere.g
     s = settings
@@ -656,17 +689,22 @@ def _with_demand(ds: xr.Dataset, cfg: ControlConfig, base: DynamicConfig,
     rule = act.quadrature(surface, *levels)
 
     def along(res: SimulationResult, motion: Motion, ctl: Controller | None,
-              interval: float = cfg.demand_interval) -> DemandAlong:
-        return demand_figures(res, surface, motion, ctl, rule, s, g, interval,
-                              cfg.path_interval)
+              interval: float = cfg.path_interval) -> DemandAlong:
+        return demand_figures(res, surface, motion, ctl, rule, s, g, interval)
 
     case_demand = [along(*c) for c in cases]
-    every_step = along(*cases[reference], interval=ref_res.dt)
-    sampling = {k: _rel(case_demand[reference].figures[k], every_step.figures[k])
-                for k in ("P_actuator_peak", "E_actuator", "P_inertia_peak", "K_m_max",
-                          "max_W_tt")}
+    # the paths at every recorded step (the figure's histories); the fastest case's is the
+    # check of the sampling above
+    path_demand = [along(*p, interval=p[0].dt) for p in paths]
+    every = (path_demand[0] if paths and paths[0][0] is ref_res
+             else along(*cases[reference], interval=ref_res.dt))
+    ref = case_demand[reference].figures
+    direct = {"P_actuator_peak": float(np.max(np.abs(every.histories["P_actuator"]))),
+              "E_actuator": act.time_integral(every.histories["P_actuator"], every.t),
+              "P_inertia_peak": float(np.max(np.abs(every.histories["P_inertia"]))),
+              "K_m_max": every.figures["K_m_max"], "max_W_tt": every.figures["max_W_tt"]}
+    sampling = {k: _rel(ref[k], v) for k, v in direct.items()}
     robust_demand = [along(*r) for r in robust]
-    path_demand = [along(*p) for p in paths]
     shape = (ds.sizes["mu"], ds.sizes["mass_factor"])
     data: dict[str, Any] = {}
     for key, unit, long_name in DEMAND_FIGURES:
@@ -674,18 +712,21 @@ def _with_demand(ds: xr.Dataset, cfg: ControlConfig, base: DynamicConfig,
         data[key] = ("case", np.array([d.figures[key] for d in case_demand]), attrs)
         data[f"robust_closed_{key}"] = (("mu", "mass_factor"), np.array(
             [d.figures[key] for d in robust_demand]).reshape(shape), attrs)
+    dt = base.solver.dt
     n = max((d.t.size for d in path_demand), default=0)
-    tgrid = np.arange(n) * cfg.demand_interval
+    tgrid = np.arange(n) * dt
     for key in (*act.POWERS, "K_m"):
         rows = np.full((len(path_demand), n), math.nan)
         for i, d in enumerate(path_demand):
             if key in d.histories:
                 rows[i] = np.interp(tgrid, d.t, d.histories[key], right=math.nan)
-        data[f"demand_{key}"] = (("path", "demand_time"), rows,
-                                 {"units": "J" if key == "K_m" else "W"})
+        data[f"demand_{key}"] = (("path", "demand_time"), rows, {
+            "units": "J" if key == "K_m" else "W",
+            "long_name": f"{key} along the path at every recorded step"})
     out = ds.assign(data).assign_coords(demand_time=("demand_time", tgrid, {"units": "s"}))
     out.attrs.update({
-        "demand_sigma": s.sigma, "demand_c_d": s.c_d, "demand_interval": cfg.demand_interval,
+        "demand_sigma": s.sigma, "demand_c_d": s.c_d,
+        "demand_sample_interval": cfg.path_interval,
         "demand_quadrature_n_alpha": levels[0], "demand_quadrature_n_R": levels[1],
         "demand_quadrature_levels": np.array(conv.levels, dtype=np.int32).ravel(),
         "demand_quadrature_rel_change": conv.final_rel_change,
