@@ -737,10 +737,17 @@ def _control_powers_figure(ds: xr.Dataset, path: Path) -> None:
         ax.set_ylabel(label, fontsize=8)
         ax.grid(alpha=0.3)
         ax.axhline(0.0, color="0.6", lw=0.5)
+    # the runs' tails are still: show up to where the last actuator power falls below 1 % of
+    # its peak (and a margin), not the whole 15 s
+    P = np.abs(ds.demand_P_actuator.values)
+    active = np.nan_to_num(P) > 0.01 * np.nanmax(P) if np.isfinite(P).any() else P > 0
+    if active.any():
+        last = float(t[np.flatnonzero(active.any(axis=0))[-1]])
+        axes[-1].set_xlim(t[0], min(float(t[-1]), 1.15 * last + 0.5))
     axes[0].legend(fontsize=8)
     axes[-1].set_xlabel("t (s)")
-    sigma = float(ds.attrs["demand_sigma"])
-    fig.suptitle(f"What the actuators deliver: closed loop beside the open-loop laws "
-                 f"(sigma = {sigma:g} kg/m^2, c_d = {float(ds.attrs['demand_c_d']):g} "
-                 f"N s/m^3; P_gravity = 0 on the flat annulus)", fontsize=10)
+    fig.suptitle(f"Actuation along the fastest closed loop and the open-loop laws (sigma = "
+                 f"{float(ds.attrs['demand_sigma']):g} kg/m^2, c_d = "
+                 f"{float(ds.attrs['demand_c_d']):g} N s/m^3; P_gravity = 0 on the flat "
+                 "annulus)", fontsize=9)
     finish_figure(fig, path)
