@@ -723,7 +723,9 @@ def _with_demand(ds: xr.Dataset, cfg: ControlConfig, base: DynamicConfig,
         data[f"demand_{key}"] = (("path", "demand_time"), rows, {
             "units": "J" if key == "K_m" else "W",
             "long_name": f"{key} along the path at every recorded step"})
-    out = ds.assign(data).assign_coords(demand_time=("demand_time", tgrid, {"units": "s"}))
+    out = ds.assign(data).assign_coords(demand_time=("demand_time", tgrid, {
+        "units": "s", "long_name": "simulated time since the start of the run, every "
+                                  "recorded step of the paths' actuation histories"}))
     out.attrs.update({
         "demand_sigma": s.sigma, "demand_c_d": s.c_d,
         "demand_sample_interval": cfg.path_interval,
