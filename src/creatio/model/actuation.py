@@ -606,13 +606,14 @@ def actuation_demand(surface: Surface, motion: Motion, t: ArrayLike, P_surface: 
                      grid: ArrayLike | None = None, sample_interval: float | None = None,
                      span: tuple[float, float] | None = None,
                      extrema: tuple[int, int] = (48, 33), energy_fraction: float = 0.99,
-                     polish: bool = True) -> ActuationDemand:
+                     polish: bool = True, xtol: float = 1e-13) -> ActuationDemand:
     """What the actuators deliver along one run whose surface moves by ``motion`` (its laws,
     or a controlled phase by :func:`sampled_motion`), from the load power P_surface the run
     put into the sphere at its sample times t (:func:`load_power`).
 
     The membrane integrals by ``rule`` at t, P_actuator = P_surface + P_inertia + P_gravity
-    + P_damping, the largest K_m refined between samples (:func:`refine_maximum`); the normal
+    + P_damping, the largest K_m refined between samples (:func:`refine_maximum` to ``xtol``
+    s: a sampled phase is itself known to far less than the default); the normal
     motion's numeric extrema on ``grid`` (default t; ``extrema`` is the (alpha, R) start
     grid, ``polish`` the local search of :func:`normal_rate_maxima`), the closed-form maxima
     of |W_t| and |W_tt| and the largest local frequency over ``span`` (default the grid's
@@ -632,7 +633,8 @@ def actuation_demand(surface: Surface, motion: Motion, t: ArrayLike, P_surface: 
     def K_quad(x: Array) -> Array:
         return membrane_integrals(surface, motion, x, rule, sigma, 0.0, g).kinetic
 
-    t_K, K_max = refine_maximum(K_quad, t, mi.kinetic) if t.size else (math.nan, math.nan)
+    t_K, K_max = (refine_maximum(K_quad, t, mi.kinetic, xtol) if t.size
+                  else (math.nan, math.nan))
     ex = normal_rate_maxima(surface, motion, grid_t, extrema[0], extrema[1], polish)
     _, wt_cf = time_maximum(lambda x: normal_rate_bounds(surface, motion, x)[0], t0, t1)
     _, wtt_cf = time_maximum(lambda x: normal_rate_bounds(surface, motion, x)[1], t0, t1)

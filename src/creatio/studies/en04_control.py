@@ -241,7 +241,7 @@ DEMAND_FIGURES = (
     ("max_W_tt", "m s-2", "largest |W_tt| over the membrane and the run"),
     ("bandwidth", "Hz", "largest local frequency (|phi_r'| + |phi_a'|) / (2 pi)"),
     ("bandwidth99", "Hz", "frequency below which 99 % of the energy of W_t at the worst "
-                          "point lies"),
+                          "point lies (NaN: the run does not end at rest)"),
     ("K_m_closed_form_rel_error", "1", "largest |K_m - flat-annulus closed form| over the "
                                        "largest K_m (NaN off the flat annulus)"),
 )
@@ -309,7 +309,8 @@ def demand_figures(res: SimulationResult, surface: Surface, motion: Motion,
     step + K_m(end) - K_m(0) (P_inertia is dK_m/dt) + int (P_gravity + P_damping) dt over
     the rows (rate-level integrands, smooth). The stroke on the (alpha, R) grid at the
     rows, the closed-form maxima of |W_t|, |W_tt| and the local frequency over the run, the
-    energy frequency of W_t at the worst point at the rows."""
+    energy frequency of W_t at the worst point at the rows (NaN unless the run ends with its
+    local frequency below 1 % of the largest: the record must end at rest)."""
     n = res.t.size
     if n < 3:
         return DemandAlong({k: math.nan for k, *_ in DEMAND_FIGURES}, res.t, {})
@@ -322,7 +323,7 @@ def demand_figures(res: SimulationResult, surface: Surface, motion: Motion,
     d = act.actuation_demand(surface, m, t, P_all[rows], rule, s.sigma, s.c_d, g,
                              span=(float(t[0]), float(t[-1])),
                              extrema=(s.extrema_n_alpha, s.extrema_n_R),
-                             energy_fraction=s.energy_fraction, polish=False)
+                             energy_fraction=s.energy_fraction, polish=False, xtol=1e-9)
     coarse = d.powers()
     near = np.setdiff1d(_around_peaks(rows, [coarse["P_actuator"], coarse["P_inertia"]]),
                         rows)
@@ -349,7 +350,11 @@ def demand_figures(res: SimulationResult, surface: Surface, motion: Motion,
         "P_inertia_peak": float(np.max(np.abs(histories["P_inertia"]))),
         "K_m_max": d.K_m_max, "stroke": d.extrema.stroke,
         "max_W_t": d.max_W_t_closed_form, "max_W_tt": d.max_W_tt_closed_form,
-        "bandwidth": d.bandwidth, "bandwidth99": d.bandwidth99,
+        "bandwidth": d.bandwidth,
+        # the spectrum takes W_t as zero after the record: a run that stops with the pattern
+        # still moving (lost, or not settled) would have its truncation counted as signal
+        "bandwidth99": (d.bandwidth99 if act.local_frequency(m, t[-1:])[0]
+                        <= 0.01 * d.bandwidth else math.nan),
         "K_m_closed_form_rel_error": K_rel,
     }
     return DemandAlong(figures, t_all[np.concatenate([rows, near])[order]], histories)
