@@ -201,9 +201,8 @@ def test_report_contract_on_short_cycles(tmp_path) -> None:
         assert list(case) == [k for k, _ in CONTROL_CASE_KEYS + CONTROL_DEMAND_KEYS]
         # what the actuator delivered along the closed loop (each controlled run's own)
         assert case["E_actuator_J"] > 0.0 and case["K_m_max_J"] > 0.0
-        # 2 A (the sweep is 12 pi), from the (alpha, R) grid at the path samples without a
-        # local search: the samples meet W's extremes to about 3e-6 of it
-        assert case["stroke_m"] == pytest.approx(0.36, rel=2e-5)
+        # 2 A: the sweep is 12 pi (W's extremes met at the path samples to about 1e-7)
+        assert case["stroke_m"] == pytest.approx(0.36, rel=1e-6)
     assert set(c["fastest_case"]) >= {k for k, _ in CONTROL_DEMAND_KEYS}
     assert all(r["closed_loop_P_actuator_peak_W"] > 0.0 for r in c["robustness"])
     demand = report["control_checks"]["demand"]

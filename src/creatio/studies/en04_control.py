@@ -307,10 +307,12 @@ def demand_figures(res: SimulationResult, surface: Surface, motion: Motion,
     |P_actuator| and |P_inertia| (a servo's transients are shorter than a path interval:
     the peaks are those of the recorded steps); E_actuator = int P_surface dt over every
     step + K_m(end) - K_m(0) (P_inertia is dK_m/dt) + int (P_gravity + P_damping) dt over
-    the rows (rate-level integrands, smooth). The stroke on the (alpha, R) grid at the
-    rows, the closed-form maxima of |W_t|, |W_tt| and the local frequency over the run, the
-    energy frequency of W_t at the worst point at the rows (NaN unless the run ends with its
-    local frequency below 1 % of the largest: the record must end at rest)."""
+    the rows (rate-level integrands, smooth). The stroke and the worst point from the
+    (alpha, R) grid at the rows, each polished by the local search (on a partial sweep the
+    grid alone is 2 % short), the closed-form maxima of |W_t|, |W_tt| and the local
+    frequency over the run, the energy frequency of W_t at the worst point at the rows (NaN
+    unless the run ends with its local frequency below 1 % of the largest: the record must
+    end at rest)."""
     n = res.t.size
     if n < 3:
         return DemandAlong({k: math.nan for k, *_ in DEMAND_FIGURES}, res.t, {})
@@ -323,7 +325,7 @@ def demand_figures(res: SimulationResult, surface: Surface, motion: Motion,
     d = act.actuation_demand(surface, m, t, P_all[rows], rule, s.sigma, s.c_d, g,
                              span=(float(t[0]), float(t[-1])),
                              extrema=(s.extrema_n_alpha, s.extrema_n_R),
-                             energy_fraction=s.energy_fraction, polish=False, xtol=1e-9)
+                             energy_fraction=s.energy_fraction, xtol=1e-9)
     coarse = d.powers()
     near = np.setdiff1d(_around_peaks(rows, [coarse["P_actuator"], coarse["P_inertia"]]),
                         rows)
