@@ -31,6 +31,7 @@ from creatio.studies.en04_control import ControllerPoint, controller, measure
     ("study.control.u_max=-3", "study.control.u_max", "> 0"),
     ("study.control.duration=15.0005", "study.control.duration", "multiple"),
     ("bases.en02.solver.method=radau5", "bases.en02.solver.method", "explicit"),
+    ("study.control.extrema.n_R=2", "study.control.extrema.n_R", ">= 3"),
 ])
 def test_refused_settings(override: str, key: str, rule: str) -> None:
     with pytest.raises(ConfigError) as e:

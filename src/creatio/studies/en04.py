@@ -44,7 +44,12 @@ from creatio.model.numerics import steps_in
 from creatio.model.oscillation import StillCavity, regularised_rolling, still_cavity
 from creatio.model.sphere import inertia
 from creatio.model.surface import Motion, Surface, wavenumber
-from creatio.studies.en04_control import ControlConfig, DemandSettings, run_control
+from creatio.studies.en04_control import (
+    ControlConfig,
+    DemandSettings,
+    ExtremaGridConfig,
+    run_control,
+)
 from creatio.studies.registry import Part
 from creatio.studies.schema import MISSING, DynamicConfig, require
 
@@ -100,19 +105,6 @@ class QuadratureConfig:
                 "must be >= 2 (a change needs two grids)")
         require(self.check_interval > 0.0, f"{path}.check_interval", self.check_interval,
                 "must be > 0 s")
-
-
-@dataclass
-class ExtremaGridConfig:
-    """The (alpha, R) grid the numeric extrema of W start from (then polished locally)."""
-
-    n_alpha: int = 48
-    n_R: int = 33
-
-    def check(self, path: str) -> None:
-        """At least 4 angles and 3 radii."""
-        require(self.n_alpha >= 4, f"{path}.n_alpha", self.n_alpha, "must be >= 4")
-        require(self.n_R >= 3, f"{path}.n_R", self.n_R, "must be >= 3")
 
 
 @dataclass
@@ -274,7 +266,7 @@ def run(cfg: En04Config, part: str) -> xr.Dataset:
         base = cfg.bases[c.base]
         a, q = cfg.study.actuation, cfg.study.actuation.quadrature
         settings = DemandSettings(a.sigma, a.c_d, q.n_alpha, q.n_R, q.growth, q.rtol,
-                                  q.max_levels, a.extrema.n_alpha, a.extrema.n_R,
+                                  q.max_levels, c.extrema.n_alpha, c.extrema.n_R,
                                   a.energy_fraction)
         return run_control(c, base, closed_forms(base).roll_alpha ** 2, settings)
     raise ValueError(f"part must be actuation, oscillation or control, got {part!r}")

@@ -50,7 +50,7 @@ if TYPE_CHECKING:
     import xarray as xr
 
 __all__ = ["DEMAND_FIGURES", "ControlConfig", "ControllerPoint", "DemandSettings",
-           "controller", "demand_figures", "run_control"]
+           "ExtremaGridConfig", "controller", "demand_figures", "run_control"]
 
 
 @dataclass
@@ -93,6 +93,21 @@ class RobustnessConfig:
 
 
 @dataclass
+class ExtremaGridConfig:
+    """The (alpha, R) grid the numeric extrema of W start from (then polished locally):
+    study.actuation.extrema for the prescribed cycles, study.control.extrema along the
+    closed loop (a coarser default, 16 x 9: every controlled run is searched)."""
+
+    n_alpha: int = 48
+    n_R: int = 33
+
+    def check(self, path: str) -> None:
+        """At least 4 angles and 3 radii."""
+        require(self.n_alpha >= 4, f"{path}.n_alpha", self.n_alpha, "must be >= 4")
+        require(self.n_R >= 3, f"{path}.n_R", self.n_R, "must be >= 3")
+
+
+@dataclass
 class ControlConfig:
     """The closed loop of docs/model.md s.12.2 on the sphere of ``base``."""
 
@@ -104,6 +119,7 @@ class ControlConfig:
     zeta: float = 1.0
     u_max: float | None = None
     path_interval: float = 0.02
+    extrema: ExtremaGridConfig = field(default_factory=lambda: ExtremaGridConfig(16, 9))
     omega_max: list[float] = field(default_factory=lambda: [1.0, 1.5, 2.0, 2.5, 3.0])
     delta_max_deg: list[float] = field(default_factory=lambda: [5.0, 10.0, 20.0])
     omega_c: list[float] = field(default_factory=lambda: [2.0, 3.0, 4.0])
@@ -131,6 +147,7 @@ class ControlConfig:
                 require(abs(v / step - round(v / step)) < 1e-9 and v > 0.0, f"{path}.{key}", v,
                         f"must be a positive multiple of bases.{self.base}.solver.dt and of "
                         f"dt / refine ({step:g} s)")
+        self.extrema.check(f"{path}.extrema")
         require(self.theta_goal_deg != 0.0 and math.isfinite(self.theta_goal_deg),
                 f"{path}.theta_goal_deg", self.theta_goal_deg, "must be a nonzero travel")
         require(self.arrival_tol_deg > 0.0, f"{path}.arrival_tol_deg", self.arrival_tol_deg,
@@ -211,9 +228,9 @@ def _simulate(problem: SphereProblem) -> SimulationResult:
 # ------------------------------------------------------------------ actuation demand
 @dataclass(frozen=True)
 class DemandSettings:
-    """The settings of the actuation figures along each run, study.actuation's (EN-04):
-    areal density and damping, the quadrature's first grid, growth, tolerance and most
-    grids, the (alpha, R) grid of the stroke, the energy fraction of the bandwidth."""
+    """The settings of the actuation figures along each run (EN-04): study.actuation's
+    areal density and damping, quadrature (first grid, growth, tolerance, most grids) and
+    energy fraction of the bandwidth; study.control.extrema's start grid of the stroke."""
 
     sigma: float = 0.5
     c_d: float = 0.0
@@ -222,8 +239,8 @@ class DemandSettings:
     growth: float = 1.5
     rtol: float = 1e-10
     max_levels: int = 12
-    extrema_n_alpha: int = 48
-    extrema_n_R: int = 33
+    extrema_n_alpha: int = 16
+    extrema_n_R: int = 9
     energy_fraction: float = 0.99
 
 
