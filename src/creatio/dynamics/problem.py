@@ -359,9 +359,6 @@ class SphereProblem:
             raise ValueError("equilibrium start needs a pull along -z (g > 0 or a base "
                              "confinement with P > 0): the equilibrium minimises the height")
         if self.model.control is not None:
-            if solvers.get(sv.method).stepper != solvers.EXPLICIT:
-                raise ValueError(f"the controlled phase needs an explicit method (rk4, dopri5, "
-                                 f"dop853), got {sv.method!r}")
             if self.structure_free or ev.flight:
                 raise ValueError("the controlled phase needs the fixed structure, no normal "
                                  "preload and no flight")

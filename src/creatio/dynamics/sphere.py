@@ -101,6 +101,7 @@ from creatio.dynamics.layout import (
     LAW_GAMMA,
     LAW_R,
     NCTL,
+    NCTLS,
     NDIAG,
     NEXT,
     NLAWS,
@@ -210,6 +211,22 @@ def _surface_state(t, y, pp, lc, rot, en):
                            c[C_DELTA_MAX], c[C_OMEGA_N], c[C_ZETA], c[C_U_MAX])
         return surface_with_phase(t, y[Y_R], y[Y_ALPHA], pp, lc, pa, pa1, u), u
     return controlled
+
+
+def control_columns(lc):
+    """How many state columns the control block adds to the feedback (the Jacobian's
+    differenced columns, creatio.dynamics.solvers.radau.jacobian): NCTLS on the controlled
+    path, 0 otherwise (compiled code only)."""
+    raise NotImplementedError("called only from compiled code")
+
+
+@overload(control_columns, inline="always")
+def _control_columns(lc):
+    """NCTLS where the law tuple carries the controller's row, else 0 (a compile-time
+    property of lc's type)."""
+    if not _controlled(lc):
+        return lambda lc: 0
+    return lambda lc: NCTLS
 
 
 @overload(control_rates, inline="always")

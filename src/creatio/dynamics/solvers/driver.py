@@ -388,10 +388,11 @@ def _entry(stepper: int, rot: bool, en: bool, free: bool, ctl: bool = False):
 SPECIALISATIONS = {key: _entry(*key) for key in itertools.product(
     STEPPERS, (True, False), (True, False), (True, False))}
 #: The controlled path's entry points (docs/model.md s.12.2), (stepper kind, rotation,
-#: energy) -> entry point: explicit steppers on the fixed structure (the implicit kinds'
-#: Jacobian has no columns for the controlled phase yet).
-CONTROLLED = {(EXPLICIT, rot, en): _entry(EXPLICIT, rot, en, False, True)
-              for rot, en in itertools.product((True, False), (True, False))}
+#: energy) -> entry point: every stepper kind on the fixed structure (the implicit kinds'
+#: Jacobian differences the control block's columns too, creatio.dynamics.solvers.radau).
+CONTROLLED = {(stepper, rot, en): _entry(stepper, rot, en, False, True)
+              for stepper, rot, en in itertools.product(STEPPERS, (True, False),
+                                                        (True, False))}
 
 
 def run(
