@@ -364,6 +364,24 @@ def pack_controlled(p, lawc):
     return to_fixed_tuple(p[:NPAR], NPAR), lc
 
 
+def pack_run(ctl, p, lawc):
+    """The parameter and law tuples of a run's loop: :func:`pack`, or :func:`pack_controlled`
+    on the controlled path (compiled code only; resolved at compile time on the literal
+    ctl)."""
+    raise NotImplementedError("called only from compiled code")
+
+
+@overload(pack_run, prefer_literal=True, inline="always")
+def _pack_run(ctl, p, lawc):
+    """pack, or pack_controlled on the controlled path (the law tuple then carries the
+    controller's row, which selects that path in the right-hand side)."""
+    if not isinstance(ctl, types.BooleanLiteral):
+        return None
+    if ctl.literal_value:
+        return lambda ctl, p, lawc: pack_controlled(p, lawc)
+    return lambda ctl, p, lawc: pack(p, lawc)
+
+
 @njit(cache=True)
 def pack(p, lawc):
     """The parameter and law tuples the kernels read, from the plain arrays (unpacked once,
