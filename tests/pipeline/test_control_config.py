@@ -88,6 +88,9 @@ def test_a_study_without_the_group_and_a_misspelled_form_are_refused() -> None:
     # Snakemake's overrides go to the studies that have the key: the sphere studies only
     assert applicable("en02", ["control=pd"]) == ["control=pd"]
     assert applicable("ct02", ["control=pd"]) == []
+    assert applicable("en02r", ["control=pd", "control.omega_n=40"]) == [
+        "control=pd", "control.omega_n=40"]
+    assert applicable("en01", ["control=pd", "control.omega_n=40"]) == []
 
 
 def test_refusal_is_one_line_exit_2() -> None:

@@ -274,7 +274,8 @@ def applicable(study: str, overrides: Sequence[str]) -> list[str]:
     keep = []
     for ov in overrides:
         key = ov.split("=", 1)[0].lstrip("+~").split("@", 1)[0]
-        if key in optional:  # an optional group the default leaves out (control=pd)
+        if key.split(".")[0] in optional:  # an optional group the default leaves out
+            # (control=pd, and its keys: control.omega_n=40)
             keep.append(ov)
             continue
         node: Any = base
