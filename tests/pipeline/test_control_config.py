@@ -14,6 +14,7 @@ import pytest
 
 from creatio.errors import ConfigError
 from creatio.pipeline.config import applicable, resolve
+from creatio.studies import en04
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -49,6 +50,8 @@ def test_control_pd_builds_the_design_rule_controller() -> None:
     kappa = g.A * g.Ka ** 2 / (g.R0 + R_c) ** 2
     k_alpha = sp.g * kappa / ((1.0 - sp.b * kappa) * 1.4)
     assert k_alpha == pytest.approx(99.90, abs=0.01)
+    # the value EN-04's own design rule uses
+    assert en04.closed_forms(cfg).roll_alpha ** 2 == pytest.approx(k_alpha, rel=1e-12)
     ctl = cfg.sphere_problem().model.control
     assert ctl.k_theta == pytest.approx(9.0 / k_alpha, rel=1e-12)
     assert ctl.k_omega == pytest.approx(6.0 / k_alpha, rel=1e-12)

@@ -33,9 +33,12 @@ from creatio.dynamics.problem import (
 )
 from creatio.dynamics.solvers import METHODS
 from creatio.errors import ConfigError
+from creatio.model.cavity import cavity_radius
 from creatio.model.control import Controller, outer_gains
 from creatio.model.laws import Law, LawKind
 from creatio.model.numerics import steps_in
+from creatio.model.oscillation import still_cavity
+from creatio.model.sphere import inertia
 from creatio.model.surface import Motion, Surface
 
 __all__ = [
@@ -66,6 +69,7 @@ __all__ = [
     "check_positive_list",
     "require",
     "require_samples",
+    "still_cavity_k_alpha",
     "vary",
     "with_cycle",
 ]
@@ -674,15 +678,11 @@ class DynamicConfig:
 
     def controller(self, problem: SphereProblem) -> Controller | None:
         """The closed loop's controller on problem's start (None without the group): gains
-        by the design rule of docs/model.md s.12.2, k_alpha the square of the rolling
-        sphere's small-oscillation frequency along alpha in the start's still cavity
-        (creatio.studies.en04.closed_forms, imported here: it is a study module)."""
+        by the design rule of docs/model.md s.12.2 (:func:`still_cavity_k_alpha`)."""
         c = self.control
         if c is None:
             return None
-        from creatio.studies.en04 import closed_forms
-
-        k_theta, k_omega = outer_gains(c.omega_c, c.zeta_c, closed_forms(self).roll_alpha ** 2)
+        k_theta, k_omega = outer_gains(c.omega_c, c.zeta_c, still_cavity_k_alpha(problem))
         return Controller(goal=math.radians(c.theta_goal_deg), alpha0=problem.start_point[1],
                           k_theta=k_theta, k_omega=k_omega, omega_max=c.omega_max,
                           delta_max=math.radians(c.delta_max_deg), omega_n=c.omega_n,
@@ -704,6 +704,20 @@ class DynamicConfig:
         """Largest stable fixed step (s) of this configuration's explicit scheme over its runs
         (inf without friction, for an adaptive method and for radau5)."""
         return min((stability_limit(p) for p in self.stability_problems()), default=math.inf)
+
+
+def still_cavity_k_alpha(problem: SphereProblem) -> float:
+    """k_alpha of the design rule (docs/model.md s.12.2-12.3): the square of the rolling
+    sphere's small-oscillation frequency along alpha at the bottom of the still cavity whose
+    cell the problem starts in (its radial branch at the phases of t = 0); the value of
+    creatio.studies.en04.closed_forms, from the problem the run uses."""
+    model = problem.model
+    surface, sphere = model.surface, model.sphere
+    n, _ = problem.cavity_cell()
+    R_c = cavity_radius(model.motion.phi_r.scalar(0.0)[0], model.k, n)
+    forms = still_cavity(surface.A, model.k, surface.Ka, surface.R0 + R_c, sphere.b, sphere.g,
+                         inertia(sphere.m, sphere.b) / (sphere.m * sphere.b ** 2))
+    return forms.roll_alpha ** 2
 
 
 #: Problems built by DynamicConfig.sphere_problem, by (config, dt): a run and its validation
