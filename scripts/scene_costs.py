@@ -56,7 +56,8 @@ def main(argv: list[str] | None = None) -> int:
     tmp = Path(tempfile.mkdtemp(prefix="creatio-costs-"))
     full: dict[str, dict] = {}  # study config sha -> its full run's figures
     rows = []
-    for scene in registry.SCENES:
+    for scene in (s.id for s in registry.SCENES.values() if s.reads is None):
+        # (a scene that reads a study's dataset, EN-04's, computes nothing of its own)
         # the scene's own frames, without its family (scripts/bench_scene_family.py times it)
         r = resolve(scene, route(scene, ["scene.axes.sphere=null"])[0]
                     if "axes" in resolve(scene).data.get("scene", {}) else [])

@@ -136,6 +136,13 @@ LONG = (
     "tests/core/test_beyond_inclination.py::test_a_short_cycle_leaves_its_cavity_yet_ends_ok",
     "tests/core/test_dynamics_simulation.py::"
     "test_trajectory_only_matches_full_run_when_frictionless",
+    # the EN-04 scene's tests that compute a cut-down EN-04 control dataset (the controlled
+    # path's compile, then 8-s runs) or start a browser
+    "tests/scenes/test_scene_en04.py::test_the_scene_draws_the_studys_own_runs",
+    "tests/scenes/test_scene_en04.py::test_the_recorded_path_is_the_runs_own",
+    "tests/scenes/test_scene_en04.py::test_a_dataset_of_another_config_is_refused",
+    "tests/scenes/test_scene_en04.py::test_the_page_draws_the_dataset_at_the_chosen_time",
+    "tests/scenes/test_scene_en04.py::test_beyond_builds_the_scene_after_its_studys_dataset",
 )
 
 

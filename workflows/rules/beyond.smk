@@ -10,6 +10,16 @@
 # this file adds the target, planned from the study registry (the studies with in_all=False
 # of the sphere kind: BEYOND, creatio.pipeline.invocation); --config studies=[...] selects
 # among them too (snakemake beyond --config 'studies=["en02f"]').
+#
+# The scenes that draw a beyond study's dataset (scene en04: EN-04's fastest closed loop beside
+# the open-loop boundary) are built with it: planned under the same overrides (those they do
+# not have are the studies' to refuse), by the scene rules of scenes.smk, which find their plan
+# here (SCENES.fallbacks).
+from creatio.scenes.plan import scenes_of
+
+BEYOND_SCENES = SceneRuns(config.get("overrides"), scenes_of(BEYOND.studies), strict=False)
+SCENES.fallbacks.append(BEYOND_SCENES)
+JOBS.fallbacks.insert(0, lambda: BEYOND_SCENES.study_jobs(JOBS))
 
 
 localrules:
@@ -19,3 +29,4 @@ localrules:
 rule beyond:
     input:
         lambda wc: PLAN.beyond_targets(),
+        lambda wc: BEYOND_SCENES.targets(),

@@ -13,6 +13,8 @@ from creatio.scenes.assets import library_inputs
 from creatio.scenes.plan import SceneRuns, scene_ids
 
 SCENES = SceneRuns(config.get("overrides"), config.get("scenes"))
+# A scene that reads a study's dataset (en04) names the study config whose rules build it.
+JOBS.fallbacks.insert(0, lambda: SCENES.study_jobs(JOBS))
 SCENE_LIBRARY = "data/scenes/lib/three.min.js"
 
 

@@ -25,14 +25,15 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
+from creatio.errors import ConfigError
 from creatio.model.cavity import classify_inclination
 from creatio.model.surface import Frame, Motion
 from creatio.scenes.needs import RunNeed, needs
-from creatio.scenes.schema import Readout
+from creatio.scenes.schema import En04Readout, Readout
 from creatio.studies.schema import GeometryConfig, vary
 
-__all__ = ["READOUTS", "run_need", "sphere_scene", "surface_family_scene",
-           "velocity_normal_scene"]
+__all__ = ["EN04_READOUTS", "READOUTS", "en04_scene", "run_need", "sphere_scene",
+           "surface_family_scene", "velocity_normal_scene"]
 
 log = logging.getLogger("creatio")
 
@@ -241,6 +242,160 @@ def _sense(angle_deg: float) -> str:
     if abs(angle_deg) < 0.5:
         return "still"
     return "counterclockwise" if angle_deg > 0 else "clockwise"
+
+
+# ----------------------------------------------------------------------------- EN-04 scene
+#: Each EN-04 readout: (label, unit, the en04_control path variable it is).
+EN04_READOUTS: dict[En04Readout, tuple[str, str, str]] = {
+    En04Readout.lead: ("lead delta = alpha_p - alpha (cavity minus contact)", "degree",
+                       "path_lead"),
+    En04Readout.pattern_speed: ("pattern speed dalpha_p/dt = -dphi_a/dt / Ka", "rad s-1",
+                                "path_pattern_speed"),
+    En04Readout.travel: ("travel theta = alpha - alpha(0)", "degree", "path_theta"),
+    En04Readout.load_power: ("load power (membrane into sphere)", "W", "path_power"),
+}
+
+#: The EN-04 paths the scene shows, in panel order: (path name in en04_control, run name).
+EN04_RUNS = (("closed_loop", "closed loop"), ("quintic", "open loop"))
+
+
+def en04_scene(resolved: Any, reuse: Mapping[str, str | Path] | None = None) -> xr.Dataset:
+    """The EN-04 scene's dataset, in the sphere scenes' format (two runs, one page): the
+    fastest carried closed loop and the open-loop quintic at its carried boundary T, both the
+    study's own runs as ``en04_control.nc`` recorded them (centre, phi_a, orientation, lead,
+    pattern speed, travel, load power at the frame times); phi_r and gamma from the control
+    base's laws, which both runs keep. ``reuse['en04']`` is that dataset, required: a file of
+    another EN-04 config is refused."""
+    from creatio.store.netcdf import read_dataset
+
+    s = resolved.obj.scene
+    study = resolved.bases["en04"]
+    path = (reuse or {}).get("en04")
+    if path is None:
+        raise ConfigError("--reuse", None, "scene en04 draws the EN-04 control dataset: pass "
+                          "--reuse en04=<root>/studies/en04/en04_control.nc (snakemake beyond "
+                          "builds it)")
+    src, _ = read_dataset(path)
+    if src.attrs.get("config_sha256") != study.sha256 or src.attrs.get("part") != "control":
+        raise ConfigError("--reuse", str(path), f"is not the control dataset of the scene's "
+                          f"EN-04 config (sha256 {study.sha256[:12]}; the file's "
+                          f"{str(src.attrs.get('config_sha256', '?'))[:12]}, part "
+                          f"{src.attrs.get('part', '?')})")
+    names = [str(p) for p in src.path.values]
+    if "closed_loop" not in names:
+        raise RuntimeError(f"{path}: no controller of the grid carried the sphere: there is no "
+                           "closed-loop run to show")
+    if not int(src.attrs["open_loop_boundary_found"]):
+        raise RuntimeError(f"{path}: the quintic bracket held no carried boundary: there is "
+                           "no open-loop boundary run to show")
+    control = study.obj.study.control
+    base = study.obj.bases[control.base]
+    interval = s.playback.interval
+    times = np.arange(round(control.duration / interval) + 1) * interval
+    t = src.time.values
+    idx = np.searchsorted(t, times - 1e-9)
+    if idx[-1] >= t.size or np.max(np.abs(t[np.minimum(idx, t.size - 1)] - times)) > 1e-9:
+        raise ValueError(f"{path}: its paths are not sampled at the scene's {interval:g} s frames")
+    laws = base.phases.laws()
+    fixed = {name: np.degrees(law(times).value)
+             for name, law in zip(("phase_r", "inclination"), (laws[0], laws[2]), strict=True)}
+    fastest = int(src.attrs["fastest_case"])
+    T = float(src.attrs["open_loop_boundary_T"])
+    case = {k: float(src[k].values[fastest])
+            for k in ("omega_max", "delta_max_deg", "omega_c", "omega_n")}
+    direction = {
+        # the media break the line at each ", " (three short lines in a panel's title)
+        "closed_loop": (f"fastest carried controller (of {int(src.carried.sum())}): arrival "
+                        f"{float(src.attrs['fastest_arrival']):.2f} s, limits Omega_max "
+                        f"{case['omega_max']:g} rad/s · delta_max {case['delta_max_deg']:g} deg, "
+                        f"gains omega_c {case['omega_c']:g} · omega_n {case['omega_n']:g} rad/s"),
+        "quintic": (f"quintic cycle at its carried boundary T = {T:.3f} s, arrival "
+                    f"{float(src.attrs['quintic_boundary_arrival']):.2f} s"),
+    }
+    status = {"closed_loop": str(src.status.values[fastest]),
+              # the boundary run is the bisection's shortest carried T: carried and ran to
+              # the end (creatio.studies.en04_control.measure), so its status is ok
+              "quintic": "ok"}
+    per_run: dict[str, list] = {}
+    for name, _ in EN04_RUNS:
+        p = names.index(name)
+        centre = src.path_centre.values[p, idx]
+        per_run.setdefault("centre", []).append(centre)
+        per_run.setdefault("phase_a", []).append(src.path_phase_a.values[p, idx])
+        for key, values in fixed.items():
+            per_run.setdefault(key, []).append(values)
+        if s.rotation:
+            per_run.setdefault("quaternion", []).append(src.path_quaternion.values[p, idx])
+        for r in s.readouts:
+            if r is not En04Readout.time:
+                per_run.setdefault(str(r), []).append(src[EN04_READOUTS[r][2]].values[p, idx])
+        ran = np.isfinite(centre).all(axis=1)
+        per_run.setdefault("frames_run", []).append(int(np.argmin(ran)) if not ran.all()
+                                                    else times.size)
+        per_run.setdefault("stop_time", []).append(float(times[ran][-1]))
+        per_run.setdefault("status", []).append(status[name])
+        per_run.setdefault("direction", []).append(direction[name])
+        label = str(src.path_label.values[p])
+        per_run.setdefault("source", []).append(
+            f"read from {path} (path {name}: {label}; EN-04 config "
+            f"sha256 {study.sha256[:12]}), nothing integrated here")
+    data: dict[str, Any] = {
+        "centre": (("run", "frame", "component"), np.stack(per_run["centre"]),
+                   {"long_name": "sphere centre X = c + b n", "units": "m"}),
+        "phase_r": (("run", "frame"), np.stack(per_run["phase_r"]),
+                    {"long_name": "radial phase phi_r", "units": "degree"}),
+        "phase_a": (("run", "frame"), np.stack(per_run["phase_a"]),
+                    {"long_name": "angular phase phi_a", "units": "degree"}),
+        "inclination": (("run", "frame"), np.stack(per_run["inclination"]),
+                        {"long_name": "inclination gamma", "units": "degree"}),
+        "status": ("run", per_run["status"]),
+        "stop_time": ("run", per_run["stop_time"], {"units": "s"}),
+        "frames_run": ("run", per_run["frames_run"],
+                       {"long_name": "frames up to the run's end (NaN after)"}),
+        "sphere_radius": ("run", [base.sphere.b] * len(EN04_RUNS), {"units": "m"}),
+        "direction": ("run", per_run["direction"]),
+        "source": ("run", per_run["source"]),
+        **{key: ("run", [value] * len(EN04_RUNS))
+           for key, value in _geometry_attrs(base.geometry).items()},
+    }
+    if s.rotation:
+        q = np.stack(per_run["quaternion"])
+        ran = np.isfinite(np.stack(per_run["centre"])[..., 0])
+        if not np.isfinite(q[ran]).all():
+            raise RuntimeError(f"{path}: the runs did not integrate the orientation the scene "
+                               "draws (marker, band): draw neither")
+        data["quaternion"] = (("run", "frame", "quaternion_component"), q,
+                              {"long_name": "orientation, unit quaternion, scalar first"})
+    for r in s.readouts:
+        if r is not En04Readout.time:
+            label, unit, _ = EN04_READOUTS[r]
+            data[str(r)] = (("run", "frame"), np.stack(per_run[str(r)]),
+                            {"long_name": label, "units": unit})
+    coords = {
+        "run": ("run", [run for _, run in EN04_RUNS]),
+        "time": ("frame", times, {"units": "s"}),
+        "component": ("component", COMPONENTS),
+        "quaternion_component": ("quaternion_component", ["w", "x", "y", "z"]),
+    }
+    ds = xr.Dataset(data, coords=coords)
+    ds.attrs.update({
+        "scene": resolved.id,
+        "kind": "sphere",  # the sphere scenes' page and media draw it
+        "frame_interval": interval,
+        "playback_speed": s.playback.speed,
+        "playback_fps": s.playback.fps,
+        "draw": [str(x) for x in s.draw],
+        "readouts": [str(r) for r in s.readouts],
+        "mesh": [s.mesh.n_alpha, s.mesh.n_R],
+        "computed_seconds": 0.0,
+        "en04_dataset": str(path),
+        "en04_fastest_case": fastest,
+        "en04_fastest_arrival": float(src.attrs["fastest_arrival"]),
+        "en04_open_loop_boundary_T": T,
+        "en04_quintic_boundary_arrival": float(src.attrs["quintic_boundary_arrival"]),
+        "comment": "the two runs of en04_control.nc at the frame times; NaN after a run's end",
+    })
+    return ds
 
 
 # ----------------------------------------------------------------------- kinematic scenes

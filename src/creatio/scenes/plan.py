@@ -32,7 +32,8 @@ from creatio.scenes.config import output_root, resolve, route
 from creatio.scenes.needs import RunNeed, needs
 from creatio.studies import registry as studies
 
-__all__ = ["RunNeed", "ScenePlan", "SceneRuns", "needs", "reusable"]
+__all__ = ["RunNeed", "ScenePlan", "SceneRuns", "needs", "reusable", "scenes_of",
+           "study_dataset"]
 
 
 def _holds(base: Resolved, need: RunNeed) -> bool:
@@ -56,6 +57,18 @@ def reusable(base: Resolved, need: RunNeed, data_dir: str | Path = "data") -> st
     return path if Path(path).is_file() else None
 
 
+def study_dataset(base: Resolved, part: str, data_dir: str | Path = "data") -> str:
+    """The path of one dataset part of a study config, where the study's own rules write it."""
+    entry = studies.get(base.id)
+    name = entry.part(base.obj, part).name
+    return f"{entry.dataset_dir(str(study_root(base, data_dir)))}/{name}.nc"
+
+
+def scenes_of(study_ids: Sequence[str]) -> list[str]:
+    """The scenes built with these studies (those that read one of their datasets)."""
+    return [s.id for s in registry.SCENES.values() if s.reads and s.reads[0] in study_ids]
+
+
 @dataclass(frozen=True)
 class ScenePlan:
     """One scene's resolved config, the overrides that reached it, and its output root."""
@@ -76,8 +89,12 @@ class ScenePlan:
         return self.entry.files(self.root)
 
     def reuse(self, data_dir: str | Path = "data") -> dict[str, str]:
-        """{study: dataset path} of the study datasets this scene reads instead of computing."""
+        """{study: dataset path} of the study datasets this scene reads instead of computing;
+        for a scene that reads a study's dataset (``reads``), that dataset, built first."""
         bases = self.resolved.bases
+        if self.entry.reads is not None:
+            study, part = self.entry.reads
+            return {study: study_dataset(bases[study], part, data_dir)}
         out = {}
         for need in needs(self.resolved):
             path = reusable(bases[need.study], need, data_dir)
@@ -90,17 +107,24 @@ class SceneRuns:
     """The scenes of one workflow invocation, planned on first use (`snakemake scenes`).
 
     Overrides reach every scene whose config has the key (see :func:`route`); an override
-    no selected scene has is refused, as for studies. Jobs look their config up by
-    (output root, scene); a job re-invoked on its own (a cluster node) plans the same again
-    from the same --config.
+    no selected scene has is refused, as for studies (unless ``strict`` is off: the scenes
+    `snakemake beyond` builds with its studies, whose planner refuses them). Without a
+    selection, every scene but those built with a study (``reads``). Jobs look their config
+    up by (output root, scene), here and then in ``fallbacks`` (other planners of the same
+    invocation); a job re-invoked on its own (a cluster node) plans the same again from the
+    same --config.
     """
 
-    def __init__(self, overrides: Any, scenes: Any = None, data_dir: str = "data") -> None:
+    def __init__(self, overrides: Any, scenes: Any = None, data_dir: str = "data",
+                 strict: bool = True) -> None:
         from creatio.pipeline.planning import as_list
 
         self.overrides = as_list(overrides)
-        self.scenes = as_list(scenes) if scenes is not None else list(registry.SCENES)
+        self.scenes = (as_list(scenes) if scenes is not None
+                       else [s.id for s in registry.SCENES.values() if s.reads is None])
         self.data_dir = data_dir
+        self.strict = strict
+        self.fallbacks: list[SceneRuns] = []
 
     @functools.cached_property
     def plans(self) -> dict[str, ScenePlan]:
@@ -119,9 +143,30 @@ class SceneRuns:
             if routed:
                 print(f"creatio: scene {scene} {routed} -> {root}", file=sys.stderr)
         unused = [o for o in self.overrides if o not in used]
-        if unused:
+        if unused and self.strict:
             raise ConfigError("overrides", unused, "no selected scene has these keys")
         return out
+
+    def study_jobs(self, jobs: Any) -> None:
+        """Register with ``jobs`` (creatio.pipeline.planning.JobConfigs) the study configs
+        whose datasets the selected scenes read, so that the study's own rules build them
+        under these overrides (``bases.en04.bases.en02.sphere.mu`` is the study's
+        ``bases.en02.sphere.mu``). A JobConfigs fallback: if these scenes cannot be planned
+        it registers nothing, and the invocation's own planners say why."""
+        if not any(registry.SCENES[s].reads for s in self.scenes if s in registry.SCENES):
+            return
+        try:
+            plans = self.plans
+        except ConfigError:
+            return
+        for plan in plans.values():
+            if plan.entry.reads is None:
+                continue
+            study = plan.entry.reads[0]
+            base = plan.resolved.bases[study]
+            prefix = f"bases.{study}."
+            overrides = [o[len(prefix):] if o.startswith(prefix) else o for o in plan.overrides]
+            jobs.add(str(study_root(base, self.data_dir)), base, overrides)
 
     @one_line_errors
     def targets(self) -> list[str]:
@@ -130,9 +175,11 @@ class SceneRuns:
 
     @one_line_errors
     def built(self) -> list[str]:
-        """The files of the scenes whose every file exists (what a report can include)."""
-        return [f for p in self.plans.values() if all(Path(x).is_file() for x in p.files)
-                for f in p.files]
+        """The files of the scenes whose every file exists (what a report can include),
+        this planner's and its fallbacks'."""
+        own = [f for p in self.plans.values() if all(Path(x).is_file() for x in p.files)
+               for f in p.files]
+        return own + [f for other in self.fallbacks for f in other.built() if f not in own]
 
     @one_line_errors
     def get(self, root: str, scene: str) -> ScenePlan:
@@ -141,6 +188,10 @@ class SceneRuns:
         plan = self.plans.get(scene) if scene in self.scenes else None
         if plan is not None and plan.root == str(root):
             return plan
+        for other in self.fallbacks:
+            plan = other.plans.get(scene) if scene in other.scenes else None
+            if plan is not None and plan.root == str(root):
+                return plan
         if str(root) == self.data_dir:
             return ScenePlan(scene, resolve(scene), (), self.data_dir)
         raise ConfigError("output", f"{root}/scenes/{scene}",

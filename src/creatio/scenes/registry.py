@@ -16,7 +16,12 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
-from creatio.scenes.schema import SphereSceneConfig, SurfaceFamilyConfig, VelocityNormalConfig
+from creatio.scenes.schema import (
+    En04SceneConfig,
+    SphereSceneConfig,
+    SurfaceFamilyConfig,
+    VelocityNormalConfig,
+)
 
 __all__ = ["FILES", "KINDS", "SCENES", "Kind", "Scene", "get"]
 
@@ -43,17 +48,28 @@ VELOCITY_NORMAL = Kind("velocity_normal", VelocityNormalConfig,
                        "creatio.scenes.compute:velocity_normal_scene",
                        "creatio.scenes.media:velocity_normal_media")
 
+#: A study's two runs read from its dataset, drawn as the sphere scenes draw theirs (the same
+#: page format and media).
+EN04 = Kind("en04", En04SceneConfig, "creatio.scenes.compute:en04_scene",
+            "creatio.scenes.media:sphere_media")
+
 #: Every kind, by name.
-KINDS = {k.name: k for k in (SPHERE, SURFACE_FAMILY, VELOCITY_NORMAL)}
+KINDS = {k.name: k for k in (SPHERE, SURFACE_FAMILY, VELOCITY_NORMAL, EN04)}
 
 
 @dataclass(frozen=True)
 class Scene:
-    """One scene: its id, kind and a one-line description (the report's caption uses it)."""
+    """One scene: its id, kind and a one-line description (the report's caption uses it).
+
+    ``reads`` = (study, dataset part): the scene draws that study dataset of the config under
+    ``bases.<study>`` (a required input, never recomputed here); such a scene is built with
+    its study (`snakemake beyond`), and by `snakemake scenes` only when named.
+    """
 
     id: str
     kind: Kind
     description: str
+    reads: tuple[str, str] | None = None
 
     @property
     def schema(self) -> type:
@@ -93,6 +109,8 @@ SCENES: dict[str, Scene] = {
         Scene("en02", SPHERE, "EN-02: the sphere carried through one cycle of the membrane"),
         Scene("en02r", SPHERE, "EN-02R: the cavity carries the sphere outward while turning"),
         Scene("compare", SPHERE, "EN-02 and EN-02R side by side on one shared clock"),
+        Scene("en04", EN04, "EN-04: the fastest closed-loop transport beside the open-loop "
+              "quintic at its boundary cycle", reads=("en04", "en04_control")),
     )
 }
 

@@ -27,6 +27,9 @@ from creatio.studies.schema import (
 
 __all__ = [
     "Element",
+    "En04Readout",
+    "En04SceneConfig",
+    "En04SceneSettings",
     "MediaConfig",
     "MeshConfig",
     "PlaybackConfig",
@@ -194,6 +197,79 @@ class SphereSceneConfig:
             require(frames <= MAX_FRAMES, "scene.playback.fps", s.playback.fps,
                     f"asks for {frames:,.0f} frames (bases.{name}.study.duration x fps / "
                     f"speed), more than {MAX_FRAMES:,}: lower fps or raise speed")
+
+
+# ---------------------------------------------------------------------------- EN-04 scene
+class En04Readout(StrEnum):
+    """A number the EN-04 scene shows per run at the current time (the study's paths)."""
+
+    time = "time"
+    lead = "lead"                    # delta: the cavity's lead on the contact (deg)
+    pattern_speed = "pattern_speed"  # -phidot_a / Ka, the pattern's angular speed (rad/s)
+    travel = "travel"                # theta = alpha - alpha(0) (deg)
+    load_power = "load_power"        # the power the membrane puts into the sphere (W)
+
+
+@dataclass
+class En04SceneSettings:
+    """The fastest carried closed loop of EN-04's controller grid beside the open-loop
+    quintic at its carried boundary T: the study's own two runs, read from its control
+    dataset (``en04_control.nc`` of the config under ``bases.en04``), on one clock."""
+
+    id: str = MISSING
+    title: str = ""
+    draw: list[Element] = field(default_factory=lambda: list(Element))
+    readouts: list[En04Readout] = field(default_factory=lambda: list(En04Readout))
+    playback: PlaybackConfig = field(default_factory=lambda: PlaybackConfig(speed=1.0,
+                                                                            fps=25.0))
+    mesh: MeshConfig = field(default_factory=MeshConfig)
+    media: MediaConfig = field(default_factory=MediaConfig)
+
+    @property
+    def rotation(self) -> bool:
+        """Whether anything drawn needs the orientation."""
+        return any(x in NEEDS_ROTATION for x in self.draw)
+
+
+@dataclass
+class En04SceneConfig:
+    """Root schema of the EN-04 scene: its settings and the full EN-04 config (``bases.en04``,
+    validated on the study's own schema, so its hash names the dataset the scene reads)."""
+
+    scene: En04SceneSettings = field(default_factory=En04SceneSettings)
+    bases: dict[str, Any] = field(default_factory=dict)
+
+    def check(self) -> None:
+        """bases.en04 a valid EN-04 config; the frame interval a multiple of its control
+        paths' interval that divides their duration."""
+        from creatio.pipeline.config import validate
+
+        s = self.scene
+        require(set(self.bases) == {"en04"}, "bases", sorted(self.bases),
+                "must hold exactly the EN-04 config, under bases.en04")
+        try:
+            control = validate(self.bases["en04"]).obj.study.control
+        except ConfigError as e:
+            raise ConfigError(f"bases.en04.{e.key}", e.value, e.rule) from None
+        require(len(set(s.draw)) == len(s.draw), "scene.draw", [str(x) for x in s.draw],
+                "lists an element twice")
+        require(len(set(s.readouts)) == len(s.readouts), "scene.readouts",
+                [str(x) for x in s.readouts], "lists a readout twice")
+        s.playback.check("scene.playback")
+        s.mesh.check("scene.mesh")
+        s.media.check("scene.media")
+        interval = s.playback.interval
+        require(steps_in(interval, control.path_interval) is not None, "scene.playback",
+                f"speed / fps = {interval:g} s", "must be a multiple of "
+                f"bases.en04.study.control.path_interval = {control.path_interval:g} s "
+                "(the study's paths are sampled there)")
+        require(steps_in(control.duration, interval) is not None, "scene.playback",
+                f"speed / fps = {interval:g} s",
+                f"must divide bases.en04.study.control.duration = {control.duration:g} s")
+        frames = control.duration / interval
+        require(frames <= MAX_FRAMES, "scene.playback.fps", s.playback.fps,
+                f"asks for {frames:,.0f} frames (bases.en04.study.control.duration x fps / "
+                f"speed), more than {MAX_FRAMES:,}: lower fps or raise speed")
 
 
 # ---------------------------------------------------------------------- kinematic scenes

@@ -278,7 +278,9 @@ def _difference(a: SimulationResult, b: SimulationResult) -> float:
 @dataclass
 class Path:
     """A run's path on the common time grid: travel (deg), pattern speed (rad/s), lead (deg),
-    load power (W)."""
+    load power (W), and what a scene draws: the sphere centre (m, world frame), the angular
+    phase phi_a (deg) and the orientation (unit quaternion, scalar first; NaN where the run
+    did not integrate it)."""
 
     name: str
     label: str
@@ -287,19 +289,27 @@ class Path:
     pattern_speed: np.ndarray
     lead: np.ndarray
     power: np.ndarray
+    centre: np.ndarray
+    phase_a: np.ndarray
+    quaternion: np.ndarray
 
 
 def _path(name: str, label: str, res: SimulationResult, Ka: float, grid: np.ndarray) -> Path:
-    """res's histories on grid (NaN after its last row)."""
+    """res's histories on grid (NaN after its last row). The grid's times are steps of the
+    run (path_interval is a multiple of dt), so the centre and phase are the run's own rows."""
     theta = np.degrees(res.alpha - res.alpha[0])
     rate = res.phi_a_rate if np.isfinite(res.phi_a_rate).all() else np.gradient(res.phi_a, res.t)
     delta = np.degrees([lead(a, p, Ka) for a, p in zip(res.alpha, res.phi_a, strict=True)])
     power = np.gradient(res.surface_work, res.t)
 
     def on(y: np.ndarray) -> np.ndarray:
+        if y.ndim == 2:
+            return np.stack([on(col) for col in y.T], axis=-1)
         return np.interp(grid, res.t, y, right=math.nan)
 
-    return Path(name, label, grid, on(theta), on(-rate / Ka), on(delta), on(power))
+    Q = res.Q if len(res.Q) == len(res.t) else np.full((len(res.t), 4), math.nan)
+    return Path(name, label, grid, on(theta), on(-rate / Ka), on(delta), on(power),
+                on(res.X), on(np.degrees(res.phi_a)), on(Q))
 
 
 def run_control(cfg: ControlConfig, base: DynamicConfig, k_alpha: float) -> xr.Dataset:
@@ -459,6 +469,13 @@ def run_control(cfg: ControlConfig, base: DynamicConfig, k_alpha: float) -> xr.D
                           {"units": "degree"}),
             "path_power": (("path", "time"), np.array([p.power for p in paths]),
                            {"units": "W"}),
+            "path_centre": (("path", "time", "component"), np.array([p.centre for p in paths]),
+                            {"long_name": "sphere centre X = c + b n", "units": "m"}),
+            "path_phase_a": (("path", "time"), np.array([p.phase_a for p in paths]),
+                             {"long_name": "angular phase phi_a", "units": "degree"}),
+            "path_quaternion": (("path", "time", "quaternion_component"),
+                                np.array([p.quaternion for p in paths]),
+                                {"long_name": "orientation, unit quaternion, scalar first"}),
         },
         coords={
             **{k: ("case", np.array([getattr(p, k) for p in grid], dtype=float))
@@ -468,6 +485,8 @@ def run_control(cfg: ControlConfig, base: DynamicConfig, k_alpha: float) -> xr.D
             "path": [p.name for p in paths],
             "path_label": ("path", [p.label for p in paths]),
             "time": ("time", tgrid, {"units": "s"}),
+            "component": ("component", ["x", "y", "z"]),
+            "quaternion_component": ("quaternion_component", ["w", "x", "y", "z"]),
         },
     )
     ds.attrs.update({
