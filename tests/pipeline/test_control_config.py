@@ -104,3 +104,19 @@ def test_refusal_is_one_line_exit_2() -> None:
         assert proc.returncode == 2, proc.stderr
         lines = proc.stderr.strip().splitlines()
         assert len(lines) == 1 and override.split("=")[0] in lines[0]
+
+
+def test_the_null_group_is_left_out_everywhere_a_config_is_keyed() -> None:
+    """The canonical text of a scene whose bases embed a study config untyped (EN-04's scene)
+    leaves the null group out too, and the config cache's rebuild (from_plain, then the check
+    plain(obj) == data) accepts the data with the group left out and with it set."""
+    from creatio.pipeline.config import from_plain, plain
+    from creatio.scenes.config import resolve as resolve_scene
+    from creatio.studies import registry
+
+    assert "control: null" not in resolve_scene("en04").yaml
+    for overrides in ([], ["control=pd"]):
+        resolved = resolve("en02", overrides)
+        obj = from_plain(registry.get("en02").schema, resolved.data)
+        assert plain(obj) == resolved.data
+        assert ("control" in resolved.data) == bool(overrides)

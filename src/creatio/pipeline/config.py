@@ -226,9 +226,42 @@ def omit_nulls(obj: Any, data: Any) -> Any:
             out[f.name] = omit_nulls(value, data[f.name])
         return out
     if isinstance(obj, dict) and isinstance(data, dict):
+        study = data.get("study")
+        sid = study.get("id") if isinstance(study, dict) else None
+        if isinstance(sid, str) and sid in registry.STUDIES and not any(
+                is_dataclass(v) for v in obj.values()):
+            # an untyped study config (a scene's base held as a plain mapping): its schema
+            return _omit_by_schema(registry.get(sid).schema, data)
         return {k: omit_nulls(obj[k], v) if k in obj else v for k, v in data.items()}
     if isinstance(obj, list | tuple) and isinstance(data, list) and len(obj) == len(data):
         return [omit_nulls(o, d) for o, d in zip(obj, data, strict=True)]
+    return data
+
+
+def _omit_by_schema(tp: Any, data: Any) -> Any:
+    """:func:`omit_nulls` for plain data of the schema type tp (a dataclass, a dict or list of
+    them, an optional one)."""
+    import types
+    import typing
+
+    origin, args = typing.get_origin(tp), typing.get_args(tp)
+    if origin in (typing.Union, types.UnionType):
+        inner = [a for a in args if a is not type(None)]
+        return _omit_by_schema(inner[0], data) if len(inner) == 1 else data
+    if origin is dict and isinstance(data, dict) and len(args) == 2:
+        return {k: _omit_by_schema(args[1], v) for k, v in data.items()}
+    if origin is list and isinstance(data, list) and args:
+        return [_omit_by_schema(args[0], v) for v in data]
+    if isinstance(tp, type) and is_dataclass(tp) and isinstance(data, dict):
+        hints = _hints(tp)
+        out = {}
+        for f in fields(tp):
+            if f.name not in data:
+                continue
+            if data[f.name] is None and f.metadata.get(OMIT_NULL, False):
+                continue
+            out[f.name] = _omit_by_schema(hints[f.name], data[f.name])
+        return out
     return data
 
 
