@@ -135,6 +135,11 @@ LONG = (
     "tests/core/test_radau_sphere.py",
     "tests/core/test_progress.py::test_budget_stops_a_run_without_changing_its_steps",
     "tests/core/test_control.py::test_energy_residual_rk4_order",
+    # the control group's implicit and flight paths (each compiles specialisations of its
+    # own) and its CLI refusals (subprocesses)
+    "tests/core/test_control_implicit.py::test_implicit_methods_agree_with_rk4",
+    "tests/core/test_control_flight.py",
+    "tests/pipeline/test_control_config.py::test_refusal_is_one_line_exit_2",
     "tests/core/test_radau_iia.py::test_dense_output_order_is_s_plus_1_off_the_steps",
     "tests/core/test_radau_iia.py::test_order_switch_picks_higher_orders_at_tighter_tolerance",
     "tests/core/test_beyond_inclination.py::test_a_short_cycle_leaves_its_cavity_yet_ends_ok",

@@ -215,3 +215,111 @@ def test_load_power_is_zero_on_a_still_membrane_and_follows_c_t() -> None:
     p = act.load_power(SURFACE, EN02, [40.0], [0.5], [0.2], [2.0], [[0.0, 0.0, 0.0]])
     assert p[0] == pytest.approx(2.0 * fr.normal[2] * fr.w.W_t, rel=1e-14)
     assert abs(p[0]) > 1e-3
+
+
+# ------------------------------------------------ a phase given as samples (s.12.2's phi_a)
+def _history(t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """A closed-loop-like angular phase that is no law of s.2: a critically damped approach
+    to 12 pi (time constant 0.8 s) with a servo-like ripple, and its exact derivatives."""
+    tau, w, a = 0.8, 7.0, 0.3
+    e = np.exp(-t / tau)
+    p = 12.0 * math.pi * (1.0 - e * (1.0 + t / tau)) + a * e * np.sin(w * t)
+    d1 = 12.0 * math.pi * e * t / tau**2 + a * e * (w * np.cos(w * t) - np.sin(w * t) / tau)
+    d2 = (12.0 * math.pi * e * (1.0 - t / tau) / tau**2
+          + a * e * (np.sin(w * t) / tau**2 - 2.0 * w * np.cos(w * t) / tau
+                     - w * w * np.sin(w * t)))
+    return p, d1, d2
+
+
+def test_sampled_law_returns_its_samples_and_interpolates_between() -> None:
+    """At a sample time the samples come back bit for bit; halfway between, the cubic
+    Hermite value and rate are within h^4 / 384 max|4th derivative| of the exact history."""
+    t = np.linspace(0.0, 6.0, 601)
+    p, d1, d2 = _history(t)
+    law = act.SampledLaw(t, p, d1, d2)
+    v = law(t)
+    assert np.array_equal(v.value, p) and np.array_equal(v.d1, d1) and np.array_equal(v.d2, d2)
+    mid = 0.5 * (t[1:] + t[:-1])
+    q, q1, _ = _history(mid)
+    m = law(mid)
+    assert np.max(np.abs(m.value - q)) < 1e-7 and np.max(np.abs(m.d1 - q1)) < 1e-5
+    assert np.max(np.abs(m.value - q)) > 1e-12  # interpolated, not the formula
+    with pytest.raises(ValueError, match="increasing"):
+        act.SampledLaw(t[::-1], p, d1, d2)
+
+
+def test_sampled_path_fed_a_laws_own_samples_equals_the_law_path() -> None:
+    """Every figure of actuation_demand from a law's own samples equals the law's: the powers
+    at the samples bit for bit (the same formula at the same numbers), the maxima refined
+    between samples (K_m, |W_t|, |W_tt|, local frequency, the local searches of the stroke
+    and the worst point) to the interpolation's error at h = 0.01 s."""
+    motion = MIXED
+    t = np.linspace(0.0, 30.0, 3001)
+    v = motion.phi_a(t)
+    sampled = act.sampled_motion(motion, t, v.value, v.d1, v.d2)
+    rule = act.quadrature(SURFACE, 23, 15)
+    P_s = 1e-3 * np.sin(0.7 * t)  # any load: it is added, not recomputed
+    kw = {"extrema": (24, 9), "polish": True}
+    a = act.actuation_demand(SURFACE, motion, t, P_s, rule, SIGMA, 0.2, G, **kw)
+    b = act.actuation_demand(SURFACE, sampled, t, P_s, rule, SIGMA, 0.2, G, **kw)
+    for key, y in a.powers().items():
+        assert np.array_equal(y, b.powers()[key]), key
+    assert np.array_equal(a.integrals.kinetic, b.integrals.kinetic)
+    # the worst point is where the local search stops on a flat maximum: located to about
+    # the square root of its 1e-15 stopping rule, so W_t there agrees to ~1e-8, not 1e-9
+    assert np.max(np.abs(a.W_t_worst - b.W_t_worst)) <= 1e-7 * np.max(np.abs(a.W_t_worst))
+    assert b.bandwidth99 == pytest.approx(a.bandwidth99, rel=1e-9)
+    for name in ("K_m_max", "max_W_t_closed_form", "bandwidth"):
+        assert getattr(b, name) == pytest.approx(getattr(a, name), rel=1e-9), name
+    # |W_tt| reads the acceleration, linear between samples: off by at most h^2 / 8 times
+    # the largest 4th derivative of phi_a (2.2e-3 rad/s^4), A x 2.8e-8 = 1.5e-7 of the
+    # maximum (3.6e-9 measured: the maximum sits near a sample)
+    assert b.max_W_tt_closed_form == pytest.approx(a.max_W_tt_closed_form, rel=1.5e-7)
+    assert b.extrema.max_W_tt == pytest.approx(a.extrema.max_W_tt, rel=1.5e-7)
+    for name in ("stroke", "max_W_t"):
+        assert getattr(b.extrema, name) == pytest.approx(getattr(a.extrema, name), rel=1e-9)
+    assert a.K_m_max > 1e-3 and a.max_W_tt_closed_form > 0.0
+
+
+def test_separable_closed_form_on_a_closed_loop_like_history() -> None:
+    """gamma = 0: K_m and P_inertia by the converged quadrature along a sampled phase (no law
+    of s.2) and a moving radial phase equal the separable closed form of docs/model.md s.12.1,
+    written out here from the history's exact derivatives, to 1e-10 relative."""
+    t = np.linspace(0.0, 6.0, 301)
+    p, d1, d2 = _history(t)
+    radial = Law.linear(0.4, 0.3)
+    motion = act.sampled_motion(Motion(radial, FLAT, FLAT), t, p, d1, d2)
+    conv = act.converge_quadrature(SURFACE, motion, t, SIGMA, 0.0, G, 9, 5)
+    assert conv.converged
+    mi = act.membrane_integrals(SURFACE, motion, t, conv.rule, SIGMA, 0.0, G)
+    A, k, R0, dR = SURFACE.A, SURFACE.k, SURFACE.R0, SURFACE.dR
+    pr, r1 = 0.4 + 0.3 * t, 0.3
+    M = R0 * dR + 0.5 * dR**2
+    S = dR * np.sin(2.0 * pr) / (4.0 * k)
+    dS = dR * r1 * np.cos(2.0 * pr) / (2.0 * k)
+    c = 0.5 * SIGMA * math.pi * A * A
+    K = c * (r1**2 * (0.5 * M + S) + d1**2 * (0.5 * M - S))
+    P = c * (2.0 * d1 * d2 * (0.5 * M - S) + (r1**2 - d1**2) * dS)
+    assert np.max(K) > 1.0  # the fast approach moves the membrane hard
+    assert np.max(np.abs(mi.kinetic - K)) <= 1e-10 * np.max(K)
+    assert np.max(np.abs(mi.inertia - P)) <= 1e-10 * np.max(np.abs(P))
+
+
+def test_inertia_power_is_the_derivative_of_k_m_along_a_history() -> None:
+    """Along a sampled phase on an oscillating cone, P_inertia at the samples equals the
+    4th-order central difference of K_m at the samples (h = 1e-3 s) to 1e-7 relative; with
+    the acceleration samples zeroed (a history that forgets u) it misses by far more."""
+    t = np.linspace(0.0, 4.0, 4001)
+    p, d1, d2 = _history(t)
+    base = Motion(Law.linear(0.2, 0.5), FLAT, Law.sinusoid(0.4, 0.3, 0.8))
+    rule = act.quadrature(SURFACE, 41, 25)
+
+    def fd_error(acc: np.ndarray) -> float:
+        mi = act.membrane_integrals(SURFACE, act.sampled_motion(base, t, p, d1, acc), t, rule,
+                                    SIGMA, 0.0, G)
+        K, h = mi.kinetic, t[1] - t[0]
+        fd = (K[:-4] - 8.0 * K[1:-3] + 8.0 * K[3:-1] - K[4:]) / (12.0 * h)
+        return float(np.max(np.abs(mi.inertia[2:-2] - fd)) / np.max(np.abs(mi.inertia)))
+
+    assert fd_error(d2) <= 1e-7
+    assert fd_error(np.zeros_like(d2)) > 1e-2

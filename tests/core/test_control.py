@@ -121,9 +121,13 @@ def test_controller_refuses(field: str, value: float) -> None:
         Controller(**{**good, field: value})
 
 
-def test_controlled_path_refuses_implicit_methods(base) -> None:
-    with pytest.raises(ValueError, match="explicit method"):
-        base.sphere_problem().replace(control=_controller(base, 1.0, 10.0), method="radau5")
+def test_controlled_path_refuses_the_free_structure(base) -> None:
+    """The control block sits after the fixed structure's state (the structure path has no
+    columns for it); the implicit methods are accepted (tests/core/test_control_implicit.py)."""
+    ctl = _controller(base, 1.0, 10.0)
+    with pytest.raises(ValueError, match="fixed structure"):
+        base.sphere_problem().replace(control=ctl, inertia=2.0)
+    assert base.sphere_problem().replace(control=ctl, method="radau5").controlled
 
 
 def test_trapezoid_law_converges_at_rk4_order() -> None:

@@ -18,7 +18,7 @@ from creatio.model import actuation as act
 from creatio.model.oscillation import regularised_rolling, still_cavity
 from creatio.model.surface import Motion
 from creatio.pipeline.config import resolve
-from creatio.reports.en04 import ACTUATION_KEYS, CONTROL_CASE_KEYS
+from creatio.reports.en04 import ACTUATION_KEYS, CONTROL_CASE_KEYS, CONTROL_DEMAND_KEYS
 from creatio.studies import en04
 
 
@@ -198,7 +198,15 @@ def test_report_contract_on_short_cycles(tmp_path) -> None:
                        "trapezoid_best", "robustness"]
     assert len(c["cases"]) == 2
     for case in c["cases"]:
-        assert list(case) == [k for k, _ in CONTROL_CASE_KEYS]
+        assert list(case) == [k for k, _ in CONTROL_CASE_KEYS + CONTROL_DEMAND_KEYS]
+        # what the actuator delivered along the closed loop (each controlled run's own)
+        assert case["E_actuator_J"] > 0.0 and case["K_m_max_J"] > 0.0
+        # 2 A: the sweep is 12 pi (W's extremes met at the path samples to about 1e-7)
+        assert case["stroke_m"] == pytest.approx(0.36, rel=1e-6)
+    assert set(c["fastest_case"]) >= {k for k, _ in CONTROL_DEMAND_KEYS}
+    assert all(r["closed_loop_P_actuator_peak_W"] > 0.0 for r in c["robustness"])
+    demand = report["control_checks"]["demand"]
+    assert demand["quadrature_converged"] and demand["max_K_m_closed_form_rel_error"] < 1e-12
     carried = [case["arrival_s"] for case in c["cases"] if case["carried"]]
     assert carried and c["fastest_arrival_s"] == min(carried)
     assert set(c["trapezoid_best"]) >= {"Omega_max_rad_s", "a_max_rad_s2", "arrival_s"}
@@ -206,5 +214,5 @@ def test_report_contract_on_short_cycles(tmp_path) -> None:
     assert [set(r) >= {"mu", "mass_factor", "closed_loop_carried", "open_loop_carried"}
             for r in c["robustness"]] == [True]
     for suffix in (".md", ".png", "_history.csv", "_trajectory.png", "_convergence.png",
-                   "_control.png", "_control_paths.png"):
+                   "_control.png", "_control_paths.png", "_control_powers.png"):
         assert (root / "reports" / f"en04{suffix}").stat().st_size > 0

@@ -31,6 +31,7 @@ from creatio.studies.en04_control import ControllerPoint, controller, measure
     ("study.control.u_max=-3", "study.control.u_max", "> 0"),
     ("study.control.duration=15.0005", "study.control.duration", "multiple"),
     ("bases.en02.solver.method=radau5", "bases.en02.solver.method", "explicit"),
+    ("study.control.extrema.n_R=2", "study.control.extrema.n_R", ">= 3"),
 ])
 def test_refused_settings(override: str, key: str, rule: str) -> None:
     with pytest.raises(ConfigError) as e:
@@ -121,3 +122,57 @@ def test_mass_does_not_change_the_closed_loop(cfg) -> None:
         assert np.max(np.abs(r.alpha - runs[1].alpha)) < 1e-10
         assert np.max(np.abs(r.phi_a - runs[1].phi_a)) < 1e-9
     assert runs[2].min_N == pytest.approx(4.0 * runs[0].min_N, rel=1e-9)
+
+
+def test_actuation_figures_along_a_controlled_run_against_its_closed_forms(cfg) -> None:
+    """The actuation figures along a controlled EN-02 run (flat annulus, phi_r = 0) against
+    what its own histories give in closed form (docs/model.md s.12.1): K_m = sigma pi A^2 M
+    phidot_a^2 / 4, max |W_t| = A max |phidot_a|, max |W_tt| = A max sqrt(phidot_a^4 + u^2),
+    the bandwidth max |phidot_a| / (2 pi) (maxima refined between the steps), the stroke 2 A
+    (the phase sweeps 12 pi); the peak
+    of P_actuator equals the largest over every recorded step (the quadrature at each), and
+    E_actuator the run's own surface work plus K_m(end) - K_m(0) to the scheme's truncation
+    (the load energy from the recorded contact against the integrator's bookkeeping)."""
+    from creatio.model import actuation as act
+    from creatio.studies.en04_control import DemandSettings, demand_figures
+
+    c = cfg.study.control
+    base = cfg.bases[c.base]
+    nominal = base.sphere_problem().replace(t_end=c.duration, interval=base.solver.dt)
+    Ka = float(base.geometry.Ka)
+    ctl = controller(c, nominal, en04.closed_forms(base).roll_alpha ** 2,
+                     ControllerPoint(2.0, 20.0, 4.0, 20.0))
+    res = simulate(nominal.replace(control=ctl))
+    surface = base.geometry.surface()
+    rule = act.quadrature(surface, 23, 15)
+    settings = DemandSettings()
+    g = base.sphere.g
+    d = demand_figures(res, surface, nominal.model.motion, ctl, rule, settings, g,
+                       c.path_interval)
+    f = d.figures
+    A, R0, dR = surface.A, surface.R0, surface.dR
+    u, _, _ = ctl.acceleration(Ka, res.alpha, res.alphadot, res.phi_a, res.phi_a_rate)
+    rate = res.phi_a_rate
+    K = settings.sigma * math.pi * A * A * (R0 * dR + 0.5 * dR * dR) * rate**2 / 4.0
+    # the maxima lie between the 2-ms steps: refined there, they are the maxima over the same
+    # run recorded every 0.5 ms to 5e-6 (what those samples still miss, 1/16 of the 2-ms
+    # samples' 4e-5, plus the runs' truncation difference, ~1e-9)
+    quarter = simulate(nominal.replace(control=ctl, dt=base.solver.dt / 4.0,
+                                       interval=base.solver.dt / 4.0))
+    r4 = quarter.phi_a_rate
+    u4, _, _ = ctl.acceleration(Ka, quarter.alpha, quarter.alphadot, quarter.phi_a, r4)
+    c_K = np.max(K) / np.max(rate**2)
+    assert f["K_m_max"] == pytest.approx(c_K * np.max(r4**2), rel=5e-6)
+    assert abs(np.max(K) / (c_K * np.max(r4**2)) - 1.0) > 2e-5  # the 2-ms samples miss it
+    assert f["max_W_t"] == pytest.approx(A * np.max(np.abs(r4)), rel=5e-6)
+    assert f["max_W_tt"] == pytest.approx(A * np.max(np.sqrt(r4**4 + u4**2)), rel=5e-6)
+    assert f["bandwidth"] == pytest.approx(np.max(np.abs(r4)) / (2.0 * math.pi), rel=5e-6)
+    assert f["stroke"] == pytest.approx(2.0 * A, rel=1e-6)
+    motion = act.sampled_motion(nominal.model.motion, res.t, res.phi_a, rate, u)
+    mi = act.membrane_integrals(surface, motion, res.t, rule, settings.sigma, settings.c_d, g)
+    P = (act.load_power(surface, motion, res.t, res.R, res.alpha, res.N, res.f) + mi.inertia
+         + mi.gravity + mi.damping)
+    assert f["P_actuator_peak"] == pytest.approx(np.max(np.abs(P)), rel=1e-12)
+    work = res.surface_work[-1] - res.surface_work[0] + K[-1] - K[0]
+    assert f["E_actuator"] == pytest.approx(work, rel=5e-5)
+    assert f["K_m_closed_form_rel_error"] < 1e-12

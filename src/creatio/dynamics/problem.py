@@ -358,13 +358,9 @@ class SphereProblem:
         if start.equilibrium and not self.model.vertical_pull > 0.0:
             raise ValueError("equilibrium start needs a pull along -z (g > 0 or a base "
                              "confinement with P > 0): the equilibrium minimises the height")
-        if self.model.control is not None:
-            if solvers.get(sv.method).stepper != solvers.EXPLICIT:
-                raise ValueError(f"the controlled phase needs an explicit method (rk4, dopri5, "
-                                 f"dop853), got {sv.method!r}")
-            if self.structure_free or ev.flight:
-                raise ValueError("the controlled phase needs the fixed structure, no normal "
-                                 "preload and no flight")
+        if self.model.control is not None and self.structure_free:
+            raise ValueError("the controlled phase needs the fixed structure and no normal "
+                             "preload")
         if not ev.flight:
             if start.height > 0.0:
                 raise ValueError(f"height = {start.height} m (a dropped start) needs flight")

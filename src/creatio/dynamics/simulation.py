@@ -156,7 +156,7 @@ def simulate(problem: SphereProblem) -> SimulationResult:
     in_flight = False
     if problem.events.flight:
         ev, fl = _flight_arguments(problem)
-        for key in ("rotation", "energy", "free", "dense", "control"):
+        for key in ("rotation", "energy", "free", "dense"):
             kwargs.pop(key)
         (status, steps, rows, evals, ext, rejected, jacobians, factorisations, stop_time,
          n_events, fx, phase) = run_flight(*args, ev, fl, **kwargs)

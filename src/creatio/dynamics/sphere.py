@@ -101,6 +101,7 @@ from creatio.dynamics.layout import (
     LAW_GAMMA,
     LAW_R,
     NCTL,
+    NCTLS,
     NDIAG,
     NEXT,
     NLAWS,
@@ -210,6 +211,22 @@ def _surface_state(t, y, pp, lc, rot, en):
                            c[C_DELTA_MAX], c[C_OMEGA_N], c[C_ZETA], c[C_U_MAX])
         return surface_with_phase(t, y[Y_R], y[Y_ALPHA], pp, lc, pa, pa1, u), u
     return controlled
+
+
+def control_columns(lc):
+    """How many state columns the control block adds to the feedback (the Jacobian's
+    differenced columns, creatio.dynamics.solvers.radau.jacobian): NCTLS on the controlled
+    path, 0 otherwise (compiled code only)."""
+    raise NotImplementedError("called only from compiled code")
+
+
+@overload(control_columns, inline="always")
+def _control_columns(lc):
+    """NCTLS where the law tuple carries the controller's row, else 0 (a compile-time
+    property of lc's type)."""
+    if not _controlled(lc):
+        return lambda lc: 0
+    return lambda lc: NCTLS
 
 
 @overload(control_rates, inline="always")
@@ -345,6 +362,24 @@ def pack_controlled(p, lawc):
     lc = (to_fixed_tuple(lawc[LAW_R], NLAW), to_fixed_tuple(lawc[LAW_A], NLAW),
           to_fixed_tuple(lawc[LAW_GAMMA], NLAW), to_fixed_tuple(p[NPAR:], NCTL))
     return to_fixed_tuple(p[:NPAR], NPAR), lc
+
+
+def pack_run(ctl, p, lawc):
+    """The parameter and law tuples of a run's loop: :func:`pack`, or :func:`pack_controlled`
+    on the controlled path (compiled code only; resolved at compile time on the literal
+    ctl)."""
+    raise NotImplementedError("called only from compiled code")
+
+
+@overload(pack_run, prefer_literal=True, inline="always")
+def _pack_run(ctl, p, lawc):
+    """pack, or pack_controlled on the controlled path (the law tuple then carries the
+    controller's row, which selects that path in the right-hand side)."""
+    if not isinstance(ctl, types.BooleanLiteral):
+        return None
+    if ctl.literal_value:
+        return lambda ctl, p, lawc: pack_controlled(p, lawc)
+    return lambda ctl, p, lawc: pack(p, lawc)
 
 
 @njit(cache=True)

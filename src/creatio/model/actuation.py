@@ -13,7 +13,10 @@ acceleration c_tt, evaluated once here through :class:`~creatio.model.surface.Fr
 * the normal motion W: stroke, largest |W_t| and |W_tt| with their spatial closed forms
   (:func:`normal_rate_bounds`), numeric maxima over the surface and the cycle
   (:func:`normal_rate_maxima`), and the bandwidth (:func:`local_frequency`,
-  :func:`energy_frequency`).
+  :func:`energy_frequency`);
+* every figure above along one run at once (:func:`actuation_demand`), for a prescribed
+  cycle (the laws themselves) or a phase given as samples, the controlled phase of
+  docs/model.md s.12.2 (:class:`SampledLaw`, :func:`sampled_motion`).
 
 Nothing here runs a simulation: a study passes in the histories of one.
 """
@@ -27,15 +30,19 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from creatio.model.laws import L_AMPLITUDE, L_DELTA, L_PHI0, L_RATE, LawKind
+from creatio.model.laws import L_AMPLITUDE, L_DELTA, L_PHI0, L_RATE, LawKind, LawValue
 from creatio.model.surface import Frame, Motion, Surface, Wave
 
 __all__ = [
     "INTEGRALS",
+    "POWERS",
+    "ActuationDemand",
     "Convergence",
     "MembraneIntegrals",
     "NormalExtrema",
     "Quadrature",
+    "SampledLaw",
+    "actuation_demand",
     "annulus_kinetic_energy",
     "angular_law_bounds",
     "converge_quadrature",
@@ -45,8 +52,11 @@ __all__ = [
     "membrane_integrals",
     "normal_rate_bounds",
     "normal_rate_maxima",
+    "power_figures",
     "quadrature",
     "refine_maximum",
+    "sampled_motion",
+    "time_integral",
     "time_maximum",
 ]
 
@@ -496,3 +506,161 @@ def energy_frequency(signal: ArrayLike, dt: float, fraction: float = 0.99, pad: 
         return 0.0
     i = int(np.searchsorted(energy, fraction * energy[-1]))
     return float(np.fft.rfftfreq(n, dt)[min(i, spec.size - 1)])
+
+
+# ------------------------------------------------------------------ along a run, any phase
+@dataclass(frozen=True, eq=False)
+class SampledLaw:
+    """A phase given by samples instead of a formula: increasing times t and, at each, the
+    value and its first and second time derivatives (the controlled phi_a of a run:
+    phi_a, phidot_a and u = phiddot_a, docs/model.md s.12.2).
+
+    Called like a :class:`~creatio.model.laws.Law`, so that every formula of this module
+    takes it in a :class:`~creatio.model.surface.Motion`. At a sample time it returns the
+    sample exactly; between samples the value and the rate are cubic Hermite interpolants
+    (value with rate, rate with acceleration) and the acceleration is linear, so that a
+    maximum refined between samples sees a smooth phase; times outside [t[0], t[-1]] are
+    clamped to the ends.
+    """
+
+    t: Array
+    value: Array
+    d1: Array
+    d2: Array
+
+    def __post_init__(self) -> None:
+        arrays = [np.asarray(x, float) for x in (self.t, self.value, self.d1, self.d2)]
+        if arrays[0].ndim != 1 or arrays[0].size == 0:
+            raise ValueError("a sampled law needs a 1-D, non-empty array of times")
+        if any(a.shape != arrays[0].shape for a in arrays[1:]):
+            raise ValueError("a sampled law needs one value, rate and acceleration per time")
+        if np.any(np.diff(arrays[0]) <= 0.0) or not np.all(np.isfinite(arrays)):
+            raise ValueError("a sampled law needs finite samples at increasing times")
+        for name, a in zip(("t", "value", "d1", "d2"), arrays, strict=True):
+            object.__setattr__(self, name, a)
+
+    def __call__(self, t: ArrayLike) -> LawValue:
+        """Value, first and second derivative at times t (any shape)."""
+        t = np.asarray(t, float)
+        ts = self.t
+        if ts.size == 1:
+            return LawValue(self.value[0] + 0.0 * t, self.d1[0] + 0.0 * t, self.d2[0] + 0.0 * t)
+        x = np.clip(t, ts[0], ts[-1])
+        i = np.clip(np.searchsorted(ts, x, side="right") - 1, 0, ts.size - 2)
+        h = ts[i + 1] - ts[i]
+        s = (x - ts[i]) / h
+        # cubic Hermite basis: exactly (1, 0, 0, 0) at s = 0 and (0, 0, 1, 0) at s = 1
+        h00 = (1.0 + 2.0 * s) * (1.0 - s) ** 2
+        h10 = s * (1.0 - s) ** 2
+        h01 = s * s * (3.0 - 2.0 * s)
+        h11 = s * s * (s - 1.0)
+        v, d1, d2 = self.value, self.d1, self.d2
+        value = h00 * v[i] + h10 * h * d1[i] + h01 * v[i + 1] + h11 * h * d1[i + 1]
+        rate = h00 * d1[i] + h10 * h * d2[i] + h01 * d1[i + 1] + h11 * h * d2[i + 1]
+        acc = (1.0 - s) * d2[i] + s * d2[i + 1]
+        return LawValue(value, rate, acc)
+
+
+def sampled_motion(motion: Motion, t: ArrayLike, phi_a: ArrayLike, phidot_a: ArrayLike,
+                   phiddot_a: ArrayLike) -> Motion:
+    """motion with its angular phase replaced by samples (a controlled run's phi_a, its rate
+    and u); the radial phase and the inclination keep their laws."""
+    return Motion(motion.phi_r, SampledLaw(t, phi_a, phidot_a, phiddot_a), motion.gamma)
+
+
+#: The powers of docs/model.md s.12.1, in the order :meth:`ActuationDemand.powers` gives them.
+POWERS = ("P_surface", "P_inertia", "P_gravity", "P_damping", "P_actuator")
+
+
+@dataclass(frozen=True)
+class ActuationDemand:
+    """The figures of docs/model.md s.12.1 along one run: the powers at its sample times t,
+    the membrane integrals (K_m and the rest), the largest K_m refined between samples, the
+    normal motion's extrema over the grid, its closed-form maxima over the span, and the
+    bandwidth (the largest local frequency, and the 99 %-energy frequency of W_t at the
+    worst point, ``W_t_worst`` on the grid)."""
+
+    t: Array
+    P_surface: Array
+    integrals: MembraneIntegrals
+    P_actuator: Array
+    K_m_max: float
+    K_m_max_time: float
+    extrema: NormalExtrema
+    max_W_t_closed_form: float
+    max_W_tt_closed_form: float
+    grid: Array
+    W_t_worst: Array
+    bandwidth: float
+    bandwidth99: float
+
+    def powers(self) -> dict[str, Array]:
+        """Each power of POWERS at the sample times (W)."""
+        mi = self.integrals
+        return {"P_surface": self.P_surface, "P_inertia": mi.inertia, "P_gravity": mi.gravity,
+                "P_damping": mi.damping, "P_actuator": self.P_actuator}
+
+
+def actuation_demand(surface: Surface, motion: Motion, t: ArrayLike, P_surface: ArrayLike,
+                     rule: Quadrature, sigma: float, c_d: float, g: float, *,
+                     grid: ArrayLike | None = None, sample_interval: float | None = None,
+                     span: tuple[float, float] | None = None,
+                     extrema: tuple[int, int] = (48, 33), energy_fraction: float = 0.99,
+                     polish: bool = True, xtol: float = 1e-13) -> ActuationDemand:
+    """What the actuators deliver along one run whose surface moves by ``motion`` (its laws,
+    or a controlled phase by :func:`sampled_motion`), from the load power P_surface the run
+    put into the sphere at its sample times t (:func:`load_power`).
+
+    The membrane integrals by ``rule`` at t, P_actuator = P_surface + P_inertia + P_gravity
+    + P_damping, the largest K_m refined between samples (:func:`refine_maximum` to ``xtol``
+    s: a sampled phase is itself known to far less than the default); the normal
+    motion's numeric extrema on ``grid`` (default t; ``extrema`` is the (alpha, R) start
+    grid, ``polish`` the local search of :func:`normal_rate_maxima`), the closed-form maxima
+    of |W_t| and |W_tt| and the largest local frequency over ``span`` (default the grid's
+    ends) by :func:`time_maximum`, and the energy frequency of W_t at the worst point on the
+    grid, spaced ``sample_interval`` (default the grid's mean step).
+    """
+    t = np.atleast_1d(np.asarray(t, float))
+    P_s = np.asarray(P_surface, float)
+    grid_t = t if grid is None else np.atleast_1d(np.asarray(grid, float))
+    if sample_interval is None:
+        sample_interval = (float(grid_t[-1] - grid_t[0]) / (grid_t.size - 1)
+                           if grid_t.size > 1 else 1.0)
+    t0, t1 = span if span is not None else (float(grid_t[0]), float(grid_t[-1]))
+    mi = membrane_integrals(surface, motion, t, rule, sigma, c_d, g)
+    P_act = P_s + mi.inertia + mi.gravity + mi.damping
+
+    def K_quad(x: Array) -> Array:
+        return membrane_integrals(surface, motion, x, rule, sigma, 0.0, g).kinetic
+
+    t_K, K_max = (refine_maximum(K_quad, t, mi.kinetic, xtol) if t.size
+                  else (math.nan, math.nan))
+    ex = normal_rate_maxima(surface, motion, grid_t, extrema[0], extrema[1], polish)
+    _, wt_cf = time_maximum(lambda x: normal_rate_bounds(surface, motion, x)[0], t0, t1)
+    _, wtt_cf = time_maximum(lambda x: normal_rate_bounds(surface, motion, x)[1], t0, t1)
+    W_t_worst = Wave(surface, motion, ex.worst[0], ex.worst[1], grid_t).W_t
+    _, bandwidth = time_maximum(lambda x: local_frequency(motion, x), t0, t1)
+    bandwidth99 = energy_frequency(W_t_worst, sample_interval, energy_fraction)
+    return ActuationDemand(t, P_s, mi, P_act, K_max, t_K, ex, wt_cf, wtt_cf, grid_t,
+                           np.asarray(W_t_worst, float), bandwidth, bandwidth99)
+
+
+def time_integral(y: ArrayLike, t: ArrayLike) -> float:
+    """int y dt over samples at times t by Simpson's rule (0 for fewer than two samples)."""
+    from scipy.integrate import simpson
+
+    t = np.asarray(t, float)
+    return float(simpson(np.asarray(y, float), x=t)) if t.size > 1 else 0.0
+
+
+def power_figures(y: ArrayLike, t: ArrayLike, duration: float) -> dict[str, float]:
+    """A power history's figures (docs/model.md s.12.1): ``peak`` max |P| (the rating an
+    actuator needs whether it drives or brakes), ``max``, ``min``, ``energy`` int P dt
+    (Simpson) and ``mean`` energy / duration; NaN for an empty history."""
+    y = np.asarray(y, float)
+    energy = time_integral(y, t)
+    if y.size == 0:
+        return {"peak": math.nan, "max": math.nan, "min": math.nan, "energy": energy,
+                "mean": energy / duration}
+    return {"peak": float(np.max(np.abs(y))), "max": float(np.max(y)),
+            "min": float(np.min(y)), "energy": energy, "mean": energy / duration}

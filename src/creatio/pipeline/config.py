@@ -26,7 +26,7 @@ from omegaconf.errors import OmegaConfBaseException
 
 from creatio.errors import ConfigError
 from creatio.studies import registry
-from creatio.studies.schema import HUGE, TINY, ProbeConfig, check_finite
+from creatio.studies.schema import HUGE, OMIT_NULL, TINY, ProbeConfig, check_finite
 
 __all__ = [
     "CONF_DIR",
@@ -34,6 +34,7 @@ __all__ = [
     "TINY",
     "ConfigError",
     "check_finite",
+    "omit_nulls",
     "Resolved",
     "applicable",
     "compose",
@@ -163,6 +164,7 @@ def validate(cfg: DictConfig | dict, schema: type | None = None, check: bool = T
     check_finite(obj)
     if check:
         obj.check()
+    data = omit_nulls(obj, data)
     text = OmegaConf.to_yaml(OmegaConf.create(data), sort_keys=True)
     return Resolved(study, obj, data, text, hashlib.sha256(text.encode()).hexdigest())
 
@@ -209,6 +211,65 @@ def refuse_resolvers(tree: Any, prefix: str = "") -> None:
                               "the value itself")
 
 
+def omit_nulls(obj: Any, data: Any) -> Any:
+    """data (the plain tree of the config obj) without the fields marked OMIT_NULL whose value
+    is null, at any depth (an optional group off is absent from the canonical text, so the
+    configs that do not use it keep their YAML and sha256)."""
+    if is_dataclass(obj) and isinstance(data, dict):
+        out = {}
+        for f in fields(obj):
+            if f.name not in data:
+                continue
+            value = getattr(obj, f.name)
+            if value is None and f.metadata.get(OMIT_NULL, False):
+                continue
+            out[f.name] = omit_nulls(value, data[f.name])
+        return out
+    if isinstance(obj, dict) and isinstance(data, dict):
+        study = data.get("study")
+        sid = study.get("id") if isinstance(study, dict) else None
+        if isinstance(sid, str) and sid in registry.STUDIES and not any(
+                is_dataclass(v) for v in obj.values()):
+            # an untyped study config (a scene's base held as a plain mapping): its schema
+            return _omit_by_schema(registry.get(sid).schema, data)
+        return {k: omit_nulls(obj[k], v) if k in obj else v for k, v in data.items()}
+    if isinstance(obj, list | tuple) and isinstance(data, list) and len(obj) == len(data):
+        return [omit_nulls(o, d) for o, d in zip(obj, data, strict=True)]
+    return data
+
+
+def _omit_by_schema(tp: Any, data: Any) -> Any:
+    """:func:`omit_nulls` for plain data of the schema type tp (a dataclass, a dict or list of
+    them, an optional one)."""
+    import types
+    import typing
+
+    origin, args = typing.get_origin(tp), typing.get_args(tp)
+    if origin in (typing.Union, types.UnionType):
+        inner = [a for a in args if a is not type(None)]
+        return _omit_by_schema(inner[0], data) if len(inner) == 1 else data
+    if origin is dict and isinstance(data, dict) and len(args) == 2:
+        return {k: _omit_by_schema(args[1], v) for k, v in data.items()}
+    if origin is list and isinstance(data, list) and args:
+        return [_omit_by_schema(args[0], v) for v in data]
+    if isinstance(tp, type) and is_dataclass(tp) and isinstance(data, dict):
+        hints = _hints(tp)
+        out = {}
+        for f in fields(tp):
+            if f.name not in data:
+                continue
+            if data[f.name] is None and f.metadata.get(OMIT_NULL, False):
+                continue
+            out[f.name] = _omit_by_schema(hints[f.name], data[f.name])
+        return out
+    return data
+
+
+def _omittable(schema: Any) -> set[str]:
+    """The top-level fields of a schema that its canonical text leaves out while null."""
+    return {f.name for f in fields(schema) if f.metadata.get(OMIT_NULL, False)}
+
+
 def _keys(schema: Any, prefix: str = "") -> list[str]:
     """Every dotted key of a schema (dataclass fields, recursively)."""
     out = []
@@ -242,9 +303,14 @@ def applicable(study: str, overrides: Sequence[str]) -> list[str]:
     if not overrides:
         return []
     base = resolve(study).data
+    optional = _omittable(registry.get(study).schema)
     keep = []
     for ov in overrides:
         key = ov.split("=", 1)[0].lstrip("+~").split("@", 1)[0]
+        if key.split(".")[0] in optional:  # an optional group the default leaves out
+            # (control=pd, and its keys: control.omega_n=40)
+            keep.append(ov)
+            continue
         node: Any = base
         for part in key.split("."):
             if not isinstance(node, dict) or part not in node:
@@ -437,9 +503,12 @@ def _hints(cls: type) -> dict[str, Any]:
 def from_plain(cls: type, data: Any) -> Any:
     """A typed config tree (dataclasses, enums) from its plain data, without OmegaConf: what
     a verified cache entry is rebuilt with (a thousandth of validate's cost)."""
-    if not isinstance(data, dict) or set(data) != {f.name for f in fields(cls)}:
+    names = {f.name for f in fields(cls)}
+    if not isinstance(data, dict) or not set(data) <= names or not (
+            names - set(data) <= _omittable(cls)):
         raise ValueError(f"{cls.__name__}: the data's keys are not its fields")
-    return cls(**{f.name: _typed(_hints(cls)[f.name], data[f.name]) for f in fields(cls)})
+    return cls(**{f.name: _typed(_hints(cls)[f.name], data[f.name]) for f in fields(cls)
+                  if f.name in data})
 
 
 def _typed(tp: Any, value: Any) -> Any:
@@ -477,6 +546,11 @@ def override_error(
             cause = e.__cause__ or e
             lines = [ln.strip() for ln in str(cause).splitlines() if ln.strip()]
             reason = lines[0]
+            if reason.endswith("while composing config:") and len(lines) > 1:
+                reason = lines[1]  # Hydra's header; the refusal itself is on the next line
+            if reason.startswith("Multiple values for"):  # `+group=x` of a listed group
+                reason = (f"the group is in the defaults list already: write "
+                          f"{key.lstrip('+~')}={value}")
             if any("Available options" in ln for ln in lines):  # Hydra's list, on one line
                 start = next(i for i, ln in enumerate(lines) if "Available options" in ln)
                 options = []
@@ -503,7 +577,8 @@ def output_root(resolved: Resolved, data_dir: str | Path = "data") -> Path:
 def plain(obj: Any) -> Any:
     """Dataclass/enum tree to plain Python values (for attrs and JSON)."""
     if is_dataclass(obj):
-        return {f.name: plain(getattr(obj, f.name)) for f in fields(obj)}
+        return {f.name: plain(getattr(obj, f.name)) for f in fields(obj)
+                if not (getattr(obj, f.name) is None and f.metadata.get(OMIT_NULL, False))}
     if isinstance(obj, Enum):
         return obj.value
     if isinstance(obj, dict):

@@ -8,8 +8,9 @@ powers over the cycle), ``en04_history.csv`` (the actuation histories),
 ``en04_trajectory.png`` (the still-cavity oscillations), ``en04_convergence.png`` (the
 quadrature's convergence, its closed-form check and the load energy against the run's own
 bookkeeping), and for the closed loop ``en04_control.png`` (arrival over the controller
-grid) and ``en04_control_paths.png`` (the fastest closed loop beside the open-loop laws).
-Nothing here recomputes a study.
+grid), ``en04_control_paths.png`` (the fastest closed loop beside the open-loop laws) and
+``en04_control_powers.png`` (what the actuators deliver along those runs). Nothing here
+recomputes a study.
 """
 
 from __future__ import annotations
@@ -33,7 +34,8 @@ from creatio.reports.common import (
 )
 from creatio.studies.en04 import oscillation_tolerance
 
-__all__ = ["ACTUATION_KEYS", "CONTROL_CASE_KEYS", "en04_summary", "write_report"]
+__all__ = ["ACTUATION_KEYS", "CONTROL_CASE_KEYS", "CONTROL_DEMAND_KEYS", "en04_summary",
+           "write_report"]
 
 #: The contract keys of ``actuation.<study>`` and the dataset variable each comes from.
 ACTUATION_KEYS = (
@@ -393,6 +395,9 @@ def write_report(datasets: Sequence[Path], outdir: str | Path) -> dict[str, Path
                  "control_paths": paths["md"].with_name("en04_control_paths.png")}
         _arrival_figure(ctl, extra["control"])
         _paths_figure(ctl, extra["control_paths"])
+        if "demand_P_actuator" in ctl:
+            extra["control_powers"] = paths["md"].with_name("en04_control_powers.png")
+            _control_powers_figure(ctl, extra["control_powers"])
         paths = {**paths, **extra}
         lines += _control_lines(s["control"], s["control_checks"], extra)
     write_markdown(paths["md"], "\n".join(lines))
@@ -458,6 +463,37 @@ def _control_lines(c: dict, k: dict, figures: dict[str, Path]) -> list[str]:
                            for key, _ in CONTROL_CASE_KEYS) for case in c["cases"]]), "",
              "`-`: the run has no such time (it never arrived, or did not stay within the band "
              "to its end); a run that ends `contact_lost` or `edge_crossed` stopped there."]
+    if "demand" in k:
+        lines += _demand_lines(c, k["demand"], figures)
+    return lines
+
+
+def _demand_lines(c: dict, d: dict, figures: dict[str, Path]) -> list[str]:
+    """What the actuators delivered along each controlled run (the markdown section)."""
+    def f(v: Any) -> str:
+        return "-" if v is None else format(v, ".4g")
+
+    keys = [key for key, _ in CONTROL_DEMAND_KEYS]
+    head = [key for key, _ in CONTROL_CASE_KEYS[:4]] + ["carried", *keys]
+    rows = [tuple(f(case[key]) if key != "carried" else case[key] for key in head)
+            for case in c["cases"]]
+    robust = [(r["mu"], r["mass_factor"], *[f(r[f"closed_loop_{key}"]) for key in keys])
+              for r in c["robustness"]]
+    sampling = ", ".join(f"{key} {f(v)}" for key, v in d["sampling_rel_change"].items())
+    lines = ["### What the actuators delivered along the closed loop", "",
+             f"docs/model.md s.12.1 along each controlled run: sigma = {d['sigma_kg_m2']:g} "
+             f"kg/m^2, c_d = {d['c_d_N_s_m3']:g} N s/m^3; the membrane integrals by a "
+             f"{d['quadrature_n_alpha']} x {d['quadrature_n_R']} quadrature (converged once, "
+             f"on case {d['reference_case']}: last change {f(d['quadrature_rel_change'])}), "
+             f"at the rows every {d['sample_interval_s']:g} s and at every recorded step "
+             "around the peaks; E_actuator takes int P_inertia dt as K_m(end) - K_m(0). "
+             f"Against every recorded step on case {d['reference_case']} (relative): "
+             f"{sampling}. K_m against its flat-annulus closed form: at most "
+             f"{f(d['max_K_m_closed_form_rel_error'])} relative.", ""]
+    if "control_powers" in figures:
+        lines += [f"![powers along the closed loop]({figures['control_powers'].name})", ""]
+    lines += [*table(head, rows), "", "Robustness runs (the default controller):", "",
+              *table(["mu", "m factor", *keys], robust), ""]
     return lines
 
 
@@ -487,6 +523,21 @@ CONTROL_CASE_KEYS = (
     ("timestep_difference_m", "timestep_difference"),
 )
 
+#: What the actuators delivered along each controlled run (docs/model.md s.12.1 along the
+#: closed loop): keys added to each ``control.cases`` entry, to ``control.fastest_case`` and
+#: (as ``closed_loop_<key>``) to each robustness entry, and the dataset variable of each.
+CONTROL_DEMAND_KEYS = (
+    ("P_actuator_peak_W", "P_actuator_peak"),
+    ("E_actuator_J", "E_actuator"),
+    ("P_inertia_peak_W", "P_inertia_peak"),
+    ("K_m_max_J", "K_m_max"),
+    ("stroke_m", "stroke"),
+    ("max_W_t_m_s", "max_W_t"),
+    ("max_W_tt_m_s2", "max_W_tt"),
+    ("bandwidth_hz", "bandwidth"),
+    ("bandwidth99_hz", "bandwidth99"),
+)
+
 #: Further figures of each case, beside the contract (``control_checks``).
 _CONTROL_EXTRA = (
     ("max_delta_deg", "max_delta"),
@@ -512,7 +563,8 @@ def _case(ds: xr.Dataset, i: int, keys: Sequence[tuple[str, str]]) -> dict[str, 
 
 def _control(ds: xr.Dataset) -> tuple[dict, dict]:
     """(contract, checks) of the closed-loop dataset."""
-    cases = [_case(ds, i, CONTROL_CASE_KEYS) for i in range(ds.sizes["case"])]
+    demand = tuple(k for k in CONTROL_DEMAND_KEYS if k[1] in ds)
+    cases = [_case(ds, i, CONTROL_CASE_KEYS + demand) for i in range(ds.sizes["case"])]
     fastest = int(ds.attrs["fastest_case"])
     best = int(ds.attrs["trapezoid_best"])
     trap = None
@@ -528,13 +580,15 @@ def _control(ds: xr.Dataset) -> tuple[dict, dict]:
          "closed_loop_carried": bool(ds.robust_closed_carried.values[i, j]),
          "open_loop_carried": bool(ds.robust_open_carried.values[i, j]),
          "closed_loop_arrival_s": _num(ds.robust_closed_arrival.values[i, j]),
-         "open_loop_arrival_s": _num(ds.robust_open_arrival.values[i, j])}
+         "open_loop_arrival_s": _num(ds.robust_open_arrival.values[i, j]),
+         **{f"closed_loop_{key}": _num(ds[f"robust_closed_{var}"].values[i, j])
+            for key, var in demand}}
         for i, mu in enumerate(ds.mu.values) for j, f in enumerate(ds.mass_factor.values)]
     contract = {
         "cases": cases,
         "fastest_arrival_s": _num(ds.attrs["fastest_arrival"]),
-        "fastest_case": ({**_case(ds, fastest, CONTROL_CASE_KEYS[:4]), "index": fastest}
-                         if fastest >= 0 else None),
+        "fastest_case": ({**_case(ds, fastest, CONTROL_CASE_KEYS[:4]), "index": fastest,
+                          **_case(ds, fastest, demand)} if fastest >= 0 else None),
         "open_loop_boundary_T_s": _num(ds.attrs["open_loop_boundary_T"]),
         "trapezoid_best": trap,
         "robustness": robustness,
@@ -561,7 +615,31 @@ def _control(ds: xr.Dataset) -> tuple[dict, dict]:
         "fastest_settling_case": (_case(ds, settled, CONTROL_CASE_KEYS) if settled >= 0
                                   else None),
     }
+    if demand:
+        checks["demand"] = _demand_checks(ds)
     return contract, checks
+
+
+def _demand_checks(ds: xr.Dataset) -> dict[str, Any]:
+    """How the actuation figures along the runs were computed, and their own checks: the
+    quadrature converged once, the time sampling against every step on the same case, the
+    closed form of K_m over every case."""
+    a = ds.attrs
+    K_rel = ds.K_m_closed_form_rel_error.values
+    return {
+        "sigma_kg_m2": float(a["demand_sigma"]), "c_d_N_s_m3": float(a["demand_c_d"]),
+        "sample_interval_s": float(a["demand_sample_interval"]),
+        "quadrature_n_alpha": int(a["demand_quadrature_n_alpha"]),
+        "quadrature_n_R": int(a["demand_quadrature_n_R"]),
+        "quadrature_rel_change": _num(a["demand_quadrature_rel_change"]),
+        "quadrature_converged": bool(a["demand_quadrature_converged"]),
+        "reference_case": int(a["demand_reference_case"]),
+        "sampling_rel_change": {k[len("demand_sampling_rel_change_"):]: _num(v)
+                                for k, v in a.items()
+                                if k.startswith("demand_sampling_rel_change_")},
+        "max_K_m_closed_form_rel_error": (_num(np.nanmax(K_rel)) if np.isfinite(K_rel).any()
+                                          else None),
+    }
 
 
 def _arrival_figure(ds: xr.Dataset, path: Path) -> None:
@@ -639,4 +717,37 @@ def _paths_figure(ds: xr.Dataset, path: Path) -> None:
     axes[0].legend(fontsize=8)
     axes[-1].set_xlabel("t (s)")
     fig.suptitle("Closed loop (fastest carried case) beside the open-loop laws", fontsize=10)
+    finish_figure(fig, path)
+
+
+def _control_powers_figure(ds: xr.Dataset, path: Path) -> None:
+    """What the actuators deliver along the fastest closed loop, the quintic at its boundary
+    and the best trapezoid: load, membrane inertia and actuator powers and K_m over the run
+    (every sample of the actuation figures)."""
+    t = ds.demand_time.values
+    rows = (("demand_P_surface", "load power P_surface (W)"),
+            ("demand_P_inertia", "membrane inertia power dK_m/dt (W)"),
+            ("demand_P_actuator", "actuator power P_actuator (W)"),
+            ("demand_K_m", "membrane kinetic energy K_m (J)"))
+    fig, axes = plt.subplots(len(rows), 1, figsize=(10, 10), sharex=True)
+    for k, label in enumerate(ds.path_label.values):
+        for ax, (var, _) in zip(axes, rows, strict=True):
+            ax.plot(t, ds[var].values[k], lw=1.0, label=str(label))
+    for ax, (_, label) in zip(axes, rows, strict=True):
+        ax.set_ylabel(label, fontsize=8)
+        ax.grid(alpha=0.3)
+        ax.axhline(0.0, color="0.6", lw=0.5)
+    # the runs' tails are still: show up to where the last actuator power falls below 1 % of
+    # its peak (and a margin), not the whole 15 s
+    P = np.abs(ds.demand_P_actuator.values)
+    active = np.nan_to_num(P) > 0.01 * np.nanmax(P) if np.isfinite(P).any() else P > 0
+    if active.any():
+        last = float(t[np.flatnonzero(active.any(axis=0))[-1]])
+        axes[-1].set_xlim(t[0], min(float(t[-1]), 1.15 * last + 0.5))
+    axes[0].legend(fontsize=8)
+    axes[-1].set_xlabel("t (s)")
+    fig.suptitle(f"Actuation along the fastest closed loop and the open-loop laws (sigma = "
+                 f"{float(ds.attrs['demand_sigma']):g} kg/m^2, c_d = "
+                 f"{float(ds.attrs['demand_c_d']):g} N s/m^3; P_gravity = 0 on the flat "
+                 "annulus)", fontsize=9)
     finish_figure(fig, path)

@@ -29,6 +29,7 @@ from creatio.errors import ConfigError
 from creatio.pipeline.config import (
     CONF_DIR,
     Resolved,
+    omit_nulls,
     refuse_identity,
     refuse_interpolations,
     refuse_resolvers,
@@ -102,6 +103,7 @@ def validate(cfg: DictConfig | dict) -> Resolved:
         from creatio.scenes.family import plan_family
 
         plan_family(obj)
+    data = omit_nulls(obj, data)
     text = OmegaConf.to_yaml(OmegaConf.create(data), sort_keys=True)
     return Resolved(scene, obj, data, text, hashlib.sha256(text.encode()).hexdigest(),
                     lookup=registry.get)

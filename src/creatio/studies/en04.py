@@ -43,8 +43,13 @@ from creatio.model.laws import Law, LawKind
 from creatio.model.numerics import steps_in
 from creatio.model.oscillation import StillCavity, regularised_rolling, still_cavity
 from creatio.model.sphere import inertia
-from creatio.model.surface import Motion, Surface, Wave, wavenumber
-from creatio.studies.en04_control import ControlConfig, run_control
+from creatio.model.surface import Motion, Surface, wavenumber
+from creatio.studies.en04_control import (
+    ControlConfig,
+    DemandSettings,
+    ExtremaGridConfig,
+    run_control,
+)
 from creatio.studies.registry import Part
 from creatio.studies.schema import MISSING, DynamicConfig, require
 
@@ -100,19 +105,6 @@ class QuadratureConfig:
                 "must be >= 2 (a change needs two grids)")
         require(self.check_interval > 0.0, f"{path}.check_interval", self.check_interval,
                 "must be > 0 s")
-
-
-@dataclass
-class ExtremaGridConfig:
-    """The (alpha, R) grid the numeric extrema of W start from (then polished locally)."""
-
-    n_alpha: int = 48
-    n_R: int = 33
-
-    def check(self, path: str) -> None:
-        """At least 4 angles and 3 radii."""
-        require(self.n_alpha >= 4, f"{path}.n_alpha", self.n_alpha, "must be >= 4")
-        require(self.n_R >= 3, f"{path}.n_R", self.n_R, "must be >= 3")
 
 
 @dataclass
@@ -272,7 +264,11 @@ def run(cfg: En04Config, part: str) -> xr.Dataset:
     if part == "control":
         c = cfg.study.control
         base = cfg.bases[c.base]
-        return run_control(c, base, closed_forms(base).roll_alpha ** 2)
+        a, q = cfg.study.actuation, cfg.study.actuation.quadrature
+        settings = DemandSettings(a.sigma, a.c_d, q.n_alpha, q.n_R, q.growth, q.rtol,
+                                  q.max_levels, c.extrema.n_alpha, c.extrema.n_R,
+                                  a.energy_fraction)
+        return run_control(c, base, closed_forms(base).roll_alpha ** 2, settings)
     raise ValueError(f"part must be actuation, oscillation or control, got {part!r}")
 
 
@@ -286,16 +282,6 @@ def actuation_problem(base: DynamicConfig, sample_interval: float, dt: float | N
     """The base study's own problem (at dt, default its solver's), its histories sampled every
     sample_interval: for a fixed step the steps, and so the trajectory, are the base's."""
     return base.sphere_problem(dt).replace(interval=sample_interval)
-
-
-def _time_integral(y: np.ndarray, t: np.ndarray) -> float:
-    from scipy.integrate import simpson
-
-    return float(simpson(y, x=t)) if t.size > 1 else 0.0
-
-
-def _peak(y: np.ndarray) -> float:
-    return float(np.max(np.abs(y))) if y.size else math.nan
 
 
 @dataclass
@@ -335,48 +321,39 @@ def demand(cfg: En04Config, name: str) -> Demand:
         check_t = np.array([0.0])
     conv = act.converge_quadrature(surface, motion, check_t, a.sigma, a.c_d, g, q.n_alpha,
                                    q.n_R, q.rtol, q.growth, q.max_levels)
-    mi = act.membrane_integrals(surface, motion, t, conv.rule, a.sigma, a.c_d, g)
+    grid = np.linspace(0.0, T, steps_in(T, a.sample_interval) + 1)
+    # every figure of s.12.1 along the run, the normal motion over the whole cycle (the
+    # surface's motion, not the run's)
+    d = act.actuation_demand(surface, motion, t, P_s, conv.rule, a.sigma, a.c_d, g, grid=grid,
+                             sample_interval=a.sample_interval, span=(0.0, T),
+                             extrema=(a.extrema.n_alpha, a.extrema.n_R),
+                             energy_fraction=a.energy_fraction)
+    mi = d.integrals
     damped = a.damped_c_d * mi.speed_square
-    P_act = P_s + mi.inertia + mi.gravity + mi.damping
     P_act_damped = P_s + mi.inertia + mi.gravity + damped
     flat = _flat(base)
     if flat:
         K_cf, P_in_cf = act.annulus_kinetic_energy(surface, motion, t, a.sigma)
-    else:
-        K_cf = P_in_cf = np.full(t.size, math.nan)
-
-    def K_quad(x: np.ndarray) -> np.ndarray:
-        return act.membrane_integrals(surface, motion, x, conv.rule, a.sigma, 0.0, g).kinetic
-
-    t_K, K_max = act.refine_maximum(K_quad, t, mi.kinetic) if t.size else (math.nan, math.nan)
-    if flat:
         t_Kcf, K_max_cf = act.time_maximum(
             lambda x: act.annulus_kinetic_energy(surface, motion, x, a.sigma)[0], 0.0, T)
-        K_at = float(K_quad(np.array([t_Kcf]))[0])
+        K_at = float(act.membrane_integrals(surface, motion, np.array([t_Kcf]), conv.rule,
+                                            a.sigma, 0.0, g).kinetic[0])
         K_rel = float(np.max(np.abs(mi.kinetic - K_cf)) / np.max(np.abs(K_cf)))
         P_rel = float(np.max(np.abs(mi.inertia - P_in_cf)) / np.max(np.abs(P_in_cf)))
     else:
+        K_cf = P_in_cf = np.full(t.size, math.nan)
         t_Kcf = K_max_cf = K_at = K_rel = P_rel = math.nan
-    # normal motion W over the whole cycle (the surface's motion, not the run's)
-    grid = np.linspace(0.0, T, steps_in(T, a.sample_interval) + 1)
-    ex = act.normal_rate_maxima(surface, motion, grid, a.extrema.n_alpha, a.extrema.n_R)
-    _, wt_cf = act.time_maximum(lambda x: act.normal_rate_bounds(surface, motion, x)[0], 0.0, T)
-    _, wtt_cf = act.time_maximum(lambda x: act.normal_rate_bounds(surface, motion, x)[1], 0.0, T)
+    ex = d.extrema
     ang = act.angular_law_bounds(surface, motion)
-    W_t_worst = Wave(surface, motion, ex.worst[0], ex.worst[1], grid).W_t
-    _, bandwidth = act.time_maximum(lambda x: act.local_frequency(motion, x), 0.0, T)
-    bandwidth99 = act.energy_frequency(W_t_worst, a.sample_interval, a.energy_fraction)
     W_cum = cumulative_simpson(P_s, x=t, initial=0.0) if t.size > 1 else np.zeros(t.size)
-    W_surf = _time_integral(P_s, t)
-    W_surf_fine = _time_integral(P_fine, fine.t)
+    W_surf = act.time_integral(P_s, t)
+    W_surf_fine = act.time_integral(P_fine, fine.t)
     W_run = float(res.surface_work[-1]) if t.size else math.nan
     W_run_fine = float(fine.surface_work[-1]) if fine.t.size else math.nan
-    powers = {"P_surface": P_s, "P_inertia": mi.inertia, "P_gravity": mi.gravity,
-              "P_damping": mi.damping, "P_actuator": P_act, "P_damping_damped": damped,
-              "P_actuator_damped": P_act_damped}
+    powers = {**d.powers(), "P_damping_damped": damped, "P_actuator_damped": P_act_damped}
     scalars: dict[str, float] = {
         "sigma": a.sigma, "c_d": a.c_d, "damped_c_d": a.damped_c_d, "duration": T,
-        "K_m_max": K_max, "K_m_max_time": t_K, "K_m_max_closed_form": K_max_cf,
+        "K_m_max": d.K_m_max, "K_m_max_time": d.K_m_max_time, "K_m_max_closed_form": K_max_cf,
         "K_m_max_closed_form_time": t_Kcf, "K_m_at_closed_form_time": K_at,
         "K_m_closed_form_rel_error": K_rel, "P_inertia_closed_form_rel_error": P_rel,
         "W_surface": W_surf, "W_surface_run": W_run, "W_surface_fine": W_surf_fine,
@@ -384,23 +361,20 @@ def demand(cfg: En04Config, name: str) -> Demand:
         "stroke": ex.stroke, "stroke_alpha": math.degrees(ex.stroke_point[0]),
         "stroke_R": ex.stroke_point[1],
         "stroke_angular_law": ang["stroke"],
-        "max_W_t": ex.max_W_t, "max_W_t_closed_form": wt_cf, "max_W_t_angular_law": ang["max_W_t"],
-        "max_W_tt": ex.max_W_tt, "max_W_tt_closed_form": wtt_cf,
+        "max_W_t": ex.max_W_t, "max_W_t_closed_form": d.max_W_t_closed_form,
+        "max_W_t_angular_law": ang["max_W_t"],
+        "max_W_tt": ex.max_W_tt, "max_W_tt_closed_form": d.max_W_tt_closed_form,
         "max_W_tt_angular_law": ang["max_W_tt"],
         "worst_alpha": math.degrees(ex.worst[0]), "worst_R": ex.worst[1],
-        "bandwidth": bandwidth, "bandwidth99": bandwidth99,
+        "bandwidth": d.bandwidth, "bandwidth99": d.bandwidth99,
         "quadrature_rel_change": conv.final_rel_change,
         "quadrature_converged": float(conv.converged),
         "quadrature_n_alpha": float(conv.rule.shape[0]),
         "quadrature_n_R": float(conv.rule.shape[1]),
     }
     for key, y in powers.items():
-        scalars[f"{key}_peak"] = _peak(y)
-        scalars[f"{key}_max"] = float(np.max(y)) if y.size else math.nan
-        scalars[f"{key}_min"] = float(np.min(y)) if y.size else math.nan
-        energy = _time_integral(y, t)
-        scalars[f"{key}_energy"] = energy
-        scalars[f"{key}_mean"] = energy / T
+        for figure, value in act.power_figures(y, t, T).items():
+            scalars[f"{key}_{figure}"] = value
     histories = {**powers, "load_work": W_cum, "surface_work": res.surface_work,
                  "K_m": mi.kinetic, "K_m_closed_form": K_cf, "P_inertia_closed_form": P_in_cf,
                  "contact_R": res.R, "contact_alpha": np.degrees(res.alpha),

@@ -14,7 +14,11 @@ One dataset, ``en04_control``, from the sphere of ``bases.<control.base>`` (EN-0
 * robustness: the default controller and the quintic law at a fixed T, at each mu and mass
   factor (the controller's gains stay the nominal sphere's);
 * the paths of the fastest carried closed loop, the quintic boundary case and the best
-  trapezoid on a common time grid, for the figures.
+  trapezoid on a common time grid, for the figures;
+* what the actuators delivered along each controlled run (every grid case, the robustness
+  runs' controller) and along the three paths: the figures of docs/model.md s.12.1 from the
+  run's recorded histories (creatio.model.actuation with the controlled phase as samples),
+  the membrane quadrature converged once, on the fastest case (:func:`demand_figures`).
 
 The gains come from the design rule of docs/model.md s.12.2: k_alpha is the square of the
 rolling sphere's small-oscillation frequency along alpha in the base's still cavity
@@ -36,15 +40,17 @@ from creatio.dynamics import (
     check_stable,
     solvers,
 )
+from creatio.model import actuation as act
 from creatio.model.control import Controller, lead, outer_gains
 from creatio.model.laws import Law, trapezoid_on_grid
-from creatio.model.surface import Motion
+from creatio.model.surface import Motion, Surface
 from creatio.studies.schema import DynamicConfig, require
 
 if TYPE_CHECKING:
     import xarray as xr
 
-__all__ = ["ControlConfig", "ControllerPoint", "controller", "run_control"]
+__all__ = ["DEMAND_FIGURES", "ControlConfig", "ControllerPoint", "DemandSettings",
+           "ExtremaGridConfig", "controller", "demand_figures", "run_control"]
 
 
 @dataclass
@@ -87,6 +93,21 @@ class RobustnessConfig:
 
 
 @dataclass
+class ExtremaGridConfig:
+    """The (alpha, R) grid the numeric extrema of W start from (then polished locally):
+    study.actuation.extrema for the prescribed cycles, study.control.extrema along the
+    closed loop (a coarser default, 16 x 9: every controlled run is searched)."""
+
+    n_alpha: int = 48
+    n_R: int = 33
+
+    def check(self, path: str) -> None:
+        """At least 4 angles and 3 radii."""
+        require(self.n_alpha >= 4, f"{path}.n_alpha", self.n_alpha, "must be >= 4")
+        require(self.n_R >= 3, f"{path}.n_R", self.n_R, "must be >= 3")
+
+
+@dataclass
 class ControlConfig:
     """The closed loop of docs/model.md s.12.2 on the sphere of ``base``."""
 
@@ -98,6 +119,7 @@ class ControlConfig:
     zeta: float = 1.0
     u_max: float | None = None
     path_interval: float = 0.02
+    extrema: ExtremaGridConfig = field(default_factory=lambda: ExtremaGridConfig(16, 9))
     omega_max: list[float] = field(default_factory=lambda: [1.0, 1.5, 2.0, 2.5, 3.0])
     delta_max_deg: list[float] = field(default_factory=lambda: [5.0, 10.0, 20.0])
     omega_c: list[float] = field(default_factory=lambda: [2.0, 3.0, 4.0])
@@ -125,6 +147,7 @@ class ControlConfig:
                 require(abs(v / step - round(v / step)) < 1e-9 and v > 0.0, f"{path}.{key}", v,
                         f"must be a positive multiple of bases.{self.base}.solver.dt and of "
                         f"dt / refine ({step:g} s)")
+        self.extrema.check(f"{path}.extrema")
         require(self.theta_goal_deg != 0.0 and math.isfinite(self.theta_goal_deg),
                 f"{path}.theta_goal_deg", self.theta_goal_deg, "must be a nonzero travel")
         require(self.arrival_tol_deg > 0.0, f"{path}.arrival_tol_deg", self.arrival_tol_deg,
@@ -200,6 +223,160 @@ def _simulate(problem: SphereProblem) -> SimulationResult:
     from creatio.dynamics import simulate
 
     return simulate(_stable(problem))
+
+
+# ------------------------------------------------------------------ actuation demand
+@dataclass(frozen=True)
+class DemandSettings:
+    """The settings of the actuation figures along each run (EN-04): study.actuation's
+    areal density and damping, quadrature (first grid, growth, tolerance, most grids) and
+    energy fraction of the bandwidth; study.control.extrema's start grid of the stroke."""
+
+    sigma: float = 0.5
+    c_d: float = 0.0
+    n_alpha: int = 9
+    n_R: int = 5
+    growth: float = 1.5
+    rtol: float = 1e-10
+    max_levels: int = 12
+    extrema_n_alpha: int = 16
+    extrema_n_R: int = 9
+    energy_fraction: float = 0.99
+
+
+#: The actuation figures of each controlled run (docs/model.md s.12.1): dataset variable,
+#: unit and long name.
+DEMAND_FIGURES = (
+    ("P_actuator_peak", "W", "largest |P_actuator|, P_surface + P_inertia + P_gravity + "
+                             "P_damping along the run"),
+    ("E_actuator", "J", "int P_actuator dt over the run (int P_inertia dt as K_m(end) - "
+                        "K_m(0))"),
+    ("P_inertia_peak", "W", "largest |P_inertia| = |dK_m/dt| along the run"),
+    ("K_m_max", "J", "largest membrane kinetic energy along the run"),
+    ("stroke", "m", "largest max_t W - min_t W over the membrane's points"),
+    ("max_W_t", "m s-1", "largest |W_t| over the membrane and the run"),
+    ("max_W_tt", "m s-2", "largest |W_tt| over the membrane and the run"),
+    ("bandwidth", "Hz", "largest local frequency (|phi_r'| + |phi_a'|) / (2 pi)"),
+    ("bandwidth99", "Hz", "frequency below which 99 % of the energy of W_t at the worst "
+                          "point lies (NaN: the run does not end at rest)"),
+    ("K_m_closed_form_rel_error", "1", "largest |K_m - flat-annulus closed form| over the "
+                                       "largest K_m (NaN off the flat annulus)"),
+)
+
+
+@dataclass
+class DemandAlong:
+    """The actuation figures of one run (keys of DEMAND_FIGURES) and the powers and K_m at
+    its demand samples t."""
+
+    figures: dict[str, float]
+    t: np.ndarray
+    histories: dict[str, np.ndarray]
+
+
+def _rows(res: SimulationResult, interval: float) -> np.ndarray:
+    """Every row of res at the interval (rounded to its step), and its last row."""
+    every = max(1, round(interval / res.dt))
+    rows = np.arange(0, res.t.size, every)
+    if rows.size and rows[-1] != res.t.size - 1:
+        rows = np.append(rows, res.t.size - 1)
+    return rows
+
+
+def _motion_along(res: SimulationResult, motion: Motion, ctl: Controller | None, Ka: float,
+                  rows: np.ndarray) -> Motion:
+    """The surface's motion along res at its rows: the laws of an open-loop run, or the
+    controlled phase as samples (phi_a, its rate, and u recomputed by the controller)."""
+    if ctl is None:
+        return motion
+    u, _, _ = ctl.acceleration(Ka, res.alpha[rows], res.alphadot[rows], res.phi_a[rows],
+                               res.phi_a_rate[rows])
+    return act.sampled_motion(motion, res.t[rows], res.phi_a[rows], res.phi_a_rate[rows],
+                              np.asarray(u, float))
+
+
+def _around_peaks(rows: np.ndarray, samples: list[np.ndarray], fraction: float = 0.5,
+                  most: int = 8) -> np.ndarray:
+    """The recorded rows between the neighbours of each sample's largest local maxima of
+    |y| (those within ``fraction`` of its largest, at most ``most`` per history)."""
+    out: list[np.ndarray] = []
+    for y in samples:
+        a = np.abs(y)
+        if a.size < 3 or not np.isfinite(a).all():
+            continue
+        left = np.r_[-np.inf, a[:-1]]
+        right = np.r_[a[1:], -np.inf]
+        tops = np.flatnonzero((a >= left) & (a >= right) & (a >= fraction * a.max()))
+        for j in tops[np.argsort(a[tops])[::-1][:most]]:
+            out.append(np.arange(rows[max(j - 1, 0)], rows[min(j + 1, rows.size - 1)] + 1))
+    return np.unique(np.concatenate(out)) if out else np.empty(0, dtype=int)
+
+
+def demand_figures(res: SimulationResult, surface: Surface, motion: Motion,
+                   ctl: Controller | None, rule: act.Quadrature, settings: DemandSettings,
+                   g: float, interval: float) -> DemandAlong:
+    """What the actuators delivered along res (docs/model.md s.12.1). ``motion`` is the
+    run's (its angular law replaced by the controlled phase, sampled at every recorded step,
+    when ``ctl`` is given).
+
+    The load power at every recorded step; the membrane integrals by ``rule`` at the rows
+    every ``interval``, and again at every recorded step around the largest samples of
+    |P_actuator| and |P_inertia| (a servo's transients are shorter than a path interval:
+    the peaks are those of the recorded steps); E_actuator = int P_surface dt over every
+    step + K_m(end) - K_m(0) (P_inertia is dK_m/dt) + int (P_gravity + P_damping) dt over
+    the rows (rate-level integrands, smooth). The stroke and the worst point from the
+    (alpha, R) grid at the rows, each polished by the local search (on a partial sweep the
+    grid alone is 2 % short), the closed-form maxima of |W_t|, |W_tt| and the local
+    frequency over the run, the energy frequency of W_t at the worst point at the rows (NaN
+    unless the run ends with its local frequency below 1 % of the largest: the record must
+    end at rest)."""
+    n = res.t.size
+    if n < 3:
+        return DemandAlong({k: math.nan for k, *_ in DEMAND_FIGURES}, res.t, {})
+    s = settings
+    t_all = res.t
+    m = _motion_along(res, motion, ctl, float(surface.Ka), np.arange(n))
+    P_all = act.load_power(surface, m, t_all, res.R, res.alpha, res.N, res.f)
+    rows = _rows(res, interval)
+    t = t_all[rows]
+    d = act.actuation_demand(surface, m, t, P_all[rows], rule, s.sigma, s.c_d, g,
+                             span=(float(t[0]), float(t[-1])),
+                             extrema=(s.extrema_n_alpha, s.extrema_n_R),
+                             energy_fraction=s.energy_fraction, xtol=1e-9)
+    coarse = d.powers()
+    near = np.setdiff1d(_around_peaks(rows, [coarse["P_actuator"], coarse["P_inertia"]]),
+                        rows)
+    mi = act.membrane_integrals(surface, m, t_all[near], rule, s.sigma, s.c_d, g)
+    fine = {"P_surface": P_all[near], "P_inertia": mi.inertia, "P_gravity": mi.gravity,
+            "P_damping": mi.damping,
+            "P_actuator": P_all[near] + mi.inertia + mi.gravity + mi.damping,
+            "K_m": mi.kinetic}
+    order = np.argsort(np.concatenate([rows, near]), kind="stable")
+    histories = {key: np.concatenate([y, fine[key]])[order]
+                 for key, y in {**coarse, "K_m": d.integrals.kinetic}.items()}
+    K = d.integrals.kinetic
+    membrane = d.integrals.gravity + d.integrals.damping
+    energy = (act.time_integral(P_all, t_all) + float(K[-1] - K[0])
+              + act.time_integral(membrane, t))
+    try:
+        K_cf, _ = act.annulus_kinetic_energy(surface, m, t, s.sigma)
+        K_rel = float(np.max(np.abs(K - K_cf)) / np.max(np.abs(K_cf)))
+    except ValueError:  # an inclined membrane: no closed form
+        K_rel = math.nan
+    figures = {
+        "P_actuator_peak": float(np.max(np.abs(histories["P_actuator"]))),
+        "E_actuator": energy,
+        "P_inertia_peak": float(np.max(np.abs(histories["P_inertia"]))),
+        "K_m_max": d.K_m_max, "stroke": d.extrema.stroke,
+        "max_W_t": d.max_W_t_closed_form, "max_W_tt": d.max_W_tt_closed_form,
+        "bandwidth": d.bandwidth,
+        # the spectrum takes W_t as zero after the record: a run that stops with the pattern
+        # still moving (lost, or not settled) would have its truncation counted as signal
+        "bandwidth99": (d.bandwidth99 if act.local_frequency(m, t[-1:])[0]
+                        <= 0.01 * d.bandwidth else math.nan),
+        "K_m_closed_form_rel_error": K_rel,
+    }
+    return DemandAlong(figures, t_all[np.concatenate([rows, near])[order]], histories)
 
 
 @dataclass
@@ -312,8 +489,10 @@ def _path(name: str, label: str, res: SimulationResult, Ka: float, grid: np.ndar
                 on(res.X), on(np.degrees(res.phi_a)), on(Q))
 
 
-def run_control(cfg: ControlConfig, base: DynamicConfig, k_alpha: float) -> xr.Dataset:
-    """The ``en04_control`` dataset (see the module docstring)."""
+def run_control(cfg: ControlConfig, base: DynamicConfig, k_alpha: float,
+                demand: DemandSettings | None = None) -> xr.Dataset:
+    """The ``en04_control`` dataset (see the module docstring); ``demand`` holds the settings
+    of the actuation figures (default DemandSettings())."""
     import xarray as xr
 
     Ka = float(base.geometry.Ka)
@@ -376,6 +555,7 @@ def run_control(cfg: ControlConfig, base: DynamicConfig, k_alpha: float) -> xr.D
     # ---- open loop: the trapezoidal laws, switch times on the step grid
     trap_rows: list[tuple[float, float, float, float, float, float, Measured]] = []
     trap_results: list[SimulationResult] = []
+    trap_laws: list[Law] = []
     for om in cfg.trapezoid.omega_max:
         for am in cfg.trapezoid.a_max:
             T, ramp, W, a = trapezoid_on_grid(phase_travel, Ka * om, Ka * am, dts[0])
@@ -384,6 +564,7 @@ def run_control(cfg: ControlConfig, base: DynamicConfig, k_alpha: float) -> xr.D
             trap_rows.append((om, am, W / Ka, a / Ka, T, ramp * T,
                               measure(r, goal, tol, Ka, None)))
             trap_results.append(r)
+            trap_laws.append(law)
     trap_arrival = np.array([m.arrival if m.carried else math.nan for *_, m in trap_rows])
     best_trap = int(np.nanargmin(trap_arrival)) if np.isfinite(trap_arrival).any() else -1
 
@@ -397,10 +578,12 @@ def run_control(cfg: ControlConfig, base: DynamicConfig, k_alpha: float) -> xr.D
     open_status = np.full(closed.shape, "", dtype=object)
     robust_dt = np.full(closed.shape, math.nan)
     default_ctl = controller(cfg, nominal, k_alpha, cfg.default)
+    robust_runs: list[SimulationResult] = []
     for i, mu in enumerate(rb.mus):
         for j, f in enumerate(rb.mass_factors):
             p = at(dts[0], mu=float(mu), m=nominal.model.sphere.m * f)
             rc = _simulate(p.replace(control=default_ctl))
+            robust_runs.append(rc)
             ro = quintic(rb.quintic_T, p)
             mc, mo = measure(rc, goal, tol, Ka, default_ctl), measure(ro, goal, tol, Ka, None)
             closed[i, j], opened[i, j] = mc.carried, mo.carried
@@ -505,4 +688,100 @@ def run_control(cfg: ControlConfig, base: DynamicConfig, k_alpha: float) -> xr.D
         "default_delta_max_deg": cfg.default.delta_max_deg,
         "default_omega_c": cfg.default.omega_c, "default_omega_n": cfg.default.omega_n,
     })
-    return ds
+    # ---- what the actuators delivered along each controlled run and along the paths
+    along = [(results[fastest], motion, controller(cfg, nominal, k_alpha, grid[fastest]))
+             ] if fastest >= 0 else []
+    along.append((best_quintic, Motion(motion.phi_r, Law.quintic(pa0, phase_travel, hi),
+                                       motion.gamma), None))
+    if best_trap >= 0:
+        along.append((trap_results[best_trap],
+                      Motion(motion.phi_r, trap_laws[best_trap], motion.gamma), None))
+    cases_along = [(r, motion, controller(cfg, nominal, k_alpha, point))
+                   for r, point in zip(results, grid, strict=True)]
+    robust_along = [(r, motion, default_ctl) for r in robust_runs]
+    return _with_demand(ds, cfg, base, demand or DemandSettings(), cases_along,
+                        max(fastest, 0), robust_along, along)
+
+
+def _with_demand(ds: xr.Dataset, cfg: ControlConfig, base: DynamicConfig,
+                 settings: DemandSettings,
+                 cases: list[tuple[SimulationResult, Motion, Controller | None]], reference: int,
+                 robust: list[tuple[SimulationResult, Motion, Controller | None]],
+                 paths: list[tuple[SimulationResult, Motion, Controller | None]]) -> xr.Dataset:
+    """ds with the actuation figures of docs/model.md s.12.1 along every grid case (``case``),
+    every robustness run's controller (``mu`` x ``mass_factor``) and the paths (their powers
+    and K_m on ``demand_time``).
+
+    The membrane quadrature is converged once, on the reference case (the fastest, else the
+    first) at its path samples, and the grid before the last refinement is used for every run
+    (the last refinement changed no integral by more than the tolerance, so that grid is
+    within it). Each run's figures come from its rows every path interval, refined at its
+    recorded steps around the peaks (:func:`demand_figures`); that sampling is checked
+    once, on the same case, against every recorded step (P_actuator's integral there by
+    Simpson's rule, the definition), and the relative changes recorded as attributes."""
+    surface = base.geometry.surface()
+    g = base.sphere.g
+    s = settings
+    ref_res, ref_motion, ref_ctl = cases[reference]
+    check_rows = _rows(ref_res, cfg.path_interval)
+    conv = act.converge_quadrature(surface, _motion_along(ref_res, ref_motion, ref_ctl,
+                                                          float(surface.Ka), check_rows),
+                                   ref_res.t[check_rows], s.sigma, s.c_d, g, s.n_alpha, s.n_R,
+                                   s.rtol, s.growth, s.max_levels)
+    levels = conv.levels[-2] if conv.converged else conv.levels[-1]
+    rule = act.quadrature(surface, *levels)
+
+    def along(res: SimulationResult, motion: Motion, ctl: Controller | None,
+              interval: float = cfg.path_interval) -> DemandAlong:
+        return demand_figures(res, surface, motion, ctl, rule, s, g, interval)
+
+    case_demand = [along(*c) for c in cases]
+    # the paths at every recorded step (the figure's histories); the fastest case's is the
+    # check of the sampling above
+    path_demand = [along(*p, interval=p[0].dt) for p in paths]
+    every = (path_demand[0] if paths and paths[0][0] is ref_res
+             else along(*cases[reference], interval=ref_res.dt))
+    ref = case_demand[reference].figures
+    direct = {"P_actuator_peak": float(np.max(np.abs(every.histories["P_actuator"]))),
+              "E_actuator": act.time_integral(every.histories["P_actuator"], every.t),
+              "P_inertia_peak": float(np.max(np.abs(every.histories["P_inertia"]))),
+              "K_m_max": every.figures["K_m_max"], "max_W_tt": every.figures["max_W_tt"]}
+    sampling = {k: _rel(ref[k], v) for k, v in direct.items()}
+    robust_demand = [along(*r) for r in robust]
+    shape = (ds.sizes["mu"], ds.sizes["mass_factor"])
+    data: dict[str, Any] = {}
+    for key, unit, long_name in DEMAND_FIGURES:
+        attrs = {"units": unit, "long_name": long_name}
+        data[key] = ("case", np.array([d.figures[key] for d in case_demand]), attrs)
+        data[f"robust_closed_{key}"] = (("mu", "mass_factor"), np.array(
+            [d.figures[key] for d in robust_demand]).reshape(shape), attrs)
+    dt = base.solver.dt
+    n = max((d.t.size for d in path_demand), default=0)
+    tgrid = np.arange(n) * dt
+    for key in (*act.POWERS, "K_m"):
+        rows = np.full((len(path_demand), n), math.nan)
+        for i, d in enumerate(path_demand):
+            if key in d.histories:
+                rows[i] = np.interp(tgrid, d.t, d.histories[key], right=math.nan)
+        data[f"demand_{key}"] = (("path", "demand_time"), rows, {
+            "units": "J" if key == "K_m" else "W",
+            "long_name": f"{key} along the path at every recorded step"})
+    out = ds.assign(data).assign_coords(demand_time=("demand_time", tgrid, {
+        "units": "s", "long_name": "simulated time since the start of the run, every "
+                                  "recorded step of the paths' actuation histories"}))
+    out.attrs.update({
+        "demand_sigma": s.sigma, "demand_c_d": s.c_d,
+        "demand_sample_interval": cfg.path_interval,
+        "demand_quadrature_n_alpha": levels[0], "demand_quadrature_n_R": levels[1],
+        "demand_quadrature_levels": np.array(conv.levels, dtype=np.int32).ravel(),
+        "demand_quadrature_rel_change": conv.final_rel_change,
+        "demand_quadrature_converged": int(conv.converged),
+        "demand_reference_case": reference,
+        **{f"demand_sampling_rel_change_{k}": v for k, v in sampling.items()},
+    })
+    return out
+
+
+def _rel(a: float, b: float) -> float:
+    """|a - b| / |b| (NaN where b is 0 or not finite)."""
+    return abs(a - b) / abs(b) if math.isfinite(b) and b != 0.0 else math.nan

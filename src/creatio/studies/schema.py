@@ -33,13 +33,18 @@ from creatio.dynamics.problem import (
 )
 from creatio.dynamics.solvers import METHODS
 from creatio.errors import ConfigError
+from creatio.model.cavity import cavity_radius
+from creatio.model.control import Controller, outer_gains
 from creatio.model.laws import Law, LawKind
 from creatio.model.numerics import steps_in
+from creatio.model.oscillation import still_cavity
+from creatio.model.sphere import inertia
 from creatio.model.surface import Motion, Surface
 
 __all__ = [
     "AngleUnit",
     "Confinement",
+    "ControlGroup",
     "DynamicConfig",
     "DynamicStudy",
     "GeometryConfig",
@@ -49,6 +54,7 @@ __all__ = [
     "MISSING",
     "Method",
     "NO_CYCLE",
+    "OMIT_NULL",
     "Output",
     "PhasePairConfig",
     "PhasesConfig",
@@ -63,12 +69,18 @@ __all__ = [
     "check_positive_list",
     "require",
     "require_samples",
+    "still_cavity_k_alpha",
     "vary",
     "with_cycle",
 ]
 
 #: A mandatory value (OmegaConf's marker for "must be set"), without importing OmegaConf.
 MISSING: Any = "???"
+
+#: Field metadata of an optional group that the canonical resolved text leaves out while it is
+#: null (creatio.pipeline.config.omit_nulls): adding such a group keeps every config that does
+#: not use it, its YAML and its sha256 (which key the outputs), byte for byte as they were.
+OMIT_NULL = "omit_null"
 
 
 #: Magnitudes a config number may take (besides 0): squares and products of a few of them stay
@@ -476,6 +488,42 @@ def check_grid(path: str, n_radii: int, n_angles: int, per: int = 1) -> None:
 
 
 @dataclass
+class ControlGroup:
+    """The closed loop of docs/model.md s.12.2 on a sphere study (group ``control``): phi_a
+    becomes a state driven toward the lead that a position/velocity outer loop with a speed
+    limit commands. Angles in degrees, rates in rad/s; the outer gains follow the design rule
+    from omega_c, zeta_c and the still cavity's k_alpha (:meth:`DynamicConfig.controller`)."""
+
+    omega_max: float = 2.0          # speed limit of the sphere's alpha (rad/s)
+    delta_max_deg: float = 10.0     # lead limit (deg), below half a cavity 180 / Ka
+    omega_c: float = 3.0            # outer loop's pole frequency (rad/s)
+    zeta_c: float = 1.0             # outer loop's damping
+    omega_n: float = 20.0           # servo frequency (rad/s)
+    zeta: float = 1.0               # servo damping
+    u_max: float | None = None      # servo acceleration limit (rad/s^2 of phi_a); None: none
+    theta_goal_deg: float = -360.0  # commanded travel of the contact angle (deg)
+    arrival_tol_deg: float = 2.0    # arrival: first time |theta - goal| <= this (deg)
+
+    def check(self, path: str, Ka: int) -> None:
+        """Gains and limits positive (zeta >= 0), delta_max in [0, 180 / Ka), u_max > 0 or
+        null, a nonzero goal, a positive arrival tolerance."""
+        for name in ("omega_max", "omega_c", "zeta_c", "omega_n"):
+            v = getattr(self, name)
+            require(v > 0.0, f"{path}.{name}", v, "must be > 0 (a gain or a limit)")
+        require(self.zeta >= 0.0, f"{path}.zeta", self.zeta, "must be >= 0 (a damping)")
+        half = 180.0 / Ka
+        require(0.0 <= self.delta_max_deg < half, f"{path}.delta_max_deg", self.delta_max_deg,
+                f"must lie in [0, 180 / Ka = {half:g}) deg: at half a cavity the commanded "
+                "lead names the next cavity")
+        require(self.u_max is None or self.u_max > 0.0, f"{path}.u_max", self.u_max,
+                "must be > 0 rad/s^2 (null: no limit)")
+        require(self.theta_goal_deg != 0.0, f"{path}.theta_goal_deg", self.theta_goal_deg,
+                "must be a nonzero travel (deg)")
+        require(self.arrival_tol_deg > 0.0, f"{path}.arrival_tol_deg", self.arrival_tol_deg,
+                "must be > 0 deg")
+
+
+@dataclass
 class InitialConfig:
     """Initial contact point and its rates (the sphere starts with zero spin)."""
 
@@ -518,6 +566,9 @@ class DynamicConfig:
     phases: PhasesConfig = field(default_factory=PhasesConfig)
     sphere: SphereConfig = field(default_factory=SphereConfig)
     solver: SolverConfig = field(default_factory=SolverConfig)
+    #: the closed loop (docs/model.md s.12.2); null: every phase follows its law (left out
+    #: of the canonical text while null, so the prescribed configs keep their hashes)
+    control: ControlGroup | None = field(default=None, metadata={OMIT_NULL: True})
 
     def check(self) -> None:
         """Validate every group, then the cross-group rules (start inside the annulus)."""
@@ -526,6 +577,8 @@ class DynamicConfig:
         self.sphere.check("sphere")
         self.solver.check("solver")
         self.study.check("study")
+        if self.control is not None:
+            self.control.check("control", self.geometry.Ka)
         self._check_rows()
         R = self.study.initial.R
         require(
@@ -580,7 +633,10 @@ class DynamicConfig:
 
     def _refused(self, e: ValueError) -> ConfigError:
         """A problem's ValueError as a ConfigError naming the config key of the field its
-        message begins with (_PROBLEM_KEYS)."""
+        message begins with (_PROBLEM_KEYS); a refusal of the controlled phase names the
+        ``control`` group."""
+        if "controlled phase" in str(e):
+            return ConfigError("control", "on", f"the run refuses it: {e}")
         field_name = str(e).split()[0].split("=")[0].rstrip(":")
         key = _PROBLEM_KEYS.get(field_name, "study")
         value: Any = self
@@ -605,7 +661,7 @@ class DynamicConfig:
         """The problem of this config at timestep dt: model, start, solver, output, events."""
         ph, sp, sv, st = self.phases, self.sphere, self.solver, self.study
         rtol, atol = sv.tolerances(dt)
-        return SphereProblem(
+        problem = SphereProblem(
             model=core.Model(self.geometry.surface(), Motion(*ph.laws()),
                              core.Sphere(sp.m, sp.b, sp.g, sp.mu, sp.eps), self.run_structure()),
             start=core.Start(st.initial.R, math.radians(st.initial.alpha_deg),
@@ -617,6 +673,20 @@ class DynamicConfig:
                                Output.energy in st.outputs),
             events=self.run_events(),
         )
+        ctl = self.controller(problem)
+        return problem if ctl is None else problem.replace(control=ctl)
+
+    def controller(self, problem: SphereProblem) -> Controller | None:
+        """The closed loop's controller on problem's start (None without the group): gains
+        by the design rule of docs/model.md s.12.2 (:func:`still_cavity_k_alpha`)."""
+        c = self.control
+        if c is None:
+            return None
+        k_theta, k_omega = outer_gains(c.omega_c, c.zeta_c, still_cavity_k_alpha(problem))
+        return Controller(goal=math.radians(c.theta_goal_deg), alpha0=problem.start_point[1],
+                          k_theta=k_theta, k_omega=k_omega, omega_max=c.omega_max,
+                          delta_max=math.radians(c.delta_max_deg), omega_n=c.omega_n,
+                          zeta=c.zeta, u_max=math.inf if c.u_max is None else c.u_max)
 
     def run_structure(self) -> core.Structure:
         """The structure of the runs: fixed, as in EN-02 (EN-03 sets its own)."""
@@ -634,6 +704,20 @@ class DynamicConfig:
         """Largest stable fixed step (s) of this configuration's explicit scheme over its runs
         (inf without friction, for an adaptive method and for radau5)."""
         return min((stability_limit(p) for p in self.stability_problems()), default=math.inf)
+
+
+def still_cavity_k_alpha(problem: SphereProblem) -> float:
+    """k_alpha of the design rule (docs/model.md s.12.2-12.3): the square of the rolling
+    sphere's small-oscillation frequency along alpha at the bottom of the still cavity whose
+    cell the problem starts in (its radial branch at the phases of t = 0); the value of
+    creatio.studies.en04.closed_forms, from the problem the run uses."""
+    model = problem.model
+    surface, sphere = model.surface, model.sphere
+    n, _ = problem.cavity_cell()
+    R_c = cavity_radius(model.motion.phi_r.scalar(0.0)[0], model.k, n)
+    forms = still_cavity(surface.A, model.k, surface.Ka, surface.R0 + R_c, sphere.b, sphere.g,
+                         inertia(sphere.m, sphere.b) / (sphere.m * sphere.b ** 2))
+    return forms.roll_alpha ** 2
 
 
 #: Problems built by DynamicConfig.sphere_problem, by (config, dt): a run and its validation

@@ -8,12 +8,15 @@ mapping itself, shared by the studies beyond the notebook (EN-02G, EN-03, EN-03M
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import xarray as xr
 
 from creatio.dynamics import SimulationResult, SphereProblem, simulate
 from creatio.model.cavity import pattern_angle
-from creatio.studies.schema import DynamicConfig
+from creatio.studies.en04_control import measure
+from creatio.studies.schema import ControlGroup, DynamicConfig
 
 __all__ = ["COMPONENTS", "pattern", "result_dataset", "run"]
 
@@ -29,17 +32,23 @@ def pattern(prob: SphereProblem, t: np.ndarray) -> np.ndarray:
 def run(cfg: DynamicConfig, dt: float) -> xr.Dataset:
     """Simulate at timestep dt and return the time-history dataset."""
     prob = cfg.sphere_problem(dt)
-    return result_dataset(prob, simulate(prob))
+    return result_dataset(prob, simulate(prob), cfg.control)
 
 
-def result_dataset(prob: SphereProblem, res: SimulationResult) -> xr.Dataset:
+def result_dataset(prob: SphereProblem, res: SimulationResult,
+                   control: ControlGroup | None = None) -> xr.Dataset:
     """The EN-02 time-history dataset of one run: histories, extrema as attributes, and the
     cavity-cell check (docs/model.md s.8.2) as ``left_cavity_time`` (NaN: never left) and
-    ``carried``."""
+    ``carried``; on the controlled path (s.12.2) the phase, its rate, the servo's u, the lead
+    and the arrival readouts too (control: the group, for its arrival tolerance)."""
     t = res.t
     dt = prob.solver.dt
-    # The pattern angle starts at the initial contact angle and turns at -phi_a' / Ka.
-    pattern_t = pattern(prob, t)
+    # The pattern angle starts at the initial contact angle and turns at -phi_a' / Ka
+    # (on the controlled path phi_a is the state's, recorded with the run).
+    if prob.controlled:
+        pattern_t = prob.start.alpha - (res.phi_a - res.phi_a[:1]) / prob.model.surface.Ka
+    else:
+        pattern_t = pattern(prob, t)
     rho = np.hypot(res.X[:, 0], res.X[:, 1])
     vec = ("time", "component")
     coords = {
@@ -88,6 +97,8 @@ def result_dataset(prob: SphereProblem, res: SimulationResult) -> xr.Dataset:
                             {"long_name": "E - E0 - W_surface + D_friction", "units": "J"}),
     }
     ds = xr.Dataset(data, coords=coords)
+    if prob.controlled:
+        _control_variables(ds, prob, res, control or ControlGroup())
     if prob.adaptive:
         ds.attrs.update({"rtol": prob.solver.rtol, "atol": prob.solver.atol})
     ds.attrs.update({
@@ -117,3 +128,47 @@ def result_dataset(prob: SphereProblem, res: SimulationResult) -> xr.Dataset:
         "carried": int(res.carried),
     })
     return ds
+
+
+def _control_variables(ds: xr.Dataset, prob: SphereProblem, res: SimulationResult,
+                       control: ControlGroup) -> None:
+    """Add the controlled run's histories and readouts (docs/model.md s.12.2) to ds: phi_a,
+    its rate, u, the lead and the commanded lead (u and the leads recomputed from the
+    recorded state by the controller's own formula), the travel theta, and arrival, settling,
+    overshoot and final error against the group's arrival tolerance."""
+    ctl = prob.model.control
+    Ka = float(prob.model.surface.Ka)
+    u, delta, delta_cmd = ctl.acceleration(Ka, res.alpha, res.alphadot, res.phi_a,
+                                           res.phi_a_rate)
+    m = measure(res, ctl.goal, math.radians(control.arrival_tol_deg), Ka, ctl)
+    ds["phase_a"] = ("time", np.degrees(res.phi_a),
+                     {"long_name": "angular phase phi_a (controlled state)", "units": "degree"})
+    ds["phase_a_rate"] = ("time", res.phi_a_rate.copy(),
+                          {"long_name": "rate of the angular phase", "units": "rad s-1"})
+    ds["phase_a_acceleration"] = ("time", u, {"long_name": "servo output u = phi_a''",
+                                              "units": "rad s-2"})
+    ds["lead"] = ("time", np.degrees(delta), {"long_name": "lead of the carrying cavity "
+                                              "over the contact", "units": "degree"})
+    ds["lead_command"] = ("time", np.degrees(delta_cmd), {"long_name": "lead commanded by "
+                                                          "the outer loop", "units": "degree"})
+    ds["travel"] = ("time", np.degrees(res.alpha - ctl.alpha0),
+                    {"long_name": "travel theta = alpha - alpha(0)", "units": "degree"})
+    ds.attrs.update({
+        "control": 1,
+        "control_goal_deg": math.degrees(ctl.goal),
+        "control_arrival_tol_deg": control.arrival_tol_deg,
+        "control_k_theta": ctl.k_theta,
+        "control_k_omega": ctl.k_omega,
+        "control_omega_max": ctl.omega_max,
+        "control_delta_max_deg": math.degrees(ctl.delta_max),
+        "control_omega_n": ctl.omega_n,
+        "control_zeta": ctl.zeta,
+        "control_u_max": ctl.u_max,
+        "arrival_time": m.arrival,
+        "settling_time": m.settling,
+        "overshoot_deg": m.overshoot,
+        "final_error_deg": m.final_error,
+        "max_lead_deg": m.max_delta,
+        "max_phase_a_rate": m.max_phidot,
+        "max_phase_a_acceleration": m.max_u,
+    })

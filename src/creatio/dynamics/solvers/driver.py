@@ -66,8 +66,7 @@ from creatio.dynamics.sphere import (
     load,
     new_extrema,
     observe,
-    pack,
-    pack_controlled,
+    pack_run,
     rhs_of,
 )
 
@@ -136,23 +135,6 @@ def _implicit_dense_of(stepper, ws, tg, yout):
     return lambda stepper, ws, tg, yout: dense(ws, tg, yout)
 
 
-def _pack(ctl, p, lawc):
-    """The parameter and law tuples of the loop (compiled code only; resolved at compile
-    time on the literal ctl)."""
-    raise NotImplementedError("called only from compiled code")
-
-
-@overload(_pack, prefer_literal=True, inline="always")
-def _pack_of(ctl, p, lawc):
-    """creatio.dynamics.sphere.pack, or pack_controlled on the controlled path (the law tuple
-    then carries the controller's row, which selects that path in the right-hand side)."""
-    if not isinstance(ctl, types.BooleanLiteral):
-        return None
-    if ctl.literal_value:
-        return lambda ctl, p, lawc: pack_controlled(p, lawc)
-    return lambda ctl, p, lawc: pack(p, lawc)
-
-
 @njit(cache=True)
 def _arrays(n, n_dense, en):
     """Every array the loop writes for a state of size n, allocated once per run (the loop
@@ -191,7 +173,7 @@ def _drive(stepper, p, lawc, y, arrays, iws, t_end, interval, h0, n_steps, strid
     goes to stderr every `progress` seconds (inf: never). ctl: the controlled path (docs/model.md
     s.12.2), whose parameter vector carries the controller's row after its parameters.
     """
-    pp, lc = _pack(ctl, p, lawc)
+    pp, lc = pack_run(ctl, p, lawc)
     (c, a_ptr, a_idx, a_val, b_idx, b_val, b_divisor, e, e3, estimator, error_order, c_extra,
      a_extra, dense_p) = tab
     n = y.size
@@ -388,10 +370,11 @@ def _entry(stepper: int, rot: bool, en: bool, free: bool, ctl: bool = False):
 SPECIALISATIONS = {key: _entry(*key) for key in itertools.product(
     STEPPERS, (True, False), (True, False), (True, False))}
 #: The controlled path's entry points (docs/model.md s.12.2), (stepper kind, rotation,
-#: energy) -> entry point: explicit steppers on the fixed structure (the implicit kinds'
-#: Jacobian has no columns for the controlled phase yet).
-CONTROLLED = {(EXPLICIT, rot, en): _entry(EXPLICIT, rot, en, False, True)
-              for rot, en in itertools.product((True, False), (True, False))}
+#: energy) -> entry point: every stepper kind on the fixed structure (the implicit kinds'
+#: Jacobian differences the control block's columns too, creatio.dynamics.solvers.radau).
+CONTROLLED = {(stepper, rot, en): _entry(stepper, rot, en, False, True)
+              for stepper, rot, en in itertools.product(STEPPERS, (True, False),
+                                                        (True, False))}
 
 
 def run(

@@ -29,11 +29,22 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from numba.extending import overload
 
 from creatio.dynamics import status as st
 from creatio.dynamics.jit import njit
 from creatio.dynamics.layout import (
+    C_ALPHA0,
+    C_DELTA_MAX,
+    C_GOAL,
+    C_K_OMEGA,
+    C_K_THETA,
+    C_OMEGA_MAX,
+    C_OMEGA_N,
+    C_U_MAX,
+    C_ZETA,
     COL_ALPHA,
+    COL_ALPHADOT,
     COL_AZIMUTH,
     COL_CAVITY_R,
     COL_CELL_U,
@@ -43,6 +54,8 @@ from creatio.dynamics.layout import (
     COL_F,
     COL_KINETIC,
     COL_N,
+    COL_PHI_A,
+    COL_PHI_A_RATE,
     COL_POTENTIAL,
     COL_R,
     COL_RESIDUAL,
@@ -52,6 +65,8 @@ from creatio.dynamics.layout import (
     COL_V,
     COL_WORK,
     COL_X,
+    CT_PHI,
+    CT_RATE,
     D_N,
     D_V,
     D_X,
@@ -83,6 +98,7 @@ from creatio.dynamics.layout import (
     FL_RESUME_SPEED,
     FL_START_HEIGHT,
     LAW_A,
+    LAW_CONTROL,
     LAW_GAMMA,
     LAW_R,
     NF,
@@ -115,9 +131,10 @@ from creatio.dynamics.layout import (
 from creatio.dynamics.progress import CLOCK_MASK, tick
 from creatio.dynamics.solvers.explicit import error_norm, next_step, stages, step_factor
 from creatio.dynamics.sphere import (
+    _controlled,
     new_extrema,
     observe,
-    pack,
+    pack_run,
     rhs,
     unit_quaternion,
     world_centre,
@@ -125,12 +142,13 @@ from creatio.dynamics.sphere import (
 )
 from creatio.dynamics.surface import phases
 from creatio.model.cavity import cavity_cell_offsets, cavity_radius
+from creatio.model.control import servo
 from creatio.model.flight import foot_point, impact
 from creatio.model.laws import law_eval
 from creatio.model.offset import offset_jets
 from creatio.model.sphere import attitude_rates, centre_tangents, tangent_coordinates
 
-__all__ = ["CONTACT", "EVENT_TOL", "FLIGHT", "run_flight"]
+__all__ = ["CONTACT", "ENTRIES", "EVENT_TOL", "FLIGHT", "run_flight"]
 
 #: Phases of the hybrid loop.
 CONTACT, FLIGHT = 0, 1
@@ -171,15 +189,113 @@ def _flight_rhs(y, dy, g):
     dy[F_DISSIPATION] = 0.0
 
 
+@njit(cache=True)
+def _flight_servo(t, y, pp, lc):
+    """(u, alpha, alphadot) of the controller in flight (docs/model.md s.12.2). It measures
+    what it measures in contact, continued: the angle of the centre's foot point on the
+    surface (the contact point at separation and at impact) and the alpha rate of the
+    contact coordinates that the centre's velocity would have there (the least-squares
+    projection with which contact resumes, :func:`_to_contact`), so u does not jump at either
+    event. The foot point starts from the centre's azimuth on the branch of the starting
+    cell's cavity; where it is not found, the centre's azimuth and its rate stand in."""
+    c = lc[LAW_CONTROL]
+    Ka = pp[P_KA]
+    pa = y[NF + CT_PHI]
+    pa1 = y[NF + CT_RATE]
+    X1 = y[F_X]
+    X2 = y[F_X + 1]
+    rho2 = X1 * X1 + X2 * X2
+    raw = math.atan2(X2, X1)
+    ref = (math.pi - pa + 2.0 * math.pi * pp[P_MCAV]) / Ka  # the cell's cavity angle
+    a = raw + 2.0 * math.pi * np.rint((ref - raw) / (2.0 * math.pi))
+    ad = (X1 * y[F_V + 1] - X2 * y[F_V]) / rho2
+    pr, pr1, pr2, _, _, _, gm, g1, g2 = phases(t, lc)
+    found, Rs, As, gap, n1, n2, n3, c1, c2, c3 = foot_point(
+        X1, X2, y[F_X + 2], math.sqrt(rho2) - pp[P_R0], a, pp[P_R0], pp[P_K], pp[P_A], Ka,
+        pp[P_B], pr, pr1, pr2, pa, pa1, 0.0, gm, g1, g2)
+    if found:
+        # pa2 enters only the second time derivatives of the jets, which are not used here
+        rho, z, m1, m2, m3, P, Q, Z = offset_jets(
+            Rs, As, pp[P_R0], pp[P_K], pp[P_A], Ka, pp[P_B], pr, pr1, pr2, pa, pa1, 0.0, gm,
+            g1, g2)
+        xR1, xR2, xR3, xa1, xa2, xa3, xt1, xt2, xt3 = centre_tangents(P, Q, Z)
+        ca = math.cos(As)
+        sa = math.sin(As)
+        u1 = y[F_V] * ca + y[F_V + 1] * sa - xt1
+        u2 = -y[F_V] * sa + y[F_V + 1] * ca - xt2
+        u3 = y[F_V + 2] - xt3
+        a = As
+        ad = tangent_coordinates(xR1, xR2, xR3, xa1, xa2, xa3, u1, u2, u3)[1]
+    u, _, _, _ = servo(a, ad, pa, pa1, Ka, c[C_GOAL], c[C_ALPHA0], c[C_K_THETA], c[C_K_OMEGA],
+                       c[C_OMEGA_MAX], c[C_DELTA_MAX], c[C_OMEGA_N], c[C_ZETA], c[C_U_MAX])
+    return u, a, ad
+
+
+def _flight_control(t, y, dy, pp, lc):
+    """Write the control block's rates (phidot_a, u) of a flight state into dy on the
+    controlled path; nothing otherwise (compiled code only)."""
+    raise NotImplementedError("called only from compiled code")
+
+
+@overload(_flight_control, inline="always")
+def _flight_control_of(t, y, dy, pp, lc):
+    if not _controlled(lc):
+        return lambda t, y, dy, pp, lc: None
+
+    def controlled(t, y, dy, pp, lc):
+        u, _, _ = _flight_servo(t, y, pp, lc)
+        dy[NF + CT_PHI] = y[NF + CT_RATE]
+        dy[NF + CT_RATE] = u
+    return controlled
+
+
+def _flight_phases(t, y, pp, lc):
+    """The phases at t of a flight state (creatio.dynamics.surface.phases; on the controlled
+    path phi_a, its rate and u from the state's control block; compiled code only)."""
+    raise NotImplementedError("called only from compiled code")
+
+
+@overload(_flight_phases, inline="always")
+def _flight_phases_of(t, y, pp, lc):
+    if not _controlled(lc):
+        return lambda t, y, pp, lc: phases(t, lc)
+
+    def controlled(t, y, pp, lc):
+        pr, pr1, pr2, _, _, _, gm, g1, g2 = phases(t, lc)
+        u, _, _ = _flight_servo(t, y, pp, lc)
+        return pr, pr1, pr2, y[NF + CT_PHI], y[NF + CT_RATE], u, gm, g1, g2
+    return controlled
+
+
+def _flight_phase_a(t, y, pp, lc):
+    """(phi_a, its rate, the measured alpha rate) of a flight state for its history row:
+    the law's phi_a and NaN, NaN; on the controlled path the state's phase and rate and the
+    controller's measured rate (compiled code only)."""
+    raise NotImplementedError("called only from compiled code")
+
+
+@overload(_flight_phase_a, inline="always")
+def _flight_phase_a_of(t, y, pp, lc):
+    if not _controlled(lc):
+        return lambda t, y, pp, lc: (law_eval(lc[LAW_A], t)[0], math.nan, math.nan)
+
+    def controlled(t, y, pp, lc):
+        _, _, ad = _flight_servo(t, y, pp, lc)
+        return y[NF + CT_PHI], y[NF + CT_RATE], ad
+    return controlled
+
+
 @njit(cache=True, inline="always")
 def _f(phase, t, y, dy, pp, lc, rot, en, diag):
     """The right-hand side of the phase, in the signature the explicit stepper calls
     (creatio.dynamics.solvers.explicit.stages): contact, creatio.dynamics.sphere.rhs (the
-    hybrid loop always integrates rotation and energy, rot = en = True); flight, X'' = g."""
+    hybrid loop always integrates rotation and energy, rot = en = True); flight, X'' = g
+    (and the control block's rates on the controlled path)."""
     if phase == CONTACT:
         rhs(t, y, dy, pp, lc, rot, en, diag)
     else:
         _flight_rhs(y, dy, pp[P_G])
+        _flight_control(t, y, dy, pp, lc)
 
 
 @njit(cache=True)
@@ -206,7 +322,7 @@ def _step(phase, t, h, t_next, y, ynew, K, work, kst, tab, pp, lc, estimate, rto
 def _foot(t, y, pp, lc, R, a):
     """Foot point of the flight state's centre at t from the guess (R, alpha): (found, R,
     alpha, gap, v_n, n (3), c_t (3))."""
-    pr, pr1, pr2, pa, pa1, pa2, gm, g1, g2 = phases(t, lc)
+    pr, pr1, pr2, pa, pa1, pa2, gm, g1, g2 = _flight_phases(t, y, pp, lc)
     found, Rs, As, gap, n1, n2, n3, c1, c2, c3 = foot_point(
         y[F_X], y[F_X + 1], y[F_X + 2], R, a, pp[P_R0], pp[P_K], pp[P_A], pp[P_KA], pp[P_B],
         pr, pr1, pr2, pa, pa1, pa2, gm, g1, g2)
@@ -271,8 +387,8 @@ def _locate(which, phase, t, h, fa, fb, y, yt, K, work, kst, tab, pp, lc, R, a):
 @njit(cache=True)
 def _to_flight(t, yc, yf, pp, lc):
     """The flight state of contact state yc (centre and velocity turned to the world frame;
-    spin, orientation and the sums carried); returns the centre's world position."""
-    dy = np.empty(NC)
+    spin, orientation, the sums and the control block carried)."""
+    dy = np.empty(yc.size)
     d = rhs(t, yc, dy, pp, lc, True, True, False)
     a = yc[Y_ALPHA]
     yf[F_X], yf[F_X + 1], yf[F_X + 2] = world_centre(d, a)
@@ -283,13 +399,15 @@ def _to_flight(t, yc, yf, pp, lc):
     yf[F_V + 2] = d[D_V + 2]
     for j in range(NCARRY):
         yf[F_OMEGA + j] = yc[Y_OMEGA + j]
+    for j in range(yc.size - NC):  # the control block, last in both states
+        yf[NF + j] = yc[NC + j]
 
 
 @njit(cache=True)
 def _to_contact(t, yf, yc, pp, lc, R, a):
     """The contact state at foot point (R, alpha) nearest flight state yf: qdot from
     (J^T J) qdot = J^T (V - X_t), which drops the residual normal velocity."""
-    pr, pr1, pr2, pa, pa1, pa2, gm, g1, g2 = phases(t, lc)
+    pr, pr1, pr2, pa, pa1, pa2, gm, g1, g2 = _flight_phases(t, yf, pp, lc)
     rho, z, n1, n2, n3, P, Q, Z = offset_jets(
         R, a, pp[P_R0], pp[P_K], pp[P_A], pp[P_KA], pp[P_B], pr, pr1, pr2, pa, pa1, pa2, gm, g1,
         g2)
@@ -304,6 +422,8 @@ def _to_contact(t, yf, yc, pp, lc, R, a):
     yc[Y_RDOT], yc[Y_ALPHADOT] = tangent_coordinates(xR1, xR2, xR3, xa1, xa2, xa3, u1, u2, u3)
     for j in range(NCARRY):
         yc[Y_OMEGA + j] = yf[F_OMEGA + j]
+    for j in range(yc.size - NC):
+        yc[NC + j] = yf[NF + j]
 
 
 @njit(cache=True)
@@ -316,7 +436,7 @@ def _energy(m, inertia, g, V1, V2, V3, w1, w2, w3, X3):
 @njit(cache=True)
 def _contact_energy(t, yc, pp, lc):
     """Mechanical energy and world centre of a contact state."""
-    dy = np.empty(NC)
+    dy = np.empty(yc.size)
     d = rhs(t, yc, dy, pp, lc, True, True, False)
     E = _energy(pp[P_M], pp[P_I], pp[P_G], d[D_V], d[D_V + 1], d[D_V + 2], yc[Y_OMEGA],
                 yc[Y_OMEGA + 1], yc[Y_OMEGA + 2], d[D_X + 2])
@@ -401,7 +521,7 @@ def _observe_flight(first, t, y, fx, gap, pp, lc, ext, out, row, final, sample):
     if not (status != st.OK or final or sample):
         return status, 0
     pr = law_eval(lc[LAW_R], t)[0]
-    pa = law_eval(lc[LAW_A], t)[0]
+    pa, pa_rate, ad = _flight_phase_a(t, y, pp, lc)
     ncav = pp[P_NCAV]
     du, dv = cavity_cell_offsets(R, a, pr, pa, k, pp[P_KA], ncav, pp[P_MCAV])
     out[row, COL_T] = t
@@ -431,6 +551,9 @@ def _observe_flight(first, t, y, fx, gap, pp, lc, ext, out, row, final, sample):
     out[row, COL_CAVITY_R] = cavity_radius(pr, k, ncav)
     out[row, COL_CELL_U] = du
     out[row, COL_CELL_V] = dv
+    out[row, COL_PHI_A] = pa
+    out[row, COL_PHI_A_RATE] = pa_rate
+    out[row, COL_ALPHADOT] = ad
     return status, 1
 
 
@@ -502,7 +625,7 @@ def _impact(t, yf, yc, fx, ext, ev, nev, forced, fl, pp, lc, Rs, As, n1, n2, n3,
 
 @njit(cache=True)
 def _drive_flight(p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, atol, fixed,
-                  max_evals, progress, tab, out, fl, ev):
+                  max_evals, progress, tab, out, fl, ev, ctl):
     """Integrate the hybrid contact/flight model from t = 0 to t_end (see the module).
 
     fl = (restitution e, resumption speed, impacts per second cap, start height: > 0 starts
@@ -510,29 +633,33 @@ def _drive_flight(p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, atol,
     (rows beyond its size are counted, not written). Returns the driver's tuple (status,
     steps, rows, rhs_evals, extrema, rejected, jacobians, lu, stop_time) plus the event
     count, the flight extrema and the final phase. The evaluation budget max_evals and the
-    progress lines (every `progress` seconds) are the driver's.
+    progress lines (every `progress` seconds) are the driver's. ctl: the controlled path
+    (docs/model.md s.12.2; p carries the controller's row, y0 the control block last, which
+    both phases' states carry).
     """
-    pp, lc = pack(p, lawc)
+    pp, lc = pack_run(ctl, p, lawc)
+    nc = y0.size
+    nf = NF + nc - NC
     cap = fl[FL_IMPACT_CAP]
     icap = max(1, int(cap))
     ring = np.full(icap, -math.inf)
     n_imp = 0
     s = tab.c.size
     yc = y0.copy()
-    yf = np.zeros(NF)
+    yf = np.zeros(nf)
     clock = np.zeros(2)
     tries = np.int64(0)
     top_wrote = 0
-    yt_c = np.empty(NC)
-    yt_f = np.empty(NF)
-    Kc = np.empty((s + 1, NC))
-    Kf = np.empty((s + 1, NF))
-    wc = np.empty(NC)
-    wf = np.empty(NF)
-    kc = np.empty(NC)
-    kf = np.empty(NF)
-    ya = np.empty(NF)
-    dy = np.empty(NC)
+    yt_c = np.empty(nc)
+    yt_f = np.empty(nf)
+    Kc = np.empty((s + 1, nc))
+    Kf = np.empty((s + 1, nf))
+    wc = np.empty(nc)
+    wf = np.empty(nf)
+    kc = np.empty(nc)
+    kf = np.empty(nf)
+    ya = np.empty(nf)
+    dy = np.empty(nc)
     ext = new_extrema(True)
     fx = np.zeros(NFX)
     nev = np.int64(0)
@@ -742,11 +869,29 @@ def _drive_flight(p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, atol,
     return status, steps, rows, evals, ext, n_rej, 0, 0, t, nev, fx, phase
 
 
+def _entry(ctl: bool):
+    """The compiled entry point of the hybrid loop, prescribed or controlled (ctl frozen as a
+    constant, so each compiles only its own path; numba's cache files it by its name)."""
+    def entry(p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, atol, fixed, max_evals,
+              progress, tab, out, fl, ev):
+        return _drive_flight(p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, atol,
+                             fixed, max_evals, progress, tab, out, fl, ev, ctl)
+
+    entry.__name__ = entry.__qualname__ = "_hybrid_control" if ctl else "_hybrid"
+    return njit(cache=True)(entry)
+
+
+#: The hybrid loop's entry points: prescribed (False) and controlled (True) phase.
+ENTRIES = {ctl: _entry(ctl) for ctl in (False, True)}
+
+
 def run_flight(method, p: np.ndarray, lawc: np.ndarray, y0: np.ndarray, out: np.ndarray,
                ev: np.ndarray, fl: np.ndarray, *, t_end: float, interval: float, h0: float,
                n_steps: int, stride: int, rtol: float, atol: float, fixed: bool,
-               max_evals: int, progress: float) -> tuple:
-    """Run an explicit `method` through the hybrid loop; see _drive_flight for the result."""
-    return _drive_flight(p, lawc, y0, float(t_end), float(interval), float(h0), int(n_steps),
-                         int(stride), float(rtol), float(atol), bool(fixed), int(max_evals),
-                         float(progress), method.driver_tableau, out, fl, ev)
+               max_evals: int, progress: float, control: bool = False) -> tuple:
+    """Run an explicit `method` through the hybrid loop (control: the controlled phase of
+    docs/model.md s.12.2); see _drive_flight for the result."""
+    return ENTRIES[bool(control)](
+        p, lawc, y0, float(t_end), float(interval), float(h0), int(n_steps), int(stride),
+        float(rtol), float(atol), bool(fixed), int(max_evals), float(progress),
+        method.driver_tableau, out, fl, ev)

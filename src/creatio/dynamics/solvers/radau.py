@@ -4,7 +4,8 @@
 any h, so the step follows the slow dynamics. Simplified Newton on the transformed stage
 increments with the real/complex eigen-split of the Radau matrix, a forward-difference
 Jacobian reused across steps (only the columns the dynamics depend on are differenced: 7 on
-a fixed structure, 9 on the structure path of docs/model.md s.9-10),
+a fixed structure, 9 on the structure path of docs/model.md s.9-10 and on the controlled
+path of s.12.2),
 LU factors kept while h is steady, and Gustafsson's predictive step control; the pieces
 follow scipy.integrate's Radau (solve_collocation_system, predict_factor), so native and
 scipy runs take comparable steps.
@@ -21,7 +22,7 @@ import math
 import numpy as np
 
 from creatio.dynamics.jit import njit
-from creatio.dynamics.layout import NQ, Y_OMEGA, Y_Q, structure_start
+from creatio.dynamics.layout import NQ, Y_OMEGA, Y_Q, control_start, structure_start
 from creatio.dynamics.solvers import tableaus as tb
 from creatio.dynamics.solvers.explicit import (
     ACCEPTED,
@@ -32,7 +33,7 @@ from creatio.dynamics.solvers.explicit import (
     scaled_rms,
 )
 from creatio.dynamics.solvers.linalg import lu_factor, lu_solve
-from creatio.dynamics.sphere import rhs_of, store
+from creatio.dynamics.sphere import control_columns, rhs_of, store
 
 __all__ = ["THETA", "dense", "jacobian", "step", "workspace"]
 
@@ -93,10 +94,12 @@ def jacobian(t, y, f, jac, work, tmp, pp, lc, rot, en, free):
 
     Only (R, alpha, Rdot, alphadot, omega) drive the dynamics, and on the structure path
     (theta, Theta), the last two states (theta turns the world-frame omega into the
-    structure's frame, Theta enters the slip, Coriolis and centrifugal terms): their columns
-    are forward differences. The quaternion block is exact (dQ/dt = Omega(omega) Q / 2 is
-    linear in Q) and the accumulators (cumulative spin, surface work, dissipation,
-    confinement work) feed nothing back, so their columns are zero. (Every column but R's and
+    structure's frame, Theta enters the slip, Coriolis and centrifugal terms), and on the
+    controlled path (phi_a, phidot_a), the control block (docs/model.md s.12.2: the surface
+    moves with them and the servo reads them): their columns are forward differences. The
+    quaternion block is exact (dQ/dt = Omega(omega) Q / 2 is linear in Q) and the
+    accumulators (cumulative spin, surface work, dissipation, confinement work) feed nothing
+    back, so their columns are zero. (Every column but R's and
     alpha's keeps (t, R, alpha) and could share one evaluation of the surface: measured,
     radau5 ran 0.967x, within the spread, and its first compile took 6 s longer.)
     """
@@ -110,8 +113,14 @@ def jacobian(t, y, f, jac, work, tmp, pp, lc, rot, en, free):
     # structure path
     active = Y_OMEGA + 3 if rot else NQ
     n_cols = active + 2 if free else active
-    for jj in range(n_cols):
-        j = jj if jj < active else structure_start(rot, en) + jj - active
+    n_all = n_cols + control_columns(lc)  # the control block last (never with free)
+    for jj in range(n_all):
+        if jj < active:
+            j = jj
+        elif jj < n_cols:
+            j = structure_start(rot, en) + jj - active
+        else:
+            j = control_start(rot, en) + jj - n_cols
         delta = 1.4901161193847656e-08 * max(abs(y[j]), 1.0)
         work[j] = y[j] + delta
         delta = work[j] - y[j]
@@ -139,7 +148,7 @@ def jacobian(t, y, f, jac, work, tmp, pp, lc, rot, en, free):
         jac[q3, q0] = wz
         jac[q3, q1] = -wy
         jac[q3, q2] = wx
-    return n_cols
+    return n_all
 
 
 @njit(cache=True)
