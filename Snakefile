@@ -45,7 +45,8 @@ include: "workflows/rules/en05.smk"
 include: "workflows/rules/index.smk"
 
 
-# The warm worker warms up while Snakemake builds the DAG; onstart keeps it for local jobs.
+# The shared warm worker is found, or started to warm up, while Snakemake builds the DAG;
+# onstart keeps it for local jobs; it outlives the invocation until it is idle.
 PLAN.prestart_worker(workflow)
 
 
@@ -54,12 +55,12 @@ onstart:
 
 
 onsuccess:
-    PLAN.stop_worker()
+    PLAN.release_worker()
     list_results()
 
 
 onerror:
-    PLAN.stop_worker()
+    PLAN.release_worker()
 
 
 localrules:

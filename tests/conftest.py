@@ -8,6 +8,7 @@ is what the pipeline builds from conf/ (trajectory only: energy bookkeeping off)
 from __future__ import annotations
 
 import math
+import os
 from pathlib import Path
 
 import pytest
@@ -17,6 +18,10 @@ from creatio.model.laws import Law
 from creatio.model.surface import Motion, Surface
 
 REPO = Path(__file__).resolve().parents[1]
+
+# The shared worker that the tests' `snakemake` runs start (creatio.pipeline.worker) stops a
+# minute after their last job instead of fifteen.
+os.environ.setdefault("CREATIO_WORKER_IDLE", "60")
 
 
 @pytest.fixture(scope="session")
@@ -119,8 +124,12 @@ LONG = (
     "tests/pipeline/test_worker.py::"
     "test_a_worker_killed_mid_job_stops_the_job_and_the_command_runs_alone",
     "tests/pipeline/test_worker.py::test_ctrl_c_of_a_served_job_exits_130_in_one_line",
-    "tests/pipeline/test_worker.py::test_snakemake_jobs_run_in_the_invocations_worker",
+    "tests/pipeline/test_worker.py::test_snakemake_jobs_run_in_the_shared_worker_across_invocations",
     "tests/pipeline/test_worker.py::test_a_refused_value_in_the_worker_is_one_line_and_exit_2",
+    "tests/pipeline/test_worker.py::test_creatio_run_without_hydra_options_runs_as_the_hydra_app",
+    "tests/pipeline/test_forked.py::test_a_sphere_report_is_the_same_bytes_with_children_or_without",
+    "tests/pipeline/test_worker.py::"
+    "test_the_shared_worker_is_found_or_started_and_older_code_is_replaced",
     # the Radau IIA orders 9/13 and the controlled phase (each compiles a specialisation of
     # its own: 15-65 s apiece in the quick tier's --durations, load 2-3)
     "tests/core/test_radau_sphere.py",

@@ -122,6 +122,39 @@ def _run_task(cfg) -> None:
         sys.exit(code)
 
 
+#: Hydra's job logging of `creatio run` (conf/config.yaml: hydra/job_logging: stdout).
+HYDRA_STDOUT_LOGGING = {
+    "version": 1,
+    "formatters": {"simple": {"format": "%(message)s"}},
+    "handlers": {"console": {"class": "logging.StreamHandler", "formatter": "simple",
+                             "stream": "ext://sys.stdout"}},
+    "root": {"level": "INFO", "handlers": ["console"]},
+    "disable_existing_loggers": False,
+}
+
+
+def _run_plain(args: Sequence[str]) -> int:
+    """`creatio run` without Hydra's own options (--help, --cfg, -m, hydra.*): the config
+    _prevalidate has just composed and validated (memoised), run as the Hydra app runs it,
+    with the same logging, without Hydra composing it twice more (0.3-0.5 s)."""
+    import logging.config
+
+    from creatio.pipeline.config import resolve
+    from creatio.pipeline.run import run_resolved
+
+    logging.config.dictConfig(HYDRA_STDOUT_LOGGING)
+    study, rest = _selected(args)
+    try:
+        run_resolved(resolve(study, rest))
+    except Exception as e:  # the Hydra app's one line (_run_task)
+        if os.environ.get("CREATIO_DEBUG"):
+            raise
+        message, code = describe(e)
+        print(f"creatio run: {message}", file=sys.stderr)
+        return code
+    return 0
+
+
 def _multirun(args: Sequence[str]) -> int:
     """`creatio run -m`: the sweep's batches in this process (progress on stderr, points
     computed before reused), then the aggregate `snakemake sweep` writes."""
@@ -387,6 +420,8 @@ def _dispatch(argv: list[str]) -> int:
     if command in ("run", "probe"):  # Hydra apps: Hydra configures logging (--info once)
         config_name = _primary(rest) if command == "run" else "probe"
         _prevalidate(rest, config_name)
+        if command == "run" and not any(a.startswith(("-", "hydra")) for a in rest):
+            return _run_plain(rest)
         sys.argv = [f"creatio {command}", *rest]
         study = _selected([a for a in rest if not a.startswith("-")])[0]
         _hydra_app(config_name, _run_task if command == "run" else _probe_task,

@@ -37,7 +37,13 @@ def test_product_is_expanded_with_hydra_grammar(tmp_path):
     assert plan.batches[1].endswith("/batches/b4-00001.nc")
     default = plan_sweep("en02", ["sphere.mu=0,0.15", "phases.T=range(2,5)"], BASE,
                          data_dir=str(tmp_path))
-    assert default.name == plan.name and default.n_batches == 6  # about eight batches
+    assert default.name == plan.name and default.n_batches == 1  # batches of 20 at least
+    many = plan_sweep("en02", ["sphere.mu=range(0,1,0.001)"], BASE, data_dir=str(tmp_path))
+    assert many.n_points == 1000 and (many.n_batches, many.batch_size) == (8, 125)
+    forty = plan_sweep("en02", ["phases.T=range(1,41)"], BASE, data_dir=str(tmp_path))
+    assert (forty.n_points, forty.n_batches, forty.batch_size) == (40, 2, 20)
+    more = plan_sweep("en02", ["phases.T=range(1,42)"], BASE, data_dir=str(tmp_path))
+    assert (more.n_points, more.n_batches, more.batch_size) == (41, 2, 21)
 
 
 def test_bad_sweeps_are_refused():

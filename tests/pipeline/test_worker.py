@@ -5,6 +5,7 @@ SLURM job never gives a result it should not: the command then runs in its own p
 from __future__ import annotations
 
 import os
+import re
 import signal
 import subprocess
 import sys
@@ -164,18 +165,22 @@ def test_ctrl_c_of_a_served_job_exits_130_in_one_line(warm, tmp_path):
     assert not (tmp_path / "x.nc").exists()
 
 
-def test_snakemake_jobs_run_in_the_invocations_worker(tmp_path):
-    """A local `snakemake all` starts its worker with the environment Snakemake's shell
-    gives a one-thread job, so its dataset and report jobs are served (none refused), and
-    what they write equals one process per job."""
-    def snakemake(work: Path, worker_env: str | None) -> str:
-        env = {**os.environ, "CREATIO_DEBUG": "1"}
-        env.pop(worker.ENV, None)
+def test_snakemake_jobs_run_in_the_shared_worker_across_invocations(tmp_path):
+    """A local `snakemake all` runs its jobs in the shared worker of the environment
+    Snakemake gives a one-thread job (started on demand), so its dataset and report jobs
+    are served (none refused); the next invocation finds the same worker, warm; what both
+    write equals one process per job."""
+    base = {**os.environ, "CREATIO_DEBUG": "1", "CREATIO_WORKER_IDLE": "120"}
+    base.pop(worker.ENV, None)
+    shared = worker.shared_socket({**base, **dict.fromkeys(worker.SNAKEMAKE_THREADS, "1")})
+
+    def snakemake(work: Path, worker_env: str | None, overrides: str = "[]") -> str:
+        env = dict(base)
         if worker_env:
             env[worker.ENV] = worker_env
         done = subprocess.run(
             [sys.executable, "-m", "snakemake", "-s", str(REPO / "Snakefile"), "-d", str(work),
-             "-c", "2", "all", "--config", 'studies=["en02"]'],
+             "-c", "2", "all", "--config", 'studies=["en02"]', f"overrides={overrides}"],
             cwd=work, env=env, capture_output=True, text=True, timeout=900)
         assert done.returncode == 0, done.stderr[-3000:]
         return "".join(p.read_text() for p in sorted((work / "data" / "logs").rglob("*.log")))
@@ -184,9 +189,14 @@ def test_snakemake_jobs_run_in_the_invocations_worker(tmp_path):
     warm.mkdir(), alone.mkdir()
     logs = snakemake(warm, None)
     assert "wrote" in logs and "refused" not in logs, logs
-    assert list((warm / ".snakemake" / "log").glob("creatio-worker-*.log"))
+    state = worker.control(shared, "status")
+    assert state is not None and state["served"] >= 3, state  # 2 datasets, 1 report
+    snakemake(warm, None, '["sphere.mu=0.2"]')  # the next invocation: the same worker
+    again = worker.control(shared, "status")
+    assert again["pid"] == state["pid"] and again["served"] >= state["served"] + 3, again
     snakemake(alone, "off")
-    for nc in sorted((alone / "data" / "studies").rglob("*.nc")):
+    snakemake(alone, "off", '["sphere.mu=0.2"]')
+    for nc in sorted((alone / "data").rglob("*.nc")):
         _same_data(warm / nc.relative_to(alone), nc)
 
 
@@ -202,3 +212,57 @@ def test_a_refused_value_in_the_worker_is_one_line_and_exit_2(warm, tmp_path):
     assert done.returncode == alone.returncode == 2
     assert done.stderr == alone.stderr and len(done.stderr.splitlines()) == 1, done.stderr
     assert not (tmp_path / "x.nc").exists()
+
+
+def test_creatio_run_without_hydra_options_runs_as_the_hydra_app(tmp_path):
+    """`creatio run` with overrides only runs the config its check composed, without Hydra's
+    app (which composes it twice more): the same lines on stdout and stderr, the same
+    datasets bit for bit and the same report files as with a Hydra option (hydra.job.name),
+    which takes Hydra's path."""
+    env = {**os.environ, worker.ENV: "off"}
+    out = {}
+    for name, extra in (("plain", []), ("hydra", ["hydra.job.name=x"])):
+        (tmp_path / name).mkdir()
+        done = _run(["run", "study=ct02", "geometry.A=0.1", *extra], env, tmp_path / name)
+        assert done.returncode == 0, done.stderr
+        out[name] = (re.sub(r"in [\d.]+ s", "in X s", done.stdout), done.stderr)
+    assert out["plain"] == out["hydra"] and "wrote" in out["plain"][0], out
+    plain, hydra = tmp_path / "plain" / "data", tmp_path / "hydra" / "data"
+    files = sorted(p.relative_to(plain) for p in plain.rglob("*") if p.is_file())
+    assert files == sorted(p.relative_to(hydra) for p in hydra.rglob("*") if p.is_file())
+    for rel in files:
+        if rel.suffix == ".nc":
+            _same_data(plain / rel, hydra / rel)
+        elif rel.suffix in (".png", ".csv", ".md", ".json") and "index" not in rel.name:
+            assert (plain / rel).read_bytes() == (hydra / rel).read_bytes(), rel
+    bad = _run(["run", "study=ct02", "geometry.A=0.9"], env, tmp_path)
+    assert bad.returncode == 2 and len(bad.stderr.splitlines()) == 1, bad.stderr
+
+
+def test_the_shared_worker_is_found_or_started_and_older_code_is_replaced(tmp_path,
+                                                                         monkeypatch):
+    """ensure() starts a worker where none answers, finds it the next time, and replaces
+    one that runs other code (it finishes and leaves the new one's socket in place)."""
+    path = tmp_path / "j.sock"
+    env = dict(os.environ)
+    first = worker.ensure(path, env, 60.0, tmp_path / "j.log")
+    assert first is not None
+    sock = worker._connect(path, worker.START_WAIT)
+    assert sock is not None
+    sock.close()
+    try:
+        assert worker.ensure(path, env, 60.0, tmp_path / "j.log") is None  # found, warm
+        assert worker.control(path, "status")["pid"] == first.pid
+        monkeypatch.setattr(worker, "package_version", lambda: "changed")
+        second = worker.ensure(path, env, 60.0, tmp_path / "j.log")
+        assert second is not None and second.pid != first.pid
+        first.wait(timeout=60)  # the older worker stops
+        sock = worker._connect(path, worker.START_WAIT)
+        assert sock is not None  # and the new one's socket is still there
+        sock.close()
+        assert worker.control(path, "status")["pid"] == second.pid
+        worker.stop(second)
+    finally:
+        worker.stop(first)
+    assert worker.shared_socket(env) != worker.shared_socket({**env, "OMP_NUM_THREADS": "7"})
+    assert worker.shared_socket(env) == worker.shared_socket({**env, "CREATIO_DEBUG": "1"})

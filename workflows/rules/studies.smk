@@ -24,6 +24,7 @@ rule study_config:
         study=f"{STUDY_IDS}|{ANALYSIS_IDS}",
     params:
         config_sha256=lambda wc: JOBS.sha(wc.root, wc.study),
+    priority: lambda wc: PLAN.dataset_priority(wc.study, wc.root)  # see study_dataset
     log:
         "{root}/logs/{study}_config.log",
     run:
@@ -42,6 +43,8 @@ rule study_dataset:
         creatio=CREATIO,
         code=code_version("datasets"),
         part=lambda wc: JOBS.part(wc.root, wc.study, wc.name),
+    # one sphere job first (it compiles what the others load), the kinematic ones beside it
+    priority: lambda wc: PLAN.dataset_priority(wc.study, wc.root, wc.name)
     conda:
         "../envs/creatio.yaml"
     log:
@@ -62,6 +65,7 @@ rule kinematic_report:
         creatio=CREATIO,
         code=code_version("reports"),
         published=lambda wc: published_groups(wc.study),
+    priority: 1  # beside the first sphere job's compilation (PLAN.dataset_priority)
     conda:
         "../envs/creatio.yaml"
     log:

@@ -4,7 +4,8 @@ The Snakefile stays thin (config, validation, includes, target rules); the plann
 here: the studies of `all` and `beyond`, the analyses, the sweeps, EN-05, and the order in
 which a job re-invoked on its own (a ``run:`` job, a cluster job), which parses the workflow
 anew without its targets, looks for the configuration that writes its output. The command
-the rules run (``CREATIO``) and the warm worker of a local invocation are here too.
+the rules run (``CREATIO``), the shared warm worker its local jobs use and the priority
+that lets the one job that compiles the loop start first are here too.
 """
 
 from __future__ import annotations
@@ -71,7 +72,9 @@ class Invocation:
                                 lambda: self.analyses.plans, self._ad_hoc_sweep,
                                 self._worked_sweep, lambda: self.beyond.plans]
         self.sweeps.fallbacks += [self._ad_hoc_sweep, self._worked_sweep]
-        self._worker: Any = None
+        self._compiler: tuple[str, str, str | None] | None = None  # see dataset_priority
+        self._worker: Any = None  # the shared worker's process, when this invocation started it
+        self._path: Path | None = None  # the socket of the worker its jobs use
         #: Held by the run: blocks of the rules, which run in threads of Snakemake's process
         #: (profiles/default): Hydra's composition is not thread-safe.
         self.lock = threading.Lock()
@@ -93,12 +96,36 @@ class Invocation:
     def _worked_sweep(self) -> list[str]:
         return self.sweeps.worked(WORKED_SWEEP)
 
+    # ------------------------------------------------------------------ scheduling
+    def dataset_priority(self, study: str, root: str, name: str | None = None) -> int:
+        """The Snakemake priority of a study's config job (name None) or dataset job. One
+        sphere dataset job, the first asked about, and its config job get 2: on a cold
+        numba cache it compiles the loop every sphere job of the run waits for (one
+        compilation: creatio.pipeline.worker's compile lock), so it starts first; the
+        kinematic studies' jobs (no compiled loop) get 1, so that the other core runs them
+        meanwhile instead of a second sphere job that would only wait for the first one's
+        compilation; the rest 0. (Priorities are per job: a config job needs its own.)"""
+        from creatio.studies import registry
+
+        entry = registry.STUDIES.get(study)
+        if entry is None or entry.kind.name != "sphere":
+            return 1 if entry is not None and entry.kind.name == "kinematic" else 0
+        if self._compiler is None:
+            self._compiler = (root, study, name)
+        first_root, first_study, first_name = self._compiler
+        if (root, study) != (first_root, first_study):
+            return 0
+        if name is not None and first_name is None:
+            self._compiler = (root, study, name)
+            first_name = name
+        return 2 if name is None or name == first_name else 0
+
     # ------------------------------------------------------------------ warm worker
     def prestart_worker(self, workflow: Any) -> None:
-        """Start the worker while Snakemake builds the DAG (its imports then overlap the
-        planning instead of delaying the first job) when the command line asks for a run:
-        not a dry run, lint, report or listing. start_worker, at onstart, keeps it or stops
-        it once Snakemake knows where the jobs run."""
+        """Find or start the worker while Snakemake builds the DAG (a new one's imports then
+        overlap the planning instead of delaying the first job) when the command line asks
+        for a run: not a dry run, lint, report or listing. start_worker, at onstart, keeps
+        it or stops one started for nothing once Snakemake knows where the jobs run."""
         if workflow.exec_mode.name != "DEFAULT" or set(sys.argv[1:]) & NO_RUN_FLAGS:
             return
         if any(a.startswith(("--report", "--list", "--lint", "--executor")) or a == "-e"
@@ -107,14 +134,16 @@ class Invocation:
         self._start()
 
     def start_worker(self, workflow: Any) -> None:
-        """Run this invocation's jobs in a warm worker of its own (creatio.pipeline.worker)
-        when they run on this machine; it starts with the environment Snakemake gives a
-        one-thread job and stops with the invocation. Jobs on a cluster,
+        """Run this invocation's jobs in the shared warm worker (creatio.pipeline.worker)
+        when they run on this machine: the one of this checkout and of the environment
+        Snakemake gives a one-thread job, started now if none serves (it outlives the
+        invocation until it has been idle for ``CREATIO_WORKER_IDLE`` s, default 900, so
+        that the next invocation's jobs start warm). Jobs on a cluster,
         ``CREATIO_WORKER=off``, or a system without fork and descriptor passing keep a
         process each."""
         if not workflow.local_exec or workflow.dryrun or workflow.exec_mode.name != "DEFAULT":
             self.stop_worker()
-        elif self._worker is None:
+        elif self._path is None:
             self._start()
 
     def _start(self) -> None:
@@ -122,25 +151,44 @@ class Invocation:
 
         if os.environ.get(worker.ENV) == "off" or not _can_fork():
             return
+        env = worker.snakemake_job_env(threads=1)
         try:
-            path = worker.daemon_socket().with_name(f"s-{os.getpid()}.sock")
-            log = Path(".snakemake") / "log" / f"creatio-worker-{os.getpid()}.log"
-            log.parent.mkdir(parents=True, exist_ok=True)
-            self._worker = worker.start(path, owner=os.getpid(), log=log,
-                                        env=worker.snakemake_job_env(threads=1))
+            idle = float(os.environ.get("CREATIO_WORKER_IDLE", worker.SHARED_IDLE))
+        except ValueError:
+            idle = worker.SHARED_IDLE
+        try:
+            path = worker.shared_socket(env)
+            self._worker = worker.ensure(path, env, idle, path.with_suffix(".log"))
         except OSError as e:  # no private directory, no socket: a process per job
             print(f"creatio: no warm worker ({e}): a process per job", file=sys.stderr)
             return
+        self._path = path
         os.environ[worker.ENV] = str(path)
 
     def stop_worker(self) -> None:
-        """Stop this invocation's worker, if it started one."""
+        """No worker for this invocation's jobs: one it started for them is stopped (one
+        that another invocation started, or that this one found, keeps serving)."""
         from creatio.pipeline import worker
 
-        if self._worker is not None:
+        if self._worker is not None and self._path is not None:
+            worker.control(self._path, "stop")
             worker.stop(self._worker)
-            self._worker = None
-            os.environ.pop(worker.ENV, None)
+        self._worker = self._path = None
+        os.environ.pop(worker.ENV, None)
+
+    def release_worker(self) -> None:
+        """At the end of the invocation: its jobs are done; the shared worker keeps serving
+        the next invocations until it has been idle long enough. Snakemake's scheduler
+        leaves a timer (threading.Timer, its job rate limiter's re-evaluation, 1 s by
+        default) that the interpreter waits for before it exits: with every job done it
+        has nothing left to wake, so it is cancelled (up to 1 s of every invocation)."""
+        from creatio.pipeline import worker
+
+        self._worker = self._path = None
+        os.environ.pop(worker.ENV, None)
+        for thread in threading.enumerate():
+            if isinstance(thread, threading.Timer):
+                thread.cancel()
 
 
 def _can_fork() -> bool:

@@ -3,7 +3,7 @@
 A sweep is a study, a list of Hydra sweep overrides (``sphere.mu=0,0.05,0.15``, also
 ``range(...)`` and the rest of Hydra's sweep grammar) and base overrides applied to every
 point. Planning costs nothing per point: the product is cut into batches of consecutive
-points, one job each (``batch_size``; by default about eight batches, at most 250 points
+points, one job each (``batch_size``; by default about eight batches of 20 to 250 points
 each). A batch job composes the base config once and varies it per point
 (creatio.studies.schema.vary: a validated copy, no Hydra), runs the study's first dataset
 part in the same process and keeps each point's summary figures as a row of its batch file.
@@ -53,8 +53,12 @@ MAX_POINTS = 200_000
 #: Largest sweep planned at all (sweep_max_points cannot go beyond): its aggregate holds
 #: ~20 float64 figures, a status and a message per point, ~2 GB at 10 million points.
 HARD_MAX_POINTS = 10_000_000
-#: Default batching: about this many batches, each at most MAX_BATCH points.
+#: Default batching: about this many batches, each of MIN_BATCH to MAX_BATCH points. A
+#: batch of fewer points costs more in its job's start (a process or a fork, composing the
+#: base config, writing the batch file: about 1 s here) than in its computing (EN-02: about
+#: 0.15 s a point), so a small sweep is a few batches, not eight (40 or 41 points: two).
 TARGET_BATCHES = 8
+MIN_BATCH = 20
 MAX_BATCH = 250
 
 
@@ -263,7 +267,8 @@ def plan_sweep(
             raise ConfigError(key, values[0], f"unknown key (not in {study}'s config)")
     n = math.prod(len(v) for _, v in axes)
     if batch_size is None:
-        batch_size = min(MAX_BATCH, max(1, math.ceil(n / TARGET_BATCHES)))
+        batches = max(1, min(TARGET_BATCHES, n // MIN_BATCH))
+        batch_size = min(MAX_BATCH, math.ceil(n / batches))
     if not (isinstance(batch_size, int) and batch_size >= 1):
         raise ConfigError("sweep_batch", batch_size, "must be a positive integer")
     spec = json.dumps({"study": study, "axes": axes, "base": base}, sort_keys=True)

@@ -27,6 +27,7 @@ from creatio.reports.common import (
     write_text,
 )
 from creatio.store.atomic import atomic_write
+from creatio.store.forked import run_all
 from creatio.studies import registry
 
 __all__ = ["dynamic_summary", "history_csv", "timestep_difference", "write_comparison",
@@ -335,10 +336,12 @@ def write_report(datasets: Sequence[Path], outdir: str | Path) -> dict[str, Path
         "convergence": outdir / f"{study}_convergence.png",
     }
     write_text(paths["json"], strict_json(s))
-    _history_figure(ds, paths["png"])
-    _trajectory_figure([(study, ds)], config, paths["trajectory"])
-    _convergence_figure_dynamic(runs, paths["convergence"])
-    history_csv(ds, paths["csv"])
+    # the figures are independent: drawn at once where a core is free (creatio.store.forked)
+    # (two halves of about equal time: the history figure, and the rest)
+    run_all([lambda: _history_figure(ds, paths["png"]),
+             lambda: (_trajectory_figure([(study, ds)], config, paths["trajectory"]),
+                      _convergence_figure_dynamic(runs, paths["convergence"]),
+                      history_csv(ds, paths["csv"]))])
     pub = dict(registry.get(study).published)
     compared = [published_row(label, s[key], pub[key]) for label, key in SUMMARY_ROWS
                 if key in pub]

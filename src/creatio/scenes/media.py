@@ -10,6 +10,7 @@ Nothing here computes physics: every number comes from the dataset.
 from __future__ import annotations
 
 import math
+import os
 from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
@@ -20,6 +21,7 @@ import xarray as xr
 from creatio.model.laws import Law
 from creatio.model.surface import Frame, Motion, Surface
 from creatio.reports.common import plt
+from creatio.store import forked
 from creatio.store.atomic import atomic_save
 
 __all__ = ["plain", "sphere_media", "surface_family_media", "velocity_normal_media"]
@@ -97,17 +99,36 @@ def _render(draw: Callable[[Any, int], None], indices: Sequence[int], poster_ind
             media: Any, frame_ms: float, animation: Path, poster: Path) -> None:
     """Draw each index into a fresh figure of the media size; the poster at twice the dpi."""
     size = (media.width / 100, media.height / 100)
-    frames = []
-    for i in indices:
-        fig = plt.figure(figsize=size, dpi=100)
+
+    def frame(i: int, dpi: int = 100) -> np.ndarray:
+        fig = plt.figure(figsize=size, dpi=dpi)
         draw(fig, i)
-        frames.append(_rgb(fig))
+        rgb = _rgb(fig)
         plt.close(fig)
-    fig = plt.figure(figsize=size, dpi=200)
-    draw(fig, poster_index)
-    poster_rgb = _rgb(fig)
-    plt.close(fig)
-    _write(frames, animation, poster_rgb, poster, frame_ms, media.quality)
+        return rgb
+
+    # The frames are independent: drawn in contiguous shares by forked children where a core
+    # is free (creatio.store.forked), each share handed back as a .npy beside the animation.
+    n = max(1, min(forked.cores(), len(indices) // 8))
+    shares = [list(indices[k * len(indices) // n:(k + 1) * len(indices) // n]) for k in range(n)]
+    parts = [animation.with_name(f".{animation.name}.frames-{os.getpid()}-{k}.npy")
+             for k in range(n)]
+    drawn: list[np.ndarray] = []
+
+    def share(k: int) -> None:
+        rgb = np.stack([frame(i) for i in shares[k]])
+        if k == 0:
+            drawn.append(rgb)
+        else:
+            np.save(parts[k], rgb)
+
+    try:
+        forked.run_all([lambda k=k: share(k) for k in range(n)])
+        frames = [*drawn[0], *(f for part in parts[1:] for f in np.load(part))]
+    finally:
+        for part in parts:
+            part.unlink(missing_ok=True)
+    _write(frames, animation, frame(poster_index, dpi=200), poster, frame_ms, media.quality)
 
 
 def _quat_matrix(q: np.ndarray) -> np.ndarray:

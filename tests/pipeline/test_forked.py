@@ -1,0 +1,66 @@
+"""creatio.store.forked: files written in forked children are the files this process would
+write, and a task that fails in its child raises its own error here."""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import pytest
+
+from creatio.store import forked
+
+pytestmark = pytest.mark.skipif(not hasattr(os, "fork"), reason="children are forked")
+
+
+def _write(path: Path, k: int) -> None:
+    path.write_text(f"{k} {os.getpid()}\n")
+
+
+def test_every_task_runs_once_and_the_others_in_children(tmp_path, monkeypatch):
+    monkeypatch.setattr(forked, "cores", lambda: 2)
+    paths = [tmp_path / f"{k}.txt" for k in range(3)]
+    forked.run_all([lambda p=p, k=k: _write(p, k) for k, p in enumerate(paths)])
+    pids = [int(p.read_text().split()[1]) for p in paths]
+    assert [int(p.read_text().split()[0]) for p in paths] == [0, 1, 2]
+    assert pids[0] == os.getpid() and os.getpid() not in pids[1:] and len(set(pids)) == 3
+
+
+def test_one_core_runs_everything_here_in_order(tmp_path, monkeypatch):
+    monkeypatch.setattr(forked, "cores", lambda: 1)
+    order = []
+    forked.run_all([lambda k=k: order.append(k) for k in range(3)])
+    assert order == [0, 1, 2]
+
+
+def test_a_task_failing_in_its_child_raises_its_error_here(tmp_path, monkeypatch):
+    monkeypatch.setattr(forked, "cores", lambda: 2)
+    calls = tmp_path / "calls"
+
+    def bad() -> None:
+        with calls.open("a") as fh:
+            fh.write(f"{os.getpid()}\n")
+        raise ValueError("the task's own error")
+
+    with pytest.raises(ValueError, match="the task's own error"):
+        forked.run_all([lambda: None, bad])
+    pids = [int(x) for x in calls.read_text().split()]
+    assert len(pids) == 2 and pids[1] == os.getpid() != pids[0]  # child, then here
+
+
+def test_a_sphere_report_is_the_same_bytes_with_children_or_without(tmp_path, monkeypatch,
+                                                                    repo):
+    """The figures drawn in children equal those drawn in order in this process."""
+    from creatio.pipeline.config import resolve
+    from creatio.pipeline.run import compute_dataset
+    from creatio.reports.sphere import write_report
+
+    r = resolve("en02", ["phases.T=10", "study.duration=10"], only_applicable=True)
+    data = [compute_dataset(r, tmp_path / f"{p.name}.nc", p.name) for p in r.entry.parts(r.obj)]
+    out = {}
+    for n in (1, 2):
+        monkeypatch.setattr(forked, "cores", lambda n=n: n)
+        out[n] = write_report(data, tmp_path / f"cores{n}")
+    assert out[1].keys() == out[2].keys()
+    for key, path in out[1].items():
+        assert path.read_bytes() == out[2][key].read_bytes(), key
