@@ -853,16 +853,19 @@ def stop(proc: subprocess.Popen | None, timeout: float = 10.0) -> None:
 def main(argv: Sequence[str], entry: Callable[[list[str]], int] | None = None) -> int:
     """`creatio worker start|stop|status`, and the worker process itself (`serve`), which
     runs each request's arguments through entry (creatio.cli.main)."""
-    import argparse
+    from creatio.errors import Parser
 
-    ap = argparse.ArgumentParser(prog="creatio worker", description=__doc__.splitlines()[0])
-    sub = ap.add_subparsers(dest="what", required=True)
+    ap = Parser(prog="creatio worker",
+                description="Start, stop or list the warm workers of this checkout: processes "
+                            "that have imported the libraries and loaded the compiled loops, "
+                            "so that a job costs its computation.")
+    sub = ap.add_subparsers(dest="what", required=True, metavar="{start,stop,status}")
     s = sub.add_parser("start", help="start this checkout's daemon (creatio run uses it)")
     s.add_argument("--idle", type=float, default=1800.0,
                    help="seconds without a job before it stops (default 1800)")
     sub.add_parser("stop", help="stop this checkout's workers (the daemon, Snakemake's)")
     sub.add_parser("status", help="which of this checkout's workers run, and their jobs")
-    v = sub.add_parser("serve", help=argparse.SUPPRESS)
+    v = sub.add_parser("serve")  # the worker process itself: no help, so not listed
     v.add_argument("socket", type=Path)
     v.add_argument("--idle", type=float, default=None)
     v.add_argument("--owner", type=int, default=None)
