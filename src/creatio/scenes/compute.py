@@ -165,18 +165,7 @@ def sphere_scene(resolved: Any, reuse: Mapping[str, str | Path] | None = None,
         for key, value in _geometry_attrs(base.obj.geometry).items():
             per_run.setdefault(key, []).append(value)
     data: dict[str, Any] = {
-        "centre": (("run", "frame", "component"), np.stack(per_run["centre"]),
-                   {"long_name": "sphere centre X = c + b n", "units": "m"}),
-        "phase_r": (("run", "frame"), np.stack(per_run["phase_r"]),
-                    {"long_name": "radial phase phi_r", "units": "degree"}),
-        "phase_a": (("run", "frame"), np.stack(per_run["phase_a"]),
-                    {"long_name": "angular phase phi_a", "units": "degree"}),
-        "inclination": (("run", "frame"), np.stack(per_run["inclination"]),
-                        {"long_name": "inclination gamma", "units": "degree"}),
-        "status": ("run", per_run["status"]),
-        "stop_time": ("run", per_run["stop_time"], {"units": "s"}),
-        "frames_run": ("run", per_run["frames_run"],
-                       {"long_name": "frames up to the run's end (NaN after)"}),
+        **_run_frames(per_run),
         "sphere_radius": ("run", per_run["sphere_radius"], {"units": "m"}),
         "direction": ("run", [_direction(per_run, i) for i in range(len(runs))]),
         "source": ("run", sources),
@@ -212,6 +201,25 @@ def sphere_scene(resolved: Any, reuse: Mapping[str, str | Path] | None = None,
         "comment": "NaN after a run's end (frames_run); sources say what was computed",
     })
     return ds
+
+
+def _run_frames(per_run: dict[str, list]) -> dict[str, Any]:
+    """The variables every sphere-format scene dataset has, per run and frame (centre, the
+    three phases) and per run (status, stop time, frames run), from the lists collected."""
+    return {
+        "centre": (("run", "frame", "component"), np.stack(per_run["centre"]),
+                   {"long_name": "sphere centre X = c + b n", "units": "m"}),
+        "phase_r": (("run", "frame"), np.stack(per_run["phase_r"]),
+                    {"long_name": "radial phase phi_r", "units": "degree"}),
+        "phase_a": (("run", "frame"), np.stack(per_run["phase_a"]),
+                    {"long_name": "angular phase phi_a", "units": "degree"}),
+        "inclination": (("run", "frame"), np.stack(per_run["inclination"]),
+                        {"long_name": "inclination gamma", "units": "degree"}),
+        "status": ("run", per_run["status"]),
+        "stop_time": ("run", per_run["stop_time"], {"units": "s"}),
+        "frames_run": ("run", per_run["frames_run"],
+                       {"long_name": "frames up to the run's end (NaN after)"}),
+    }
 
 
 def _pad(values: np.ndarray, n: int) -> np.ndarray:
@@ -340,18 +348,7 @@ def en04_scene(resolved: Any, reuse: Mapping[str, str | Path] | None = None) -> 
             f"read from {path} (path {name}: {label}; EN-04 config "
             f"sha256 {study.sha256[:12]}), nothing integrated here")
     data: dict[str, Any] = {
-        "centre": (("run", "frame", "component"), np.stack(per_run["centre"]),
-                   {"long_name": "sphere centre X = c + b n", "units": "m"}),
-        "phase_r": (("run", "frame"), np.stack(per_run["phase_r"]),
-                    {"long_name": "radial phase phi_r", "units": "degree"}),
-        "phase_a": (("run", "frame"), np.stack(per_run["phase_a"]),
-                    {"long_name": "angular phase phi_a", "units": "degree"}),
-        "inclination": (("run", "frame"), np.stack(per_run["inclination"]),
-                        {"long_name": "inclination gamma", "units": "degree"}),
-        "status": ("run", per_run["status"]),
-        "stop_time": ("run", per_run["stop_time"], {"units": "s"}),
-        "frames_run": ("run", per_run["frames_run"],
-                       {"long_name": "frames up to the run's end (NaN after)"}),
+        **_run_frames(per_run),
         "sphere_radius": ("run", [base.sphere.b] * len(EN04_RUNS), {"units": "m"}),
         "direction": ("run", per_run["direction"]),
         "source": ("run", per_run["source"]),
