@@ -190,6 +190,23 @@ def _flight_rhs(y, dy, g):
 
 
 @njit(cache=True)
+def _contact_rates(R, a, V1, V2, V3, pp, pr, pr1, pr2, pa, pa1, pa2, gm, g1, g2):
+    """(Rdot, alphadot) of the contact coordinates at (R, alpha) for a centre velocity V:
+    (J^T J) qdot = J^T (V - X_t), which drops the residual normal velocity (one projection
+    for the state at impact and the controller's measurement in flight)."""
+    rho, z, n1, n2, n3, P, Q, Z = offset_jets(
+        R, a, pp[P_R0], pp[P_K], pp[P_A], pp[P_KA], pp[P_B], pr, pr1, pr2, pa, pa1, pa2, gm, g1,
+        g2)
+    xR1, xR2, xR3, xa1, xa2, xa3, xt1, xt2, xt3 = centre_tangents(P, Q, Z)
+    ca = math.cos(a)
+    sa = math.sin(a)
+    u1 = V1 * ca + V2 * sa - xt1
+    u2 = -V1 * sa + V2 * ca - xt2
+    u3 = V3 - xt3
+    return tangent_coordinates(xR1, xR2, xR3, xa1, xa2, xa3, u1, u2, u3)
+
+
+@njit(cache=True)
 def _flight_servo(t, y, pp, lc):
     """(u, alpha, alphadot) of the controller in flight (docs/model.md s.12.2). It measures
     what it measures in contact, continued: the angle of the centre's foot point on the
@@ -215,17 +232,9 @@ def _flight_servo(t, y, pp, lc):
         pp[P_B], pr, pr1, pr2, pa, pa1, 0.0, gm, g1, g2)
     if found:
         # pa2 enters only the second time derivatives of the jets, which are not used here
-        rho, z, m1, m2, m3, P, Q, Z = offset_jets(
-            Rs, As, pp[P_R0], pp[P_K], pp[P_A], Ka, pp[P_B], pr, pr1, pr2, pa, pa1, 0.0, gm,
-            g1, g2)
-        xR1, xR2, xR3, xa1, xa2, xa3, xt1, xt2, xt3 = centre_tangents(P, Q, Z)
-        ca = math.cos(As)
-        sa = math.sin(As)
-        u1 = y[F_V] * ca + y[F_V + 1] * sa - xt1
-        u2 = -y[F_V] * sa + y[F_V + 1] * ca - xt2
-        u3 = y[F_V + 2] - xt3
         a = As
-        ad = tangent_coordinates(xR1, xR2, xR3, xa1, xa2, xa3, u1, u2, u3)[1]
+        ad = _contact_rates(Rs, As, y[F_V], y[F_V + 1], y[F_V + 2], pp, pr, pr1, pr2, pa,
+                            pa1, 0.0, gm, g1, g2)[1]
     u, _, _, _ = servo(a, ad, pa, pa1, Ka, c[C_GOAL], c[C_ALPHA0], c[C_K_THETA], c[C_K_OMEGA],
                        c[C_OMEGA_MAX], c[C_DELTA_MAX], c[C_OMEGA_N], c[C_ZETA], c[C_U_MAX])
     return u, a, ad
@@ -408,18 +417,10 @@ def _to_contact(t, yf, yc, pp, lc, R, a):
     """The contact state at foot point (R, alpha) nearest flight state yf: qdot from
     (J^T J) qdot = J^T (V - X_t), which drops the residual normal velocity."""
     pr, pr1, pr2, pa, pa1, pa2, gm, g1, g2 = _flight_phases(t, yf, pp, lc)
-    rho, z, n1, n2, n3, P, Q, Z = offset_jets(
-        R, a, pp[P_R0], pp[P_K], pp[P_A], pp[P_KA], pp[P_B], pr, pr1, pr2, pa, pa1, pa2, gm, g1,
-        g2)
-    xR1, xR2, xR3, xa1, xa2, xa3, xt1, xt2, xt3 = centre_tangents(P, Q, Z)
-    ca = math.cos(a)
-    sa = math.sin(a)
-    u1 = yf[F_V] * ca + yf[F_V + 1] * sa - xt1
-    u2 = -yf[F_V] * sa + yf[F_V + 1] * ca - xt2
-    u3 = yf[F_V + 2] - xt3
     yc[Y_R] = R
     yc[Y_ALPHA] = a
-    yc[Y_RDOT], yc[Y_ALPHADOT] = tangent_coordinates(xR1, xR2, xR3, xa1, xa2, xa3, u1, u2, u3)
+    yc[Y_RDOT], yc[Y_ALPHADOT] = _contact_rates(R, a, yf[F_V], yf[F_V + 1], yf[F_V + 2], pp,
+                                                pr, pr1, pr2, pa, pa1, pa2, gm, g1, g2)
     for j in range(NCARRY):
         yc[Y_OMEGA + j] = yf[F_OMEGA + j]
     for j in range(yc.size - NC):
