@@ -5,6 +5,10 @@ creatio.model.surface, the sphere with its marker and band turned by the frame's
 the trace so far coloured by time); Pillow, already installed with matplotlib, writes the
 frames as one animated WebP. The poster is the frame at ``media.poster_time``, larger.
 Nothing here computes physics: every number comes from the dataset.
+
+A figure and its 3D axes are built once per process (they cost more than a frame's
+drawing); each frame replaces only the artists that move (:class:`_Moving`), so a frame
+shows what a fresh figure would show, pixel for pixel (tests/scenes/test_scene_media.py).
 """
 
 from __future__ import annotations
@@ -17,6 +21,7 @@ from typing import Any
 
 import numpy as np
 import xarray as xr
+from mpl_toolkits.mplot3d.art3d import Poly3DCollection
 
 from creatio.model.laws import Law
 from creatio.model.surface import Frame, Motion, Surface
@@ -54,10 +59,36 @@ _HEIGHT = plt.matplotlib.colors.LinearSegmentedColormap.from_list(
     "creatio_height", [(0.16, 0.35, 0.62), (0.86, 0.87, 0.85), (0.72, 0.45, 0.20)])
 
 
-def _draw_surface(ax, pos: np.ndarray, w: np.ndarray, alpha: float = 1.0) -> None:
-    ax.plot_surface(pos[..., 0], pos[..., 1], pos[..., 2], facecolors=_HEIGHT((w + 1) / 2),
-                    rstride=1, cstride=1, linewidth=0, edgecolor="none", antialiased=False,
-                    shade=True, alpha=alpha, zorder=1)
+def _draw_surface(ax, pos: np.ndarray, w: np.ndarray, alpha: float = 1.0) -> Poly3DCollection:
+    """The membrane coloured by height: what ``plot_surface(..., facecolors=, rstride=1,
+    cstride=1, shade=True)`` draws (the same quads, corners in its order, each the colour of
+    its first corner, shaded by the same light), built as arrays: plot_surface takes a
+    per-quad Python loop and converts each colour alone when given facecolors."""
+    quads = np.stack([pos[:-1, :-1], pos[:-1, 1:], pos[1:, 1:], pos[1:, :-1]], axis=2)
+    colours = _HEIGHT((w[:-1, :-1] + 1) / 2)
+    poly = Poly3DCollection(quads.reshape(-1, 4, 3), facecolors=colours.reshape(-1, 4),
+                            shade=True, linewidth=0, edgecolor="none", antialiased=False,
+                            alpha=alpha, zorder=1)
+    ax.add_collection3d(poly)
+    return poly
+
+
+class _Moving:
+    """The artists of the frame on show, removed before the next frame draws its own."""
+
+    def __init__(self) -> None:
+        self.artists: list[Any] = []
+
+    def add(self, *artists: Any) -> None:
+        """Keep these (an artist, or the list ``ax.plot`` returns) to remove next frame."""
+        for a in artists:
+            self.artists.extend(a if isinstance(a, list) else [a])
+
+    def clear(self) -> None:
+        """Remove the last frame's moving artists from their axes."""
+        for a in self.artists:
+            a.remove()
+        self.artists.clear()
 
 
 def _frame_axes(fig, where: tuple[int, int], extent: float, title: str = ""):
@@ -95,17 +126,28 @@ def _write(frames: Sequence[np.ndarray], animation: Path, poster_rgb: np.ndarray
         tmp, format="PNG", optimize=True))
 
 
-def _render(draw: Callable[[Any, int], None], indices: Sequence[int], poster_index: int,
+#: A scene's drawing: given a figure, build what every frame shares (axes, fixed titles)
+#: and return the function that draws frame i into it (replacing the last frame's artists).
+Setup = Callable[[Any], Callable[[int], None]]
+
+
+def _render(setup: Setup, indices: Sequence[int], poster_index: int,
             media: Any, frame_ms: float, animation: Path, poster: Path) -> None:
-    """Draw each index into a fresh figure of the media size; the poster at twice the dpi."""
+    """Draw each index into one figure of the media size per process, built once; the poster
+    into its own figure at twice the dpi."""
     size = (media.width / 100, media.height / 100)
 
-    def frame(i: int, dpi: int = 100) -> np.ndarray:
+    def draw_all(at: Sequence[int], dpi: int = 100) -> np.ndarray:
         fig = plt.figure(figsize=size, dpi=dpi)
-        draw(fig, i)
-        rgb = _rgb(fig)
-        plt.close(fig)
-        return rgb
+        try:
+            draw = setup(fig)
+            drawn = []
+            for i in at:
+                draw(i)
+                drawn.append(_rgb(fig))
+            return np.stack(drawn)
+        finally:
+            plt.close(fig)
 
     # The frames are independent: drawn in contiguous shares by forked children where a core
     # is free (creatio.store.forked), each share handed back as a .npy beside the animation.
@@ -116,7 +158,7 @@ def _render(draw: Callable[[Any, int], None], indices: Sequence[int], poster_ind
     drawn: list[np.ndarray] = []
 
     def share(k: int) -> None:
-        rgb = np.stack([frame(i) for i in shares[k]])
+        rgb = draw_all(shares[k])
         if k == 0:
             drawn.append(rgb)
         else:
@@ -128,7 +170,8 @@ def _render(draw: Callable[[Any, int], None], indices: Sequence[int], poster_ind
     finally:
         for part in parts:
             part.unlink(missing_ok=True)
-    _write(frames, animation, frame(poster_index, dpi=200), poster, frame_ms, media.quality)
+    _write(frames, animation, draw_all([poster_index], dpi=200)[0], poster, frame_ms,
+           media.quality)
 
 
 def _quat_matrix(q: np.ndarray) -> np.ndarray:
@@ -153,35 +196,50 @@ def sphere_media(ds: xr.Dataset, cfg: Any, animation: Path, poster: Path) -> Non
     ring = np.stack([np.cos(np.linspace(0, 2 * np.pi, 40)), np.sin(np.linspace(0, 2 * np.pi, 40)),
                      np.zeros(40)], axis=-1)
 
-    def draw(fig, i: int) -> None:
-        t = float(times[i])
-        fig.suptitle(f"{plain(ds.attrs.get('title', ''))}   t = {t:5.1f} s", fontsize=10)
-        for r, name in enumerate(runs):
-            surf = surfaces[r]
-            direction = str(ds.direction.values[r]).replace(", ", "\n")
-            ax = _frame_axes(fig, (r, len(runs)), surf.R1 * 0.92,
-                             f"{name.upper()}\n{direction}")
-            k = min(i, int(ds.frames_run.values[r]) - 1)
-            ph = [math.radians(ds[n].values[r, i]) for n in ("phase_r", "phase_a", "inclination")]
-            if "membrane" in draw_set:
-                pos, w = surface_mesh(surf, *ph, n_alpha, n_R)
-                _draw_surface(ax, pos, w, alpha=0.85)
-            c = ds.centre.values[r]
-            if "trace" in draw_set and k > 0:
-                ax.scatter(c[: k + 1, 0], c[: k + 1, 1], c[: k + 1, 2] + 0.01, s=3,
-                           c=cmap(times[: k + 1] / times[-1]), depthshade=False, zorder=2)
-            b = float(ds.sphere_radius.values[r])
-            rot = _quat_matrix(ds.quaternion.values[r, k]) if "quaternion" in ds else np.eye(3)
-            if "sphere" in draw_set:
-                ball = c[k] + b * unit
-                ax.plot_surface(ball[..., 0], ball[..., 1], ball[..., 2], color="0.88",
-                                linewidth=0, shade=True, zorder=3)
-            if "marker" in draw_set:
-                tip = c[k] + rot @ np.array([0.0, 0.0, 2.0 * b])
-                ax.plot(*zip(c[k], tip, strict=True), color="#d1342f", lw=2.2, zorder=4)
-            if "band" in draw_set:
-                band = c[k] + 1.01 * b * ring @ rot.T
-                ax.plot(band[:, 0], band[:, 1], band[:, 2], color="#1f6fd1", lw=1.8, zorder=4)
+    # What every frame reads, taken out of the dataset once; the trace's colours by time.
+    title = plain(ds.attrs.get("title", ""))
+    centre = ds.centre.values
+    phases = np.stack([ds[n].values for n in ("phase_r", "phase_a", "inclination")], axis=-1)
+    last = ds.frames_run.values.astype(int) - 1
+    radius = ds.sphere_radius.values.astype(float)
+    quaternion = ds.quaternion.values if "quaternion" in ds else None
+    colours = cmap(times / times[-1])
+    panels = [f"{name.upper()}\n" + str(ds.direction.values[r]).replace(", ", "\n")
+              for r, name in enumerate(runs)]
+
+    def setup(fig) -> Callable[[int], None]:
+        axes = [_frame_axes(fig, (r, len(runs)), surfaces[r].R1 * 0.92, panel)
+                for r, panel in enumerate(panels)]
+        moving = _Moving()
+
+        def draw(i: int) -> None:
+            moving.clear()
+            fig.suptitle(f"{title}   t = {float(times[i]):5.1f} s", fontsize=10)
+            for r, ax in enumerate(axes):
+                k = min(i, int(last[r]))
+                if "membrane" in draw_set:
+                    pos, w = surface_mesh(surfaces[r], *map(math.radians, phases[r, i]),
+                                          n_alpha, n_R)
+                    moving.add(_draw_surface(ax, pos, w, alpha=0.85))
+                c = centre[r]
+                if "trace" in draw_set and k > 0:
+                    moving.add(ax.scatter(c[: k + 1, 0], c[: k + 1, 1], c[: k + 1, 2] + 0.01,
+                                          s=3, c=colours[: k + 1], depthshade=False, zorder=2))
+                b = float(radius[r])
+                rot = _quat_matrix(quaternion[r, k]) if quaternion is not None else np.eye(3)
+                if "sphere" in draw_set:
+                    ball = c[k] + b * unit
+                    moving.add(ax.plot_surface(ball[..., 0], ball[..., 1], ball[..., 2],
+                                               color="0.88", linewidth=0, shade=True, zorder=3))
+                if "marker" in draw_set:
+                    tip = c[k] + rot @ np.array([0.0, 0.0, 2.0 * b])
+                    moving.add(ax.plot(*zip(c[k], tip, strict=True), color="#d1342f", lw=2.2,
+                                       zorder=4))
+                if "band" in draw_set:
+                    band = c[k] + 1.01 * b * ring @ rot.T
+                    moving.add(ax.plot(band[:, 0], band[:, 1], band[:, 2], color="#1f6fd1",
+                                       lw=1.8, zorder=4))
+        return draw
 
     every = s.media.every
     indices = list(range(0, times.size, every))
@@ -189,7 +247,7 @@ def sphere_media(ds: xr.Dataset, cfg: Any, animation: Path, poster: Path) -> Non
         indices.append(times.size - 1)
     poster_index = int(np.argmin(np.abs(times - s.media.poster_time)))
     frame_ms = 1000.0 * every / s.playback.fps
-    _render(draw, indices, poster_index, s.media, frame_ms, animation, poster)
+    _render(setup, indices, poster_index, s.media, frame_ms, animation, poster)
 
 
 # ----------------------------------------------------------------------- kinematic scenes
@@ -201,17 +259,24 @@ def surface_family_media(ds: xr.Dataset, cfg: Any, animation: Path, poster: Path
     pr, pa = math.radians(ds.phase_r), math.radians(ds.phase_a)  # stored in degree
     n_alpha, n_R = max(24, s.mesh.n_alpha // 2), max(6, s.mesh.n_R // 2)
 
-    def draw(fig, k: int) -> None:
+    title = plain(ds.attrs.get("title", ""))
+
+    def setup(fig) -> Callable[[int], None]:
         ax = _frame_axes(fig, (0, 1), surf.R1 * 0.8)
         ax.set_zlim(-0.2 * surf.R1, 0.8 * surf.R1)
-        pos, w = surface_mesh(surf, pr, pa, math.radians(float(incl[k])), n_alpha, n_R)
-        _draw_surface(ax, pos, w)
-        fig.suptitle(f"{plain(ds.attrs.get('title', ''))}\ngamma = {incl[k]:.0f} deg: "
-                     f"{ds.surface_class.values[k]}", fontsize=10)
+        moving = _Moving()
+
+        def draw(k: int) -> None:
+            moving.clear()
+            pos, w = surface_mesh(surf, pr, pa, math.radians(float(incl[k])), n_alpha, n_R)
+            moving.add(_draw_surface(ax, pos, w))
+            fig.suptitle(f"{title}\ngamma = {incl[k]:.0f} deg: {ds.surface_class.values[k]}",
+                         fontsize=10)
+        return draw
 
     indices = list(range(0, incl.size, s.media.every))
     poster_index = int(np.argmin(np.abs(incl - s.media.poster_time)))
-    _render(draw, indices, poster_index, s.media, 1000.0 / 12, animation, poster)
+    _render(setup, indices, poster_index, s.media, 1000.0 / 12, animation, poster)
 
 
 def velocity_normal_media(ds: xr.Dataset, cfg: Any, animation: Path, poster: Path) -> None:
@@ -223,23 +288,33 @@ def velocity_normal_media(ds: xr.Dataset, cfg: Any, animation: Path, poster: Pat
     n_alpha, n_R = max(24, s.mesh.n_alpha // 2), max(6, s.mesh.n_R // 2)
     scale = s.velocity_scale * s.magnification
 
-    def draw(fig, i: int) -> None:
-        fig.suptitle(f"{plain(ds.attrs.get('title', ''))}   t = {times[i]:4.2f} s   "
-                     f"(normal {s.normal_length} u; velocity x{s.magnification:g})", fontsize=10)
-        for m, mode in enumerate(modes):
-            ax = _frame_axes(fig, (m, len(modes)), surf.R1 * 0.8,
-                             f"{mode}: |c_t| = {float(ds.speed.values[m, i]):.3f} u/s")
-            ph = [math.radians(ds[n].values[m, i]) for n in ("phase_r", "phase_a", "inclination")]
-            pos, w = surface_mesh(surf, *ph, n_alpha, n_R)
-            _draw_surface(ax, pos, w, alpha=0.6)
-            p = ds.position.values[m, i]
-            nv = p + s.normal_length * ds.normal.values[m, i]
-            vv = p + scale * ds.velocity.values[m, i]
-            ax.plot(*zip(p, nv, strict=True), color="#1f6fd1", lw=2.4, zorder=3)
-            ax.plot(*zip(p, vv, strict=True), color="#d1342f", lw=2.4, zorder=3)
-            ax.scatter(*p, color="k", s=12, depthshade=False, zorder=4)
+    title = plain(ds.attrs.get("title", ""))
+    phases = np.stack([ds[n].values for n in ("phase_r", "phase_a", "inclination")], axis=-1)
+    speed, position = ds.speed.values, ds.position.values
+    normal, velocity = ds.normal.values, ds.velocity.values
+
+    def setup(fig) -> Callable[[int], None]:
+        axes = [_frame_axes(fig, (m, len(modes)), surf.R1 * 0.8) for m in range(len(modes))]
+        moving = _Moving()
+
+        def draw(i: int) -> None:
+            moving.clear()
+            fig.suptitle(f"{title}   t = {times[i]:4.2f} s   (normal {s.normal_length} u; "
+                         f"velocity x{s.magnification:g})", fontsize=10)
+            for m, (mode, ax) in enumerate(zip(modes, axes, strict=True)):
+                ax.set_title(plain(f"{mode}: |c_t| = {float(speed[m, i]):.3f} u/s"),
+                             fontsize=8.5, y=0.93)
+                pos, w = surface_mesh(surf, *map(math.radians, phases[m, i]), n_alpha, n_R)
+                moving.add(_draw_surface(ax, pos, w, alpha=0.6))
+                p = position[m, i]
+                nv = p + s.normal_length * normal[m, i]
+                vv = p + scale * velocity[m, i]
+                moving.add(ax.plot(*zip(p, nv, strict=True), color="#1f6fd1", lw=2.4, zorder=3),
+                           ax.plot(*zip(p, vv, strict=True), color="#d1342f", lw=2.4, zorder=3),
+                           ax.scatter(*p, color="k", s=12, depthshade=False, zorder=4))
+        return draw
 
     indices = list(range(0, times.size, s.media.every))
     poster_index = int(np.argmin(np.abs(times - s.media.poster_time)))
     frame_ms = 1000.0 * (times[1] - times[0]) * s.media.every
-    _render(draw, indices, poster_index, s.media, frame_ms, animation, poster)
+    _render(setup, indices, poster_index, s.media, frame_ms, animation, poster)
