@@ -98,3 +98,44 @@ def test_a_frame_drawn_after_others_equals_it_drawn_alone(scene, overrides, tmp_
     assert not np.array_equal(fresh[indices[0]], fresh[indices[-1]])  # the frames differ
     for i, rgb in zip(order, seen, strict=True):
         np.testing.assert_array_equal(rgb, fresh[i], err_msg=f"{scene} frame {i}")
+
+
+def _decoded(data: bytes) -> np.ndarray:
+    import io
+
+    from PIL import Image
+
+    im = Image.open(io.BytesIO(data))
+    out = []
+    for k in range(im.n_frames):
+        im.seek(k)
+        out.append(np.asarray(im.convert("RGB")).copy())
+    return np.stack(out)
+
+
+def test_animations_encoded_in_parts_play_as_one():
+    """The parts the children encode, spliced, decode to every part's frames in order (each
+    part's first frame replaces the whole canvas), loop and keep their frame time."""
+    y, x = np.mgrid[0:64, 0:96]
+    base = np.stack([2 * x, 3 * y, 120 + x - y], axis=-1).astype(np.uint8)  # smooth
+    frames = []
+    for k in range(9):  # a moving block over a fixed background: sub-frame updates
+        f = base.copy()
+        f[10:30, 5 + 8 * k:25 + 8 * k] = (200, 30, 30)
+        frames.append(f)
+    parts = [media._webp(frames[:4], 150, 70), media._webp(frames[4:], 150, 70)]
+    whole = media._splice(parts)
+    got = _decoded(whole)
+    np.testing.assert_array_equal(got, np.concatenate([_decoded(p) for p in parts]))
+    assert np.abs(got.astype(int) - np.stack(frames)).mean() < 10  # lossy, but these frames
+    chunks = media._chunks(whole)
+    assert [t for t, _ in chunks] == [b"VP8X", b"ANIM", *[b"ANMF"] * 9]
+    assert {int.from_bytes(p[12:15], "little") for t, p in chunks if t == b"ANMF"} == {150}
+    assert chunks[1][1][4:6] == b"\0\0"  # loops forever
+    # A part whose first frame blends into what was shown cannot be spliced exactly.
+    head, anim, first, *rest = media._chunks(parts[1])
+    blended = first[1][:15] + bytes([first[1][15] & ~0b10]) + first[1][16:]
+    bad = b"WEBP" + b"".join(media._chunk(t, p) for t, p in [head, anim, (b"ANMF", blended),
+                                                              *rest])
+    with pytest.raises(ValueError, match="unblended frame of the whole canvas"):
+        media._splice([parts[0], b"RIFF" + len(bad).to_bytes(4, "little") + bad])
