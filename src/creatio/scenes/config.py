@@ -79,8 +79,12 @@ def compose(scene: str, overrides: Sequence[str] = ()) -> DictConfig:
         GlobalHydra.instance().hydra = outer
 
 
-def validate(cfg: DictConfig | dict) -> Resolved:
-    """Merge onto the scene's schema, check every rule, return the resolved config."""
+def validate(cfg: DictConfig | dict, family: bool = True) -> Resolved:
+    """Merge onto the scene's schema, check every rule, return the resolved config.
+    ``family=False`` leaves a declared family unplanned (its axes, links and page size
+    checked when the config was first validated): for a config read back from a scene
+    dataset, whose page and animation draw from the dataset (planning composes the studies
+    through Hydra, a few tenths of a second)."""
     if not isinstance(cfg, dict):
         cfg = OmegaConf.to_container(cfg, resolve=False)
     cfg = {k: v for k, v in cfg.items() if k != "hydra"}
@@ -99,7 +103,7 @@ def validate(cfg: DictConfig | dict) -> Resolved:
         msg = str(getattr(e, "msg", e)).splitlines()[0]
         raise ConfigError(key, getattr(e, "value", None), msg) from None
     obj.check()
-    if getattr(obj.scene, "axes", None):  # a declared family: its axes, and whether it fits
+    if family and getattr(obj.scene, "axes", None):  # its axes, and whether it fits
         from creatio.scenes.family import plan_family
 
         plan_family(obj)
@@ -211,7 +215,8 @@ def _resolve(scene: str, overrides: tuple[str, ...]) -> Resolved:
     refuse_interpolations(overrides)
     refuse_identity(overrides, "scene.id", "--config 'scenes=[ID]'")
     try:
-        cfg = compose(scene, overrides)
+        # without overrides, the composition route() reads (planning asks for both)
+        cfg = compose(scene, overrides) if overrides else _base_config(scene)
     except KeyError:
         raise ConfigError("scene", scene, f"must be one of {', '.join(registry.SCENES)}") from None
     except Exception as e:  # Hydra refused an override: name the first culprit

@@ -63,13 +63,14 @@ def write_scene_dataset(resolved: Resolved, out: str | Path,
 
 
 def _read(path: str | Path) -> tuple[Any, Resolved]:
-    """A scene dataset and the resolved config recorded in it."""
+    """A scene dataset and the resolved config recorded in it (validated again, but its
+    family, already in the dataset, not planned again)."""
     import yaml
 
     from creatio.store.netcdf import read_dataset
 
     ds, _ = read_dataset(path)
-    return ds, validate(yaml.safe_load(ds.attrs["config_yaml"]))
+    return ds, validate(yaml.safe_load(ds.attrs["config_yaml"]), family=False)
 
 
 def write_page(dataset: str | Path, out: str | Path, library: str | Path) -> Path:
