@@ -58,8 +58,14 @@ def register_schemas() -> None:
     register_study_schemas()
     cs = ConfigStore.instance()
     for scene in registry.SCENES.values():
+        if scene.id in _REGISTERED:  # storing converts the dataclass: once per process
+            continue
         cs.store(group="schema", name=f"scene_{scene.id}", node=scene.schema,
                  package="_global_")
+        _REGISTERED.add(scene.id)
+
+
+_REGISTERED: set[str] = set()
 
 
 def compose(scene: str, overrides: Sequence[str] = ()) -> DictConfig:
