@@ -339,6 +339,10 @@ def _warm() -> None:
     xr.backends.list_engines()
     matplotlib.font_manager.findfont("DejaVu Sans")
     Plugins.instance()
+    with contextlib.suppress(Exception):  # a scene job composes them itself if this fails
+        from creatio.scenes.family import warm
+
+        warm()
     install_compile_lock()
 
 
