@@ -215,8 +215,9 @@ def _render(setup: Setup, indices: Sequence[int], poster_index: int,
     # also draws the poster. Spliced here in order.
     n = max(1, min(PARTS, len(indices) // 8))
     shares = [list(indices[k * len(indices) // n:(k + 1) * len(indices) // n]) for k in range(n)]
-    files = [animation.with_name(f".{animation.name}.part-{os.getpid()}-{k}")
-             for k in range(n + 1)]  # the last one is the poster's
+    # temporaries named as creatio.store.atomic names them: a killed job's are cleaned later
+    tmps = [animation.with_name(f".{animation.name}.tmp-{os.getpid()}-part{k}")
+            for k in range(n + 1)]  # the last one is the poster's
     done: dict[int, bytes] = {}
 
     def part(k: int) -> None:
@@ -227,14 +228,14 @@ def _render(setup: Setup, indices: Sequence[int], poster_index: int,
             if k == 0:
                 done[j] = data
             else:
-                files[j].write_bytes(data)
+                tmps[j].write_bytes(data)
 
     try:
         forked.run_all([lambda k=k: part(k) for k in range(n)])
-        data = [done[j] if j in done else files[j].read_bytes() for j in range(n + 1)]
+        data = [done[j] if j in done else tmps[j].read_bytes() for j in range(n + 1)]
     finally:
-        for f in files:
-            f.unlink(missing_ok=True)
+        for tmp in tmps:
+            tmp.unlink(missing_ok=True)
     atomic_save(animation, lambda tmp: tmp.write_bytes(_splice(data[:n])))
     atomic_save(poster, lambda tmp: tmp.write_bytes(data[n]))
 
