@@ -16,8 +16,9 @@ cache cold (then warm, data/ removed), with where its seconds go (compile, impor
 computation and writing, figures, Snakemake's own). Each row says whether issue 23's target
 is met.
 
-SLURM's ``scontrol show config`` is run by Snakemake's SLURM plugin at import; where SLURM
-is installed but its daemons are down it waits about 9 s. By default a stand-in ``scontrol``
+SLURM's ``scontrol show config`` is run by Snakemake's SLURM plugin at import (where the
+plugin is installed: ``make slurm``; the default environment has none); where SLURM is
+installed but its daemons are down it waits about 9 s. By default a stand-in ``scontrol``
 that fails at once is put first on PATH (as on a machine without SLURM) and the cost is
 printed; --keep-slurm measures with the real one.
 
