@@ -64,25 +64,3 @@ def test_a_sphere_report_is_the_same_bytes_with_children_or_without(tmp_path, mo
     assert out[1].keys() == out[2].keys()
     for key, path in out[1].items():
         assert path.read_bytes() == out[2][key].read_bytes(), key
-
-
-def test_a_run_computes_its_parts_in_children_to_the_same_data(tmp_path, monkeypatch):
-    """`creatio run` deals a study's dataset parts out to forked children: each part's data
-    equal the part computed in this process alone, and every part is written once."""
-    import xarray as xr
-
-    from creatio.pipeline.config import resolve
-    from creatio.pipeline.run import run_resolved
-
-    r = resolve("en02", ["phases.T=10", "study.duration=10"], only_applicable=True)
-    roots = {}
-    for n in (1, 2):
-        monkeypatch.setattr(forked, "cores", lambda n=n: n)
-        roots[n] = run_resolved(r, tmp_path / f"cores{n}")
-    names = [p.name for p in r.entry.parts(r.obj)]
-    assert len(names) == 2
-    for name in names:
-        files = [Path(r.entry.dataset_dir(str(roots[n]))) / f"{name}.nc" for n in (1, 2)]
-        with xr.open_dataset(files[0]) as a, xr.open_dataset(files[1]) as b:
-            assert a.attrs["config_sha256"] == b.attrs["config_sha256"]
-            xr.testing.assert_identical(a.drop_attrs(), b.drop_attrs())

@@ -14,7 +14,6 @@ from pathlib import Path
 from typing import Any
 
 from creatio.pipeline.config import Resolved, output_root
-from creatio.store import forked
 
 __all__ = ["compute_dataset", "run_resolved", "run_study", "write_report"]
 
@@ -97,14 +96,8 @@ def run_resolved(resolved: Resolved, data_dir: Path = Path("data")) -> Path:
         record_run(root, "study", resolved.id, resolved.data, resolve(resolved.id).data,
                    None, resolved.sha256, data_dir)
     entry = resolved.entry
-    names = [p.name for p in entry.parts(resolved.obj)]
-    outs = [Path(entry.dataset_dir(str(root))) / f"{name}.nc" for name in names]
-    # The parts are independent datasets (Snakemake's jobs run them apart): dealt out in
-    # turn to a forked child per free core (creatio.store.forked), one share here.
-    shares = max(1, min(forked.cores(), len(names)))
-    forked.run_all([lambda k=k: [compute_dataset(resolved, outs[i], names[i])
-                                 for i in range(k, len(names), shares)]
-                    for k in range(shares)])
+    outs = [compute_dataset(resolved, Path(entry.dataset_dir(str(root))) / f"{p.name}.nc", p.name)
+            for p in entry.parts(resolved.obj)]
     extra = entry.extra_function()
     if extra is not None:  # datasets the workflow makes in batch jobs, here in this process
         outs += extra(resolved, root)
