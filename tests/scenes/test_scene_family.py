@@ -195,23 +195,3 @@ def test_the_family_batch_step_refuses_a_scene_without_axes_in_one_line(tmp_path
         "creatio task scene: invalid config: scene.axes={}: scene en02 declares no axis: it "
         "has no family to compute"]
     assert not out.exists()
-
-
-def test_the_links_a_family_follows_are_kept_until_conf_changes(monkeypatch):
-    """_links composes a study once per content of conf/ and the sources: the warm worker's
-    (family.warm) serve its jobs, and an edit of conf/ composes again."""
-    from creatio.pipeline import config as pipeline_config
-    from creatio.pipeline.sweep import interpolations
-    from creatio.scenes import family
-
-    family._links_of.cache_clear()
-    family.warm()  # conf/scene/en02.yaml declares axes over its study en02
-    assert family._links_of.cache_info().currsize >= 1
-    want = tuple(interpolations(pipeline_config.compose("en02")))
-    assert ("study.duration", "phases.T", "${..phases.T}") in want  # EN-02 runs one T
-    misses = family._links_of.cache_info().misses
-    assert family._links("en02") == want
-    assert family._links_of.cache_info().misses == misses  # served from the warm cache
-    monkeypatch.setattr(pipeline_config, "_fingerprint", lambda: "conf edited")
-    assert family._links("en02") == want
-    assert family._links_of.cache_info().misses == misses + 1  # composed again

@@ -344,10 +344,6 @@ def _warm() -> None:
 
     with contextlib.suppress(Exception):  # a conf/ that fails to compose fails in the job
         config.warm()
-    with contextlib.suppress(Exception):  # a scene job composes them itself if this fails
-        from creatio.scenes.family import warm
-
-        warm()
     install_compile_lock()
 
 

@@ -55,7 +55,6 @@ __all__ = [
     "listed_value",
     "plan_family",
     "run_batch",
-    "warm",
 ]
 
 log = logging.getLogger("creatio")
@@ -255,39 +254,14 @@ def _same(a: Any, b: Any) -> bool:
     return str(a) == str(b)
 
 
+@functools.lru_cache(maxsize=16)
 def _links(study: str) -> tuple[tuple[str, str | None, str], ...]:
     """(key, the key it copies or None for an expression, the expression's text) of every
-    interpolation in a study's composed config (``study.duration: ${..phases.T}``); kept per
-    process and per content of conf/ and the sources (an edit composes again)."""
-    from creatio.pipeline.config import _fingerprint
-
-    return _links_of(study, _fingerprint())
-
-
-@functools.lru_cache(maxsize=16)
-def _links_of(study: str, fingerprint: str) -> tuple[tuple[str, str | None, str], ...]:
+    interpolation in a study's composed config (``study.duration: ${..phases.T}``)."""
     from creatio.pipeline.config import compose
     from creatio.pipeline.sweep import interpolations
 
     return tuple(interpolations(compose(study)))
-
-
-def warm() -> None:
-    """Compose, once, the studies the default explorable scenes link their axes through
-    (those of ``scene.studies`` in a conf/scene/*.yaml declaring ``axes``): the warm worker
-    calls it, so that every job it forks plans a family without composing them again
-    (0.3-0.7 s a job here)."""
-    import yaml
-
-    from creatio.pipeline.config import CONF_DIR
-    from creatio.studies import registry
-
-    for path in sorted((CONF_DIR / "scene").glob("*.yaml")):
-        scene = (yaml.safe_load(path.read_text()) or {}).get("scene") or {}
-        if scene.get("axes"):
-            for study in scene.get("studies") or []:
-                if study in registry.STUDIES:
-                    _links(study)
 
 
 def plan_family(obj: Any) -> Family | None:
