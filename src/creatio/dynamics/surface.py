@@ -8,7 +8,7 @@ once, and so that a phase which is not a law of time could enter here alone.
 
 from __future__ import annotations
 
-from creatio.dynamics.jit import njit
+from creatio.dynamics.jit import INLINED, njit
 from creatio.dynamics.layout import LAW_A, LAW_GAMMA, LAW_R, P_A, P_B, P_K, P_KA, P_R0
 from creatio.model.laws import law_eval
 from creatio.model.offset import offset_jets
@@ -16,12 +16,13 @@ from creatio.model.offset import offset_jets
 __all__ = ["phases", "surface", "surface_with_phase"]
 
 
-#: The law evaluation, inlined where the right-hand sides call it: LLVM keeps it an out-of-line
-#: call (three per right-hand side) once it holds more than one step kind.
-_law = njit(cache=True, inline="always")(law_eval)
+#: The law evaluation, inlined where the right-hand sides call it (creatio.dynamics.jit.INLINED):
+#: LLVM would keep it an out-of-line call (three per right-hand side) once it holds more than
+#: one step kind.
+_law = njit(cache=True, **INLINED)(law_eval)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, **INLINED)
 def phases(t: float, lc: tuple) -> tuple:
     """(phi_r, phi_r', phi_r'', phi_a, phi_a', phi_a'', gamma, gamma', gamma'') at time t, from
     the law coefficient vectors lc (rows LAW_R, LAW_A, LAW_GAMMA of the law matrix)."""
@@ -31,7 +32,7 @@ def phases(t: float, lc: tuple) -> tuple:
     return pr, pr1, pr2, pa, pa1, pa2, gm, g1, g2
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, **INLINED)
 def surface(t: float, R: float, a: float, pp: tuple, lc: tuple) -> tuple:
     """(phi_r, phi_a, gamma, rho, z, n_rho, n_alpha, n_z, P, Q, Z) at time t and (R, alpha):
     the law values and the offset jets (creatio.model.offset.offset_jets), in the rotating
@@ -44,7 +45,7 @@ def surface(t: float, R: float, a: float, pp: tuple, lc: tuple) -> tuple:
     return pr, pa, gm, rho, z, n1, n2, n3, P, Q, Z
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, **INLINED)
 def surface_with_phase(t: float, R: float, a: float, pp: tuple, lc: tuple, pa: float,
                        pa1: float, pa2: float) -> tuple:
     """:func:`surface` with the angular phase and its two derivatives given (the controlled
