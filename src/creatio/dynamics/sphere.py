@@ -407,9 +407,10 @@ def pack(p, lawc):
     return to_fixed_tuple(p, NPAR), lc
 
 
-@njit(cache=True)
+@register_jitable(forceinline=False)
 def new_extrema(en):
-    """Running extrema before the first step (max residual is NaN without energy)."""
+    """Running extrema before the first step (max residual is NaN without energy); plain
+    numpy, so the driver's caller allocates them in Python."""
     ext = np.zeros(NEXT)
     ext[E_MIN_N] = math.inf
     ext[E_MAX_N] = -math.inf
