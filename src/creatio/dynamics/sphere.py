@@ -27,7 +27,7 @@ from numba.np.unsafe.ndarray import to_fixed_tuple
 
 from creatio.dynamics import layout
 from creatio.dynamics import status as st
-from creatio.dynamics.jit import INLINED, njit
+from creatio.dynamics.jit import INLINED, inlined, njit
 from creatio.dynamics.layout import (
     C_ALPHA0,
     C_DELTA_MAX,
@@ -257,7 +257,7 @@ def _control_rates(dy, y, u, lc, rot, en):
     return controlled
 
 
-@njit(cache=True, **INLINED)
+@inlined
 def rhs_on(sf: tuple, y: np.ndarray, dy: np.ndarray, pp: tuple, rot: bool, en: bool,
            diag: bool) -> tuple:
     """:func:`rhs` on the surface sf = creatio.dynamics.surface.surface at y's (t, R, alpha),

@@ -21,7 +21,7 @@ import math
 import numpy as np
 from numba.extending import overload
 
-from creatio.dynamics.jit import INLINED, njit
+from creatio.dynamics.jit import INLINED, inlined, njit
 from creatio.dynamics.layout import (
     EN_CONFINE,
     EN_DISSIPATION,
@@ -86,7 +86,7 @@ def _rhs_structure(t, y, dy, pp, lc, rot, en, diag):
     return rhs_structure_on(surface(t, y[Y_R], y[Y_ALPHA], pp, lc), y, dy, pp, rot, en, diag)
 
 
-@njit(cache=True, **INLINED)
+@inlined
 def rhs_structure_on(sf: tuple, y: np.ndarray, dy: np.ndarray, pp: tuple, rot: bool,
                      en: bool, diag: bool) -> tuple:
     """:func:`rhs_structure` on the surface sf = creatio.dynamics.surface.surface at y's
