@@ -5,7 +5,7 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 
-.PHONY: all test test-long test-all lint bench lock clean
+.PHONY: all test test-long test-all lint slurm bench lock clean
 
 all: $(STAMP)
 	$(BIN)/snakemake all -c 2
@@ -25,6 +25,9 @@ lint: $(STAMP)
 	$(BIN)/ruff check src tests scripts
 	$(BIN)/snakemake --lint
 
+slurm: $(STAMP)
+	$(BIN)/python -m pip install --quiet -c constraints.txt -e '.[slurm]'
+
 bench: $(STAMP)
 	$(BIN)/python -m pip install --quiet -c constraints.txt -e '.[bench]'
 	$(BIN)/python scripts/bench_en02.py
@@ -38,6 +41,7 @@ $(STAMP): pyproject.toml constraints.txt
 	touch $(STAMP)
 
 lock: $(STAMP)
+	$(BIN)/python -m pip install --quiet -c constraints.txt -e '.[dev,slurm,bench]'
 	$(BIN)/python -m pip freeze --exclude-editable | sed '1i # Exact versions for every install (make bootstraps with pip -c constraints.txt).\n# Regenerate: make lock' > constraints.txt
 
 clean:

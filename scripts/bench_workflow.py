@@ -16,8 +16,9 @@ cache cold (then warm, data/ removed), with where its seconds go (compile, impor
 computation and writing, figures, Snakemake's own). Each row says whether issue 23's target
 is met.
 
-SLURM's ``scontrol show config`` is run by Snakemake's SLURM plugin at import; where SLURM
-is installed but its daemons are down it waits about 9 s. By default a stand-in ``scontrol``
+SLURM's ``scontrol show config`` is run by Snakemake's SLURM plugin at import (where the
+plugin is installed: ``make slurm``; the default environment has none); where SLURM is
+installed but its daemons are down it waits about 9 s. By default a stand-in ``scontrol``
 that fails at once is put first on PATH (as on a machine without SLURM) and the cost is
 printed; --keep-slurm measures with the real one.
 
@@ -230,6 +231,22 @@ def snakemake_log_rules(clone: Clone, since: float) -> dict[str, tuple[int, floa
     return {k: (len(v), sum(v)) for k, v in out.items()}
 
 
+def snakemake_floor(clone: Clone, scratch: Path, repeats: int) -> list[float]:
+    """Wall time of `snakemake -c 2` on a one-rule Snakefile whose one job runs `true`: what
+    any invocation costs before it plans or runs anything of creatio."""
+    work = scratch / "floor"
+    work.mkdir(exist_ok=True)
+    (work / "Snakefile").write_text('rule all:\n    output: "done"\n    shell: "true > {output}"\n')
+    out = []
+    for _ in range(repeats):
+        (work / "done").unlink(missing_ok=True)
+        t0 = time.perf_counter()
+        subprocess.run([sys.executable, "-m", "snakemake", "-c", "2", "-q"], cwd=work,
+                       env=clone.env("off"), capture_output=True, check=True, timeout=300)
+        out.append(time.perf_counter() - t0)
+    return out
+
+
 def logged_compute(clone: Clone) -> float:
     """Seconds the dataset jobs say they spent computing and writing ("wrote ... in X s")."""
     total = 0.0
@@ -284,6 +301,10 @@ def _measure(clone: Clone, scratch: Path, args: argparse.Namespace, rows: list[R
     imports = clone.python(IMPORTS)
     notes.append(f"imports of one job's process (numpy, xarray, netCDF4, numba, "
                  f"matplotlib, hydra, creatio): {imports:.2f} s")
+    floor = snakemake_floor(clone, scratch, max(3, args.repeats))
+    notes.append(f"Snakemake's own floor, a Snakefile of one rule whose one job runs `true` "
+                 f"(`snakemake -c 2`, same environment): {_fmt(floor)}; every Snakemake row "
+                 "pays it once per invocation")
 
     if not args.skip_all:  # first: the clone is fresh and the cache cold
         row = Row("all", "`snakemake all -c 2`, fresh clone, numba cache cold")

@@ -101,6 +101,61 @@ def test_compared_paths_differ_by_colour_and_line_style_with_a_legend():
     plt.close(fig)
 
 
+# ------------------------------------------------------------------------------ layout
+def _histories(scale: float, n: int = 601) -> xr.Dataset:
+    """A sphere dataset's histories with tick labels as wide as a run gives: values of
+    thousands, fractions near a constant, negatives, and the twin azimuth axis."""
+    t = np.linspace(0.0, 120.0, n)
+    s = np.sin(t / 19.0)
+    one = ("time",)
+    return xr.Dataset(
+        {"centre_radius": (one, 1.11 + 4e-4 * s), "centre_azimuth": (one, -360.0 * t / 120.0),
+         "speed": (one, 0.11 * s * s), "normal_reaction": (one, 9.81 + 0 * t),
+         "slip_speed": (one, -2.2e-5 * s), "friction": (("time", "component"),
+                                                       np.stack([s, -s, s], axis=-1)),
+         "spin_rate": (one, scale * s), "cumulative_spin": (one, -scale * 3330.87 * t),
+         "angular_lag": (one, -1.4e-3 * s), "energy": (one, -0.0861 * scale * s)},
+        coords={"time": t}, attrs={"title": "EN-02 wide labels", "dt": 0.002, "status": "ok"})
+
+
+@pytest.mark.parametrize("scale", [1.0, -1234.5])
+def test_history_panels_keep_their_labels_apart(monkeypatch, tmp_path, scale):
+    """The history figure is laid out by fixed margins (not tight_layout): every label stays
+    inside the figure and clear of the neighbouring panels, for tick labels of up to eight
+    characters and the twin azimuth axis of the first panel."""
+    from creatio.reports import sphere
+
+    drawn = []
+
+    def keep(fig, path, **kwargs):
+        fig.canvas.draw()
+        drawn.append(fig)
+
+    monkeypatch.setattr(sphere, "save_figure", keep)
+    monkeypatch.setattr(sphere.plt, "close", lambda fig: None)
+    sphere._history_figure(_histories(scale), tmp_path / "h.png")
+    fig = drawn[0]
+    renderer = fig.canvas.get_renderer()
+    whole = fig.bbox
+    panels = [ax for ax in fig.axes]
+    for ax in panels:
+        shown = [t for axis, i in ((ax.xaxis, 0), (ax.yaxis, 1)) for t in axis.get_ticklabels()
+                 if min(axis.get_view_interval()) <= t.get_position()[i]
+                 <= max(axis.get_view_interval())]  # labels of ticks in view are drawn
+        texts = [ax.yaxis.label, ax.xaxis.label, *shown]
+        boxes = [t.get_window_extent(renderer) for t in texts if t.get_visible() and t.get_text()]
+        assert boxes
+        for box in boxes:
+            assert whole.x0 <= box.x0 and box.x1 <= whole.x1
+            assert whole.y0 <= box.y0 and box.y1 <= whole.y1
+            for other in panels:
+                if other is ax or other.get_position().bounds == ax.get_position().bounds:
+                    continue  # the twin shares its panel
+                assert not box.overlaps(other.get_window_extent(renderer)), (
+                    ax.get_ylabel(), other.get_ylabel())
+    plt.close(fig)
+
+
 # ------------------------------------------------------------------------------ sweeps
 SLIP = np.array([0.109, 1.746e-4, 8.729e-5, 4.365e-5, 2.910e-5, 2.182e-5, 1.746e-5, 1.455e-5])
 

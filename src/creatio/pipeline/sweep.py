@@ -2,9 +2,10 @@
 
 A sweep is a study, a list of Hydra sweep overrides (``sphere.mu=0,0.05,0.15``, also
 ``range(...)`` and the rest of Hydra's sweep grammar) and base overrides applied to every
-point. Planning costs nothing per point: the product is cut into batches of consecutive
-points, one job each (``batch_size``; by default about eight batches of 20 to 250 points
-each). A batch job composes the base config once and varies it per point
+point. Planning costs nothing per point: the product is dealt out in turn into batches, one job
+each (``batch_size`` points at most; by default about eight batches of 20 to 250 points
+each), so that batches cost alike even where the refused or dearer points gather at one end
+of an axis. A batch job composes the base config once and varies it per point
 (creatio.studies.schema.vary: a validated copy, no Hydra), runs the study's first dataset
 part in the same process and keeps each point's summary figures as a row of its batch file.
 
@@ -93,8 +94,11 @@ class SweepPlan:
         return math.ceil(self.n_points / self.batch_size)
 
     def batch_range(self, k: int) -> range:
-        """Flat indices (row-major over the axes) of the points of batch k."""
-        return range(k * self.batch_size, min((k + 1) * self.batch_size, self.n_points))
+        """Flat indices (row-major over the axes) of the points of batch k: every
+        n_batches-th point from k. Dealt out in turn, not cut into consecutive runs, so that
+        the batches of a sweep cost alike: the points validation refuses (a mu beyond the
+        friction's stability limit) and the dearer ones gather at one end of an axis."""
+        return range(k, self.n_points, self.n_batches)
 
     def batch_file(self, k: int) -> str:
         """Path of batch k's rows (named by the batching, so a new batch size is new files)."""

@@ -318,7 +318,8 @@ WARM_MODULES = (
 
 def _warm() -> None:
     """Import what the jobs use and fill the caches libraries build on first use (xarray's
-    backends, matplotlib's fonts, Hydra's plugins): every forked job inherits them."""
+    backends, matplotlib's fonts, Hydra's plugins and first composition): every forked job
+    inherits them."""
     import importlib
 
     import matplotlib
@@ -339,6 +340,10 @@ def _warm() -> None:
     xr.backends.list_engines()
     matplotlib.font_manager.findfont("DejaVu Sans")
     Plugins.instance()
+    from creatio.pipeline import config
+
+    with contextlib.suppress(Exception):  # a conf/ that fails to compose fails in the job
+        config.warm()
     install_compile_lock()
 
 

@@ -120,6 +120,24 @@ def readable_y(ax: Any, y: Any) -> None:
         ax.set_ylim(lo - pad, hi + pad)
 
 
+def fixed_layout(fig: Any, left: float, right: float, bottom: float, top: float,
+                 wgap: float = 0.0, hgap: float = 0.0) -> None:
+    """Place a figure's grid of subplots by its margins and the gaps between panels, in
+    inches, instead of ``fig.tight_layout()``, which measures every tick label before the
+    draw measures them again: a third of a sphere report's drawing time here. The margins a
+    figure passes are those tight_layout gives for the notebook's studies, with room to
+    spare for longer tick labels."""
+    width, height = fig.get_size_inches()
+    spec = next(ax.get_subplotspec() for ax in fig.axes if ax.get_subplotspec() is not None)
+    rows, cols = spec.get_topmost_subplotspec().get_gridspec().get_geometry()
+    inner_w = width - left - right
+    inner_h = height - bottom - top
+    panel_w = (inner_w - (cols - 1) * wgap) / cols
+    panel_h = (inner_h - (rows - 1) * hgap) / rows
+    fig.subplots_adjust(left=left / width, right=1.0 - right / width, bottom=bottom / height,
+                        top=1.0 - top / height, wspace=wgap / panel_w, hspace=hgap / panel_h)
+
+
 def write_text(path: Path, text: str) -> Path:
     """Write a report file through a temporary sibling and a rename: a killed report job
     leaves the previous file or none, never a partial one."""

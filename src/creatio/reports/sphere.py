@@ -16,6 +16,7 @@ import xarray as xr
 
 from creatio.reports.common import (
     PUBLISHED_HEADER,
+    fixed_layout,
     fmt,
     plt,
     published_row,
@@ -134,7 +135,7 @@ def _history_figure(ds: xr.Dataset, path: Path) -> None:
         ax.set_xlabel("time (s)")
     fig.suptitle(f"{ds.attrs.get('title', '')}: time histories (dt = {ds.attrs['dt']:g} s, "
                  f"status {ds.attrs['status']})")
-    fig.tight_layout()
+    fixed_layout(fig, left=1.0, right=0.2, bottom=0.6, top=0.5, wgap=1.45, hgap=0.35)
     save_figure(fig, path, dpi=100)
     plt.close(fig)
 
@@ -248,7 +249,7 @@ def trajectory_figure(runs: Sequence[tuple[str, xr.Dataset]], config: dict) -> A
     what = ("centre path in top view" if len(runs) == 1 else
             "centre paths in top view, time marked along each")
     ax.set_title(f"{what}, over the surface height at t = 0", fontsize=9)
-    fig.tight_layout()
+    fixed_layout(fig, left=0.7, right=0.15, bottom=0.6, top=0.35)
     return fig
 
 
@@ -276,7 +277,7 @@ def _convergence_figure_dynamic(datasets: Sequence[xr.Dataset], path: Path) -> N
     ax2.legend()
     for ax in (ax1, ax2):
         ax.grid(alpha=0.3, which="both")
-    fig.tight_layout()
+    fixed_layout(fig, left=0.9, right=0.15, bottom=0.6, top=0.4, wgap=0.9)
     save_figure(fig, path, dpi=100)
     plt.close(fig)
 
