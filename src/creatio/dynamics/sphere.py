@@ -178,8 +178,8 @@ def _rhs_any_diag(t, y, dy, pp, lc, rot, en, diag):
 
 
 # allocates nothing: compiled without reference counting (a call takes no reference to its
-# arrays, which costs atomic operations every step otherwise); forceinline=False: a call,
-# never inlined into each of the loop's call sites (it would not inherit the flag then)
+# arrays, which costs atomic operations every step otherwise); forceinline=False said, so it
+# stays one call and never inherits the flag of the inlined rhs wrapper that compiles it
 @njit(cache=True, _nrt=False, forceinline=False)
 def _rhs(t, y, dy, pp, lc, rot, en, diag):
     """:func:`rhs`, compiled once per (rot, en, law tuple type)."""
