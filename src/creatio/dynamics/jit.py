@@ -21,7 +21,7 @@ import hashlib
 import os
 from pathlib import Path
 
-__all__ = ["cache_dir", "njit", "source_hash"]
+__all__ = ["INLINED", "cache_dir", "inlined", "njit", "source_hash"]
 
 _PACKAGE = Path(__file__).resolve().parents[1]
 
@@ -126,10 +126,33 @@ from numba.extending import register_jitable  # noqa: E402
 
 from creatio.model import cavity, control, flight, laws, offset, sphere, structure  # noqa: E402
 
-# offset_jets is inlined into its callers by numba: LLVM would keep it a call that returns
-# its 53 numbers through memory, and the right-hand side runs ~7% slower (bench_against)
-_INLINED = {offset.offset_jets: "always"}
+# How a compiled formula reaches its callers. numba's own inlining (inline="always") copies the
+# callee's IR into every caller and types it again there, at every level: the right-hand side
+# took 10-12 s of type inference per specialisation, mostly deep copies of the offset jets'
+# IR. A formula that must not stay a call is instead compiled once and marked for LLVM to
+# inline (forceinline: LLVM's alwaysinline), at a fraction of the compile time. offset_jets is
+# one: as a call it returns its 53 numbers through memory and the right-hand side runs ~7%
+# slower (bench_against); law_eval another (LLVM keeps it an out-of-line call, three per
+# right-hand side, once the loop holds more than one step kind). Every other formula says
+# forceinline=False explicitly, so LLVM weighs it as before: numba otherwise lets a callee
+# inherit the flag from whichever caller compiles it first.
+
+#: The options of a compiled function LLVM always inlines into its callers; without reference
+#: counting (nor inheriting it from a first caller that counts), as the loops it joins.
+INLINED = {"forceinline": True, "_nrt": False}
+
+
+def inlined(fn):  # type: ignore[no-untyped-def]
+    """Register the plain function fn for compiled callers, compiled once per signature and
+    inlined by LLVM into each (:data:`INLINED`). Registered rather than jitted: no wrapper for
+    Python callers is built (fn itself stays plain Python there) and no cache file written."""
+    return register_jitable(inline="never", **INLINED)(fn)
+
+
 for _fn in (laws.law_eval, laws.trapezoid_scalar, *offset.SCALAR_KERNELS, *sphere.SCALAR_KERNELS,
             *cavity.SCALAR_KERNELS, *structure.SCALAR_KERNELS, *flight.SCALAR_KERNELS,
             *control.SCALAR_KERNELS):
-    register_jitable(inline=_INLINED.get(_fn, "never"))(_fn)
+    if _fn is offset.offset_jets or _fn is laws.law_eval:
+        inlined(_fn)
+    else:
+        register_jitable(inline="never", forceinline=False)(_fn)

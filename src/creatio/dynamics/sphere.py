@@ -27,7 +27,7 @@ from numba.np.unsafe.ndarray import to_fixed_tuple
 
 from creatio.dynamics import layout
 from creatio.dynamics import status as st
-from creatio.dynamics.jit import njit
+from creatio.dynamics.jit import INLINED, inlined, njit
 from creatio.dynamics.layout import (
     C_ALPHA0,
     C_DELTA_MAX,
@@ -155,19 +155,34 @@ from creatio.model.structure import angular_momentum_parts
 # .jit registers the model's scalar formulas the same way); LLVM inlines them and folds the
 # literal flags, so a position costs nothing at run time.
 for _fn in layout.SCALAR_KERNELS:
-    register_jitable(_fn)
+    register_jitable(forceinline=False)(_fn)
 
 
-# allocates nothing: compiled without reference counting (a call takes no reference to its
-# arrays, which costs atomic operations every step otherwise)
-@njit(cache=True, _nrt=False)
 def rhs(t, y, dy, pp, lc, rot, en, diag):
     """Write dy/dt into dy; return the diagnostics tuple (creatio.dynamics.layout D_*: N,
     |v_s|, X, V, f in the rotating frame, phi_r, gamma, b kappa, phi_a).
 
     pp is the parameter tuple (layout P_*), lc the laws' coefficient vectors (layout LAW_*);
-    b kappa (the largest principal curvature times b) is computed only when diag is True.
+    b kappa (the largest principal curvature times b) is computed only when diag is True
+    (compiled code only).
     """
+    raise NotImplementedError("called only from compiled code")
+
+
+@overload(rhs, jit_options=INLINED)
+def _rhs_any_diag(t, y, dy, pp, lc, rot, en, diag):
+    """:func:`rhs` with diag a run-time flag, whatever its caller passes: a literal diag
+    made numba compile the whole right-hand side twice per specialisation (5-7 s cold), for
+    a branch around one formula that costs nothing to test."""
+    return lambda t, y, dy, pp, lc, rot, en, diag: _rhs(t, y, dy, pp, lc, rot, en, bool(diag))
+
+
+# allocates nothing: compiled without reference counting (a call takes no reference to its
+# arrays, which costs atomic operations every step otherwise); forceinline=False said, so it
+# stays one call and never inherits the flag of the inlined rhs wrapper that compiles it
+@njit(cache=True, _nrt=False, forceinline=False)
+def _rhs(t, y, dy, pp, lc, rot, en, diag):
+    """:func:`rhs`, compiled once per (rot, en, law tuple type)."""
     sf, u = surface_state(t, y, pp, lc, rot, en)
     d = rhs_on(sf, y, dy, pp, rot, en, diag)
     control_rates(dy, y, u, lc, rot, en)
@@ -192,7 +207,7 @@ def _controlled(lc) -> bool:
     return isinstance(lc, types.BaseTuple) and len(lc) > NLAWS
 
 
-@overload(surface_state, inline="always")
+@overload(surface_state, jit_options=INLINED)
 def _surface_state(t, y, pp, lc, rot, en):
     """The laws' surface (as it always was), or on the controlled path the surface at the
     state's phase and the servo's u (creatio.model.control.servo)."""
@@ -242,7 +257,7 @@ def _control_rates(dy, y, u, lc, rot, en):
     return controlled
 
 
-@njit(cache=True, inline="always")
+@inlined
 def rhs_on(sf: tuple, y: np.ndarray, dy: np.ndarray, pp: tuple, rot: bool, en: bool,
            diag: bool) -> tuple:
     """:func:`rhs` on the surface sf = creatio.dynamics.surface.surface at y's (t, R, alpha),
@@ -392,9 +407,10 @@ def pack(p, lawc):
     return to_fixed_tuple(p, NPAR), lc
 
 
-@njit(cache=True)
+@register_jitable(forceinline=False)
 def new_extrema(en):
-    """Running extrema before the first step (max residual is NaN without energy)."""
+    """Running extrema before the first step (max residual is NaN without energy); plain
+    numpy, so the driver's caller allocates them in Python."""
     ext = np.zeros(NEXT)
     ext[E_MIN_N] = math.inf
     ext[E_MAX_N] = -math.inf

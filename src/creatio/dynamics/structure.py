@@ -19,8 +19,9 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from numba.extending import overload
 
-from creatio.dynamics.jit import njit
+from creatio.dynamics.jit import INLINED, inlined, njit
 from creatio.dynamics.layout import (
     EN_CONFINE,
     EN_DISSIPATION,
@@ -59,20 +60,33 @@ from creatio.model.structure import confinement_power, free_structure_solve
 __all__ = ["rhs_structure", "rhs_structure_on"]
 
 
-# allocates nothing: compiled without reference counting (a call takes no reference to its
-# arrays, which costs atomic operations every step otherwise)
-@njit(cache=True, _nrt=False)
 def rhs_structure(t, y, dy, pp, lc, rot, en, diag):
     """Write dy/dt into dy on the structure path; return the diagnostics tuple of
     creatio.dynamics.sphere.rhs (N, |v_s|, X, V_rel, f, phi_r, gamma, b kappa, phi_a).
 
     The parameters pp include the structure's inverse inertia 1 / I_s (0: fixed) and the
-    normal preload P.
+    normal preload P (compiled code only).
     """
+    raise NotImplementedError("called only from compiled code")
+
+
+@overload(rhs_structure, jit_options=INLINED)
+def _rhs_structure_any_diag(t, y, dy, pp, lc, rot, en, diag):
+    """:func:`rhs_structure` with diag a run-time flag, as creatio.dynamics.sphere.rhs: one
+    compilation per specialisation serves the evaluations with and without diagnostics."""
+    return lambda t, y, dy, pp, lc, rot, en, diag: _rhs_structure(t, y, dy, pp, lc, rot, en,
+                                                                  bool(diag))
+
+
+# allocates nothing: compiled without reference counting (a call takes no reference to its
+# arrays, which costs atomic operations every step otherwise); a call, never inlined
+@njit(cache=True, _nrt=False, forceinline=False)
+def _rhs_structure(t, y, dy, pp, lc, rot, en, diag):
+    """:func:`rhs_structure`, compiled once per (rot, en)."""
     return rhs_structure_on(surface(t, y[Y_R], y[Y_ALPHA], pp, lc), y, dy, pp, rot, en, diag)
 
 
-@njit(cache=True, inline="always")
+@inlined
 def rhs_structure_on(sf: tuple, y: np.ndarray, dy: np.ndarray, pp: tuple, rot: bool,
                      en: bool, diag: bool) -> tuple:
     """:func:`rhs_structure` on the surface sf = creatio.dynamics.surface.surface at y's

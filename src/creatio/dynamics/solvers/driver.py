@@ -25,15 +25,15 @@ constants of each entry point in SPECIALISATIONS: a run compiles only the steppe
 right-hand side (fixed structure or the structure path of docs/model.md s.9-10, resolved by
 creatio.dynamics.sphere.rhs_of) and the bookkeeping it uses.
 
-How the loop is kept fast: an entry point allocates every array of the run (_arrays, the
-implicit workspace) and hands them to _drive, which allocates nothing and is compiled without
-reference counting (numba's ``_nrt=False``), as are the right-hand sides and the step's
-observation. numba inlines the explicit step into the loop (creatio.dynamics.solvers
-.explicit.step, with the tableau and stage arrays unpacked once, before it), so a step
-neither crosses a function boundary nor takes or drops a reference to an array: the atomic
-reference counts were a fifth of RK4's time (perf, EN-02), and inlining a stepper that takes
-arrays in a counted loop cost 21-43 % more (measured). The generic stepper reproduces the
-notebook's RK4, y + dt/6 (k1 + 2 (k2 + k3) + k4), bit for bit.
+How the loop is kept fast: :func:`run` allocates every array of the run (_arrays, the
+implicit workspace) and hands them to the entry point, _drive inlined, which allocates
+nothing and is compiled without reference counting (numba's ``_nrt=False``), as are the
+right-hand sides and the step's observation. numba inlines the explicit step into the loop
+(creatio.dynamics.solvers.explicit.step, with the tableau and stage arrays unpacked once,
+before it), so a step neither crosses a function boundary nor takes or drops a reference to
+an array: the atomic reference counts were a fifth of RK4's time (perf, EN-02), and inlining
+a stepper that takes arrays in a counted loop cost 21-43 % more (measured). The generic
+stepper reproduces the notebook's RK4, y + dt/6 (k1 + 2 (k2 + k3) + k4), bit for bit.
 """
 
 from __future__ import annotations
@@ -77,11 +77,6 @@ _IMPLICIT = {RADAU: radau, ROSENBROCK: rosenbrock, RADAU_VO: radau_sphere}
 assert set(_IMPLICIT) | {EXPLICIT} == set(STEPPERS)
 
 
-def _implicit_workspace(stepper, n, params):
-    """The implicit stepper's workspace (compiled code only; resolved at compile time)."""
-    raise NotImplementedError("called only from compiled code")
-
-
 def _implicit_step(stepper, t, t_next, h, y, f, ynew, fnew, dbuf, ws, tol, fixed, rejected, pp,
                    lc, rot, en, free):
     """One try at one implicit step (compiled code only; resolved at compile time)."""
@@ -92,18 +87,6 @@ def _implicit_dense(stepper, ws, tg, yout):
     """The implicit stepper's dense output at tg inside its last accepted step (compiled code
     only; resolved at compile time)."""
     raise NotImplementedError("called only from compiled code")
-
-
-@overload(_implicit_workspace, prefer_literal=True)
-def _implicit_workspace_of(stepper, n, params):
-    """The kind's workspace; an empty placeholder for the explicit kind."""
-    if not isinstance(stepper, types.IntegerLiteral):
-        return None
-    module = _IMPLICIT.get(stepper.literal_value)
-    if module is None:
-        return lambda stepper, n, params: np.empty(0)
-    workspace = module.workspace
-    return lambda stepper, n, params: workspace(n, params)
 
 
 @overload(_implicit_step, prefer_literal=True, inline="always")
@@ -135,8 +118,7 @@ def _implicit_dense_of(stepper, ws, tg, yout):
     return lambda stepper, ws, tg, yout: dense(ws, tg, yout)
 
 
-@njit(cache=True)
-def _arrays(n, n_dense, en):
+def _arrays(n: int, n_dense: int, en: bool) -> tuple:
     """Every array the loop writes for a state of size n, allocated once per run (the loop
     allocates nothing): the new state, the explicit stages (n_dense rows: the stages, the
     end-of-step one, the dense output's extra ones), the end-of-step derivative and its
@@ -150,7 +132,8 @@ def _arrays(n, n_dense, en):
 _EXT = 8
 
 
-@njit(cache=True, _nrt=False)
+# inlined by numba into each entry point (the entry is the one compiled function of a run)
+@njit(inline="always")
 def _drive(stepper, p, lawc, y, arrays, iws, t_end, interval, h0, n_steps, stride, rtol, atol,
            fixed, max_evals, progress, tab, out, rot, en, free, dense, ctl):
     """Integrate from t = 0 to t_end, from the initial state y (overwritten), with the
@@ -348,21 +331,22 @@ def _entry(stepper: int, rot: bool, en: bool, free: bool, ctl: bool = False):
     """The compiled entry point of one specialisation: _drive with the stepper kind and the
     rotation, energy and structure flags as constants (numba freezes a closure's variables),
     so a run compiles only the stepper, right-hand side and bookkeeping it uses. Its name
-    spells the key, and is what numba's cache files it under (one file per entry)."""
-    def entry(p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, atol, fixed, max_evals,
-              progress, tab, out, dense):
-        n = y0.size
-        arrays = _arrays(n, tab.dense.shape[0], en)
-        status, steps, rows, evals, n_rej, n_jac, n_lu, n_newton, t = _drive(
-            stepper, p, lawc, y0.copy(), arrays, _implicit_workspace(stepper, n, tab.c), t_end,
-            interval, h0, n_steps, stride, rtol, atol, fixed, max_evals, progress, tab, out, rot,
-            en, free, dense, ctl)
-        return status, steps, rows, evals, arrays[_EXT], n_rej, n_jac, n_lu, t, n_newton
+    spells the key, and is what numba's cache files it under (one file per entry).
+
+    _drive is inlined into it and the arrays come from :func:`run`, so a run compiles one
+    function around the loop, without reference counting: a separate entry that allocated
+    them and called _drive cost a second LLVM optimisation of the whole linked loop and its
+    machine code (about 2 s of every cold compile)."""
+    def entry(p, lawc, y, arrays, iws, t_end, interval, h0, n_steps, stride, rtol, atol, fixed,
+              max_evals, progress, tab, out, dense):
+        return _drive(stepper, p, lawc, y, arrays, iws, t_end, interval, h0, n_steps, stride,
+                      rtol, atol, fixed, max_evals, progress, tab, out, rot, en, free, dense,
+                      ctl)
 
     flags = [name for name, on in (("structure", free), ("rot", rot), ("en", en),
                                    ("control", ctl)) if on]
     entry.__name__ = entry.__qualname__ = "_".join(["", STEPPERS[stepper], *flags])
-    return njit(cache=True)(entry)
+    return njit(cache=True, _nrt=False)(entry)
 
 
 #: The compiled specialisations, (stepper kind, rotation, energy, structure) -> entry point,
@@ -409,6 +393,13 @@ def run(
         fn = CONTROLLED[(method.stepper, bool(rotation), bool(energy))]
     else:
         fn = SPECIALISATIONS[(method.stepper, bool(rotation), bool(energy), bool(free))]
-    return fn(p, lawc, y0, float(t_end), float(interval), float(h0), int(n_steps), int(stride),
-              float(rtol), float(atol), bool(fixed), int(max_evals), float(progress),
-              method.driver_tableau, out, bool(dense))
+    tab = method.driver_tableau
+    n = y0.size
+    arrays = _arrays(n, tab.dense.shape[0], bool(energy))
+    module = _IMPLICIT.get(method.stepper)
+    iws = module.workspace(n, tab.c) if module is not None else np.empty(0)
+    status, steps, rows, evals, n_rej, n_jac, n_lu, n_newton, t = fn(
+        p, lawc, y0.copy(), arrays, iws, float(t_end), float(interval), float(h0), int(n_steps),
+        int(stride), float(rtol), float(atol), bool(fixed), int(max_evals), float(progress), tab,
+        out, bool(dense))
+    return status, steps, rows, evals, arrays[_EXT], n_rej, n_jac, n_lu, t, n_newton
