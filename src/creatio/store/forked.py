@@ -32,9 +32,9 @@ def cores() -> int:
 
 def run_all(tasks: Sequence[Callable[[], None]]) -> None:
     """Run every task (each writes its own files): the first here, the others at the same
-    time in forked children when cores() > 1 (the caller makes about one task per core);
-    return when all are done. A task that fails in its child runs again here, raising its
-    own error."""
+    time in forked children when cores() > 1 (the caller makes a few tasks, about one per
+    core); return when all are done. A task that fails in its child runs again here,
+    raising its own error."""
     if cores() < 2 or len(tasks) < 2:
         for task in tasks:
             task()
