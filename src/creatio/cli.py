@@ -146,6 +146,11 @@ def _run_plain(args: Sequence[str]) -> int:
     study, rest = _selected(args)
     try:
         run_resolved(resolve(study, rest))
+    except KeyboardInterrupt:  # Ctrl-C, in Python or inside a compiled loop (which now
+        if os.environ.get("CREATIO_DEBUG"):  # raises it as such, not as a SystemError)
+            raise
+        print(f"creatio run: {INTERRUPTED}", file=sys.stderr)
+        return 130
     except Exception as e:  # the Hydra app's one line (_run_task)
         if os.environ.get("CREATIO_DEBUG"):
             raise
