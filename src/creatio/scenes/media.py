@@ -15,7 +15,6 @@ from __future__ import annotations
 
 import io
 import math
-import os
 from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
@@ -28,7 +27,7 @@ from creatio.model.laws import Law
 from creatio.model.surface import Frame, Motion, Surface
 from creatio.reports.common import plt
 from creatio.store import forked
-from creatio.store.atomic import atomic_save
+from creatio.store.atomic import atomic_path, atomic_save
 
 __all__ = ["plain", "sphere_media", "surface_family_media", "velocity_normal_media"]
 
@@ -215,9 +214,8 @@ def _render(setup: Setup, indices: Sequence[int], poster_index: int,
     # also draws the poster. Spliced here in order.
     n = max(1, min(PARTS, len(indices) // 8))
     shares = [list(indices[k * len(indices) // n:(k + 1) * len(indices) // n]) for k in range(n)]
-    # temporaries named as creatio.store.atomic names them: a killed job's are cleaned later
-    tmps = [animation.with_name(f".{animation.name}.tmp-{os.getpid()}-part{k}")
-            for k in range(n + 1)]  # the last one is the poster's
+    # temporaries of creatio.store.atomic: a killed job's are cleaned by the next write
+    tmps = [atomic_path(animation, f"-part{k}") for k in range(n + 1)]  # the last: poster's
     done: dict[int, bytes] = {}
 
     def part(k: int) -> None:

@@ -16,9 +16,10 @@ from typing import Any
 __all__ = ["atomic_path", "atomic_save", "atomic_write", "clean_stale"]
 
 
-def atomic_path(path: Path) -> Path:
-    """A temporary sibling of path, to be renamed over it once complete."""
-    return path.with_name(f".{path.name}.tmp-{os.getpid()}")
+def atomic_path(path: Path, tag: str = "") -> Path:
+    """A temporary sibling of path, to be renamed over it once complete (tag ends its name:
+    a suffix that keeps the format, a part's number); clean_stale knows it by its pid."""
+    return path.with_name(f".{path.name}.tmp-{os.getpid()}{tag}")
 
 
 def clean_stale(path: Path) -> None:
@@ -65,7 +66,7 @@ def atomic_save(path: str | Path, save: Any) -> Path:
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     clean_stale(path)
-    tmp = path.with_name(f".{path.name}.tmp-{os.getpid()}{path.suffix}")  # keeps the format
+    tmp = atomic_path(path, path.suffix)  # keeps the format
     try:
         save(tmp)
         if not tmp.is_file() or tmp.stat().st_size == 0:
