@@ -146,13 +146,8 @@ def _run_plain(args: Sequence[str]) -> int:
     study, rest = _selected(args)
     try:
         run_resolved(resolve(study, rest))
-    except KeyboardInterrupt:  # Ctrl-C, in Python or inside a compiled loop (which now
-        if os.environ.get("CREATIO_DEBUG"):  # raises it as such, not as a SystemError)
-            raise
-        print(f"creatio run: {INTERRUPTED}", file=sys.stderr)
-        return 130
-    except Exception as e:  # the Hydra app's one line (_run_task)
-        if os.environ.get("CREATIO_DEBUG"):
+    except (Exception, KeyboardInterrupt) as e:  # the Hydra app's one line (_run_task)
+        if os.environ.get("CREATIO_DEBUG"):  # Ctrl-C too, in Python or in a compiled loop
             raise
         message, code = describe(e)
         print(f"creatio run: {message}", file=sys.stderr)
@@ -534,7 +529,7 @@ def _main(argv: list[str]) -> int:
 INTERRUPTED = "interrupted (nothing half-written is kept; rerun to finish)"
 
 
-def describe(e: Exception) -> tuple[str, int]:
+def describe(e: BaseException) -> tuple[str, int]:
     """A failure as (one line naming what and why, exit status): 2 for a refused config, 1
     for anything else; the traceback is for CREATIO_DEBUG=1."""
     if isinstance(e, ConfigError):
