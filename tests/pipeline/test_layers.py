@@ -149,3 +149,14 @@ def test_planning_a_workflow_loads_neither_the_compiler_nor_xarray():
     loaded = _loaded_after("from creatio.pipeline.planning import plan\nplan()")
     assert "hydra" in loaded  # planning composed the configs
     assert not loaded & {"numba", "xarray", "matplotlib"}, loaded
+
+
+def test_planning_an_explorable_scene_loads_neither_the_compiler_nor_xarray():
+    """A scene with a family, overridden (its page size checked, its studies' links
+    composed), as `snakemake scenes --config 'overrides=[...]'` plans it."""
+    loaded = _loaded_after("from creatio.scenes.plan import SceneRuns\n"
+                           "runs = SceneRuns(['sphere.mu=0.2741'], ['en02'])\n"
+                           "runs.targets()\n"
+                           "assert runs.family(runs.plans['en02'].root, 'en02')")
+    assert "hydra" in loaded
+    assert not loaded & {"numba", "xarray", "matplotlib"}, loaded

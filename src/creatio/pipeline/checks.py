@@ -54,8 +54,10 @@ def _scales(ds: Any) -> tuple[float, float] | None:
     when it carries none (then only the structural checks apply)."""
     import yaml
 
+    from creatio.store.yamlio import load_yaml
+
     try:
-        cfg = yaml.safe_load(str(ds.attrs["config_yaml"]))
+        cfg = load_yaml(str(ds.attrs["config_yaml"]))
         L = float(cfg["geometry"]["R0"]) + float(cfg["geometry"]["dR"])
         m, g = float(cfg["sphere"]["m"]), float(cfg["sphere"]["g"])
     except (KeyError, TypeError, ValueError, yaml.YAMLError):

@@ -43,7 +43,10 @@ __all__ = [
     "refuse_identity",
     "refuse_interpolations",
     "refuse_resolvers",
+    "register_schemas",
+    "registered_schemas",
     "resolve",
+    "schemas_of",
     "validate",
     "warm",
 ]
@@ -84,16 +87,17 @@ class Resolved:
         return {name: validate(cfg) for name, cfg in self.data.get("bases", {}).items()}
 
 
-def register_schemas(*extra: str) -> None:
+def register_schemas(*extra: str, only: bool = False) -> None:
     """Put the schemas in Hydra's ConfigStore so composition is typed from the start
     (``conf/<group>/<id>.yaml`` pulls in ``/schema/<id>@_here_``): every study of the
     ``study`` group (an analysis includes them as its bases), the probe's, and the extra
-    studies named (loading an analysis's schema imports its module, so only on demand)."""
+    studies named (loading an analysis's schema imports its module, so only on demand);
+    ``only``: just the extra ones (what one composition needs, :func:`schemas_of`)."""
     from hydra.core.config_store import ConfigStore
 
     cs = ConfigStore.instance()
-    names = [s.id for s in registry.STUDIES.values() if s.group == "study"] + list(extra)
-    for name in [*names, "probe"]:
+    names = [] if only else [s.id for s in registry.STUDIES.values() if s.group == "study"]
+    for name in [*names, *extra, *([] if only else ["probe"])]:
         if name in _REGISTERED:  # storing converts the dataclass: once per process
             continue
         schema = ProbeConfig if name == "probe" else registry.get(name).schema
@@ -102,6 +106,38 @@ def register_schemas(*extra: str) -> None:
 
 
 _REGISTERED: set[str] = set()
+
+
+def registered_schemas() -> frozenset[str]:
+    """The schemas this process has put in Hydra's ConfigStore so far."""
+    return frozenset(_REGISTERED)
+
+
+@functools.lru_cache(maxsize=64)
+def schemas_of(group: str, name: str) -> frozenset[str] | None:
+    """The schemas composing ``conf/<group>/<name>.yaml`` pulls in: its own
+    ``/schema/<id>`` and those of the ``/study@...`` configs it includes, followed through
+    their defaults lists (storing one schema costs about 15 ms: a process that composes one
+    study stores what it needs, not all of them). None when the file cannot be read (then
+    every schema is registered)."""
+    from creatio.store.yamlio import load_yaml
+
+    out: set[str] = set()
+    try:
+        data = load_yaml((CONF_DIR / group / f"{name}.yaml").read_text())
+    except (OSError, ValueError):
+        return None
+    for entry in (data or {}).get("defaults", []) if isinstance(data, dict) else []:
+        if isinstance(entry, str) and entry.startswith("/schema/"):
+            out.add(entry.removeprefix("/schema/").partition("@")[0])
+        elif isinstance(entry, dict):
+            for key, value in entry.items():
+                if str(key).partition("@")[0] == "/study" and isinstance(value, str):
+                    inner = schemas_of("study", value)
+                    if inner is None:
+                        return None
+                    out |= inner
+    return frozenset(out)
 
 
 def compose(study: str, overrides: Sequence[str] = (), config_name: str | None = None
@@ -115,20 +151,41 @@ def compose(study: str, overrides: Sequence[str] = (), config_name: str | None =
     from hydra import initialize_config_dir
     from hydra.core.global_hydra import GlobalHydra
 
-    register_schemas(*([study] if study in registry.STUDIES else []))
     extra: list[str] = []
+    needed = None
     if config_name is None:
         group = registry.get(study).group
         config_name = PRIMARY[group]
         extra = [f"{group}={study}"]
+        needed = schemas_of(group, study)
+    if needed is not None and not needed <= registry.STUDIES.keys():
+        needed = None  # a schema that is not a study's: all of them
+    if needed is None:
+        register_schemas(*([study] if study in registry.STUDIES else []))
+    else:
+        register_schemas(*sorted(needed), only=True)
     # Inside a running Hydra app the global instance is taken: park it while composing.
     gh = GlobalHydra.instance()
     outer, gh.hydra = gh.hydra, None
     try:
         with initialize_config_dir(config_dir=str(CONF_DIR), version_base="1.3"):
-            return hydra_compose(config_name=config_name, overrides=[*extra, *overrides])
+            try:
+                return hydra_compose(config_name=config_name, overrides=[*extra, *overrides])
+            except Exception:
+                if needed is None or not _store_all():
+                    raise
+                # an override reached a schema the defaults lists do not name: all of them
+                return hydra_compose(config_name=config_name, overrides=[*extra, *overrides])
     finally:
         GlobalHydra.instance().hydra = outer
+
+
+def _store_all() -> bool:
+    """Register every schema of the study group and the probe's; False when each already
+    was (a composition that failed then failed for another reason)."""
+    before = len(_REGISTERED)
+    register_schemas()
+    return len(_REGISTERED) > before
 
 
 def validate(cfg: DictConfig | dict, schema: type | None = None, check: bool = True

@@ -293,11 +293,10 @@ class _SampleJob:
 # ------------------------------------------------------------------------------- tasks
 def _config(path: Path) -> Resolved:
     """The resolved EN-05 config of a config file (what the workflow writes)."""
-    import yaml
-
     from creatio.pipeline.config import validate
+    from creatio.store.yamlio import load_yaml
 
-    resolved = validate(yaml.safe_load(path.read_text()))
+    resolved = validate(load_yaml(path.read_text()))
     if resolved.id != "en05":
         raise ConfigError("--config-file", str(path), f"holds study {resolved.id}, not en05")
     return resolved

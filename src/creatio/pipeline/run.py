@@ -15,7 +15,7 @@ from typing import Any
 
 from creatio.pipeline.config import Resolved, output_root
 
-__all__ = ["compute_dataset", "run_resolved", "run_study", "write_report"]
+__all__ = ["compute_dataset", "compute_parts", "run_resolved", "run_study", "write_report"]
 
 log = logging.getLogger("creatio")
 
@@ -84,6 +84,25 @@ def write_report(study: str, outdir: Path, datasets: Sequence[Path]) -> dict[str
     return paths
 
 
+def compute_parts(resolved: Resolved, directory: Path, names: Sequence[str]) -> list[Path]:
+    """Every named part of a study written to directory/<name>.nc, the parts dealt in turn
+    to one process per free core (creatio.store.forked: this one and forked children, which
+    inherit its imports and compiled loops): EN-02's two timesteps then take the time of
+    the longer one. The datasets are those each part gives alone, whatever the split."""
+    from creatio.store.forked import cores, run_all
+
+    outs = [directory / f"{name}.nc" for name in names]
+    groups = [list(zip(names, outs, strict=True))[k::max(1, min(cores(), len(names)))]
+              for k in range(max(1, min(cores(), len(names))))]
+
+    def task(group: list[tuple[str, Path]]) -> None:
+        for name, out in group:
+            compute_dataset(resolved, out, name)
+
+    run_all([lambda g=g: task(g) for g in groups])
+    return outs
+
+
 def run_resolved(resolved: Resolved, data_dir: Path = Path("data")) -> Path:
     """Everything `snakemake all` does for one study, in this process; a run folder gets its
     overrides.json (the keys its config changes) and the index lists it."""
@@ -96,8 +115,8 @@ def run_resolved(resolved: Resolved, data_dir: Path = Path("data")) -> Path:
         record_run(root, "study", resolved.id, resolved.data, resolve(resolved.id).data,
                    None, resolved.sha256, data_dir)
     entry = resolved.entry
-    outs = [compute_dataset(resolved, Path(entry.dataset_dir(str(root))) / f"{p.name}.nc", p.name)
-            for p in entry.parts(resolved.obj)]
+    outs = compute_parts(resolved, Path(entry.dataset_dir(str(root))),
+                         [p.name for p in entry.parts(resolved.obj)])
     extra = entry.extra_function()
     if extra is not None:  # datasets the workflow makes in batch jobs, here in this process
         outs += extra(resolved, root)

@@ -135,9 +135,9 @@ def _config(args: argparse.Namespace):
         return resolve(args.scene, routed)
     if args.override:
         raise ConfigError("--override", args.override, "cannot be combined with a config")
-    import yaml
+    from creatio.store.yamlio import load_yaml
 
-    resolved = validate(yaml.safe_load(args.config_yaml))
+    resolved = validate(load_yaml(args.config_yaml))
     if resolved.id != args.scene:
         raise ConfigError("--config-yaml", resolved.id, f"is not scene {args.scene}")
     return resolved

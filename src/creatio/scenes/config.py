@@ -33,8 +33,10 @@ from creatio.pipeline.config import (
     refuse_identity,
     refuse_interpolations,
     refuse_resolvers,
+    registered_schemas,
 )
 from creatio.scenes import registry
+from creatio.studies import registry as study_registry
 
 __all__ = [
     "compose",
@@ -48,21 +50,31 @@ __all__ = [
 PRIMARY = "scene"
 
 
-def register_schemas() -> None:
+def register_schemas(scene: str | None = None) -> None:
     """Put the study schemas (the pipeline's) and every scene schema in Hydra's ConfigStore
-    (``conf/scene/<id>.yaml`` pulls in ``/schema/scene_<id>@_here_``)."""
+    (``conf/scene/<id>.yaml`` pulls in ``/schema/scene_<id>@_here_``); with ``scene``, only
+    the schemas composing that scene pulls in (creatio.pipeline.config.schemas_of), when
+    they can be told."""
     from hydra.core.config_store import ConfigStore
 
     from creatio.pipeline.config import register_schemas as register_study_schemas
+    from creatio.pipeline.config import schemas_of
 
-    register_study_schemas()
+    needed = schemas_of("scene", scene) if scene is not None else None
+    studies = None if needed is None else sorted(n for n in needed if n in study_registry.STUDIES)
+    if needed is not None and set(needed) - set(studies or ()) != {f"scene_{scene}"}:
+        needed = studies = None  # a schema neither a study's nor the scene's own: all
+    if studies is None:
+        register_study_schemas()
+    else:
+        register_study_schemas(*studies, only=True)
     cs = ConfigStore.instance()
-    for scene in registry.SCENES.values():
-        if scene.id in _REGISTERED:  # storing converts the dataclass: once per process
-            continue
-        cs.store(group="schema", name=f"scene_{scene.id}", node=scene.schema,
+    for entry in registry.SCENES.values():
+        if entry.id in _REGISTERED or (needed is not None and entry.id != scene):
+            continue  # storing converts the dataclass: once per process
+        cs.store(group="schema", name=f"scene_{entry.id}", node=entry.schema,
                  package="_global_")
-        _REGISTERED.add(scene.id)
+        _REGISTERED.add(entry.id)
 
 
 _REGISTERED: set[str] = set()
@@ -75,12 +87,22 @@ def compose(scene: str, overrides: Sequence[str] = ()) -> DictConfig:
     from hydra.core.global_hydra import GlobalHydra
 
     registry.get(scene)
-    register_schemas()
+    register_schemas(scene)
     gh = GlobalHydra.instance()
     outer, gh.hydra = gh.hydra, None  # park a running Hydra app's instance while composing
     try:
         with initialize_config_dir(config_dir=str(CONF_DIR), version_base="1.3"):
-            return hydra_compose(config_name=PRIMARY, overrides=[f"scene={scene}", *overrides])
+            try:
+                return hydra_compose(config_name=PRIMARY,
+                                     overrides=[f"scene={scene}", *overrides])
+            except Exception:
+                before = len(_REGISTERED) + len(registered_schemas())
+                register_schemas()
+                if len(_REGISTERED) + len(registered_schemas()) == before:
+                    raise
+                # an override reached a schema the defaults lists do not name: all of them
+                return hydra_compose(config_name=PRIMARY,
+                                     overrides=[f"scene={scene}", *overrides])
     finally:
         GlobalHydra.instance().hydra = outer
 

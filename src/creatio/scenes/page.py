@@ -21,12 +21,11 @@ import xarray as xr
 
 import creatio
 from creatio.scenes.assets import web_file
+from creatio.scenes.family import MAX_BYTES
 from creatio.store.atomic import atomic_save
 
 __all__ = ["MAX_BYTES", "family_data", "fill", "page_data", "write_page"]
 
-#: The largest page the project ships (the issue's limit).
-MAX_BYTES = 5 * 1024 * 1024
 
 #: The angles the page evaluates the surface with, c(alpha, R) in radians (viewer.js): the
 #: dataset states them in degree (docs/datasets.md), the page's JSON carries them in rad.

@@ -65,12 +65,11 @@ def write_scene_dataset(resolved: Resolved, out: str | Path,
 def _read(path: str | Path) -> tuple[Any, Resolved]:
     """A scene dataset and the resolved config recorded in it (validated again, but its
     family, already in the dataset, not planned again)."""
-    import yaml
-
     from creatio.store.netcdf import read_dataset
+    from creatio.store.yamlio import load_yaml
 
     ds, _ = read_dataset(path)
-    return ds, validate(yaml.safe_load(ds.attrs["config_yaml"]), family=False)
+    return ds, validate(load_yaml(ds.attrs["config_yaml"]), family=False)
 
 
 def write_page(dataset: str | Path, out: str | Path, library: str | Path) -> Path:

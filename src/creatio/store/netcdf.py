@@ -13,10 +13,10 @@ from typing import Any
 
 import numpy as np
 import xarray as xr
-import yaml
 
 from creatio.store import cf
 from creatio.store.atomic import atomic_path, clean_stale
+from creatio.store.yamlio import load_yaml
 
 __all__ = ["read_dataset", "write_dataset"]
 
@@ -100,7 +100,7 @@ def read_dataset(path: str | Path) -> tuple[xr.Dataset, dict]:
     try:
         # Times stay seconds (CF's reference date is a placeholder: docs/datasets.md).
         ds = cf.restore(xr.load_dataset(path, engine="netcdf4", decode_times=False))
-        config = yaml.safe_load(ds.attrs.get("config_yaml", "")) or {}
+        config = load_yaml(ds.attrs.get("config_yaml", "")) or {}
     except Exception as e:  # noqa: BLE001 - truncated, not NetCDF, unreadable attrs
         raise OSError(errno.EIO, f"not a readable creatio dataset ({type(e).__name__}): "
                       "remove it and rerun the rule that makes it", str(path)) from None
