@@ -321,7 +321,7 @@ def _task(argv: Sequence[str]) -> int:
 
             plan = plan_sweep(args.study, args.sweep, args.override,
                               batch_size=args.batch_size,
-                              max_points=args.max_points or MAX_POINTS)
+                              max_points=args.max_points or MAX_POINTS, check_first=False)
             if args.step == "sweep":
                 paths = write_sweep(plan)
                 log.info("sweep: %s", ", ".join(str(p) for p in paths.values()))

@@ -186,3 +186,31 @@ def test_resolved_configs_are_cached_on_disk_and_invalidated_by_any_conf_edit(tm
     study.write_text(study.read_text().replace("n_radii: 9", "n_radii: 11"))
     third, composed_third = run()
     assert composed_third == "True" and third != first
+
+
+def test_a_warm_processs_kept_compositions_are_dropped_when_conf_changes(tmp_path, repo):
+    """What a warm worker composed before forking (config.warm: EN-02's default composition
+    and resolution) serves its jobs only while conf/ is unchanged: after an edit, a job's
+    forget_if_changed drops them and the sweep base, the family links and the resolution
+    are composed again from the edited file."""
+    import shutil
+
+    conf = tmp_path / "conf"
+    shutil.copytree(repo / "conf", conf)
+    env = {**__import__("os").environ, "CREATIO_CONF_DIR": str(conf),
+           "CREATIO_CONFIG_CACHE": "off"}
+    code = (
+        "import pathlib, sys\n"
+        "from creatio.pipeline import config\n"
+        "config.warm('en02')\n"
+        "kept = config.composed('en02')\n"
+        "print(config.forget_if_changed(), config.composed('en02') is kept)\n"
+        "p = pathlib.Path(sys.argv[1])\n"
+        "p.write_text(p.read_text().replace('R: 0.43', 'R: 0.44'))\n"
+        "print(config.forget_if_changed(), config.composed('en02') is kept,\n"
+        "      config.composed('en02').study.initial.R,\n"
+        "      config.resolve('en02').obj.study.initial.R)\n"
+    )
+    out = subprocess.run([sys.executable, "-c", code, str(conf / "study" / "en02.yaml")],
+                         env=env, capture_output=True, text=True, check=True).stdout.split()
+    assert out == ["False", "True", "True", "False", "0.44", "0.44"], out

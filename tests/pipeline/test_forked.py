@@ -64,3 +64,29 @@ def test_a_sphere_report_is_the_same_bytes_with_children_or_without(tmp_path, mo
     assert out[1].keys() == out[2].keys()
     for key, path in out[1].items():
         assert path.read_bytes() == out[2][key].read_bytes(), key
+
+
+def test_a_studys_parts_computed_in_children_are_those_computed_in_order(tmp_path,
+                                                                        monkeypatch):
+    """creatio run's parts (compute_parts: EN-02's two timesteps in two processes) give the
+    datasets one process gives computing them in turn: every variable and every attribute
+    but the creation time."""
+    from creatio.pipeline.config import resolve
+    from creatio.pipeline.run import compute_parts
+    from creatio.store.netcdf import read_dataset
+
+    r = resolve("en02", ["phases.T=10", "study.duration=10"], only_applicable=True)
+    names = [p.name for p in r.entry.parts(r.obj)]
+    assert len(names) == 2
+    out = {}
+    for n in (1, 2):
+        monkeypatch.setattr(forked, "cores", lambda n=n: n)
+        (tmp_path / f"cores{n}").mkdir()
+        out[n] = compute_parts(r, tmp_path / f"cores{n}", names)
+    assert [p.name for p in out[1]] == [p.name for p in out[2]] == [f"{n}.nc" for n in names]
+    for one, two in zip(out[1], out[2], strict=True):
+        a, b = read_dataset(one)[0], read_dataset(two)[0]
+        for ds in (a, b):
+            for key in ("date_created", "history"):
+                ds.attrs.pop(key, None)
+        assert a.identical(b), one.name

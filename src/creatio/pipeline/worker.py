@@ -664,6 +664,9 @@ def _child(entry: Callable[[list[str]], int], request: Mapping[str, Any], fds: S
                                       encoding=sys.stderr.encoding, errors="backslashreplace",
                                       line_buffering=True)
         sys.argv = list(request["sys_argv"])
+        from creatio.pipeline.config import forget_if_changed
+
+        forget_if_changed()  # conf/ edited since the worker composed: compose again
         try:
             code = entry(list(request["argv"]))
         except SystemExit as e:  # a Hydra app exits

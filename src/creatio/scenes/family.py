@@ -257,14 +257,12 @@ def _same(a: Any, b: Any) -> bool:
     return str(a) == str(b)
 
 
-@functools.lru_cache(maxsize=16)
 def _links(study: str) -> tuple[tuple[str, str | None, str], ...]:
     """(key, the key it copies or None for an expression, the expression's text) of every
     interpolation in a study's composed config (``study.duration: ${..phases.T}``)."""
-    from creatio.pipeline.config import compose
-    from creatio.pipeline.sweep import interpolations
+    from creatio.pipeline.sweep import study_links
 
-    return tuple(interpolations(compose(study)))
+    return study_links(study)
 
 
 def plan_family(obj: Any) -> Family | None:
