@@ -623,7 +623,8 @@ def write_sweep(plan: SweepPlan, compute_missing: bool = False) -> dict[str, Pat
     """
     from creatio.pipeline.index import record_sweep, refresh_index
     from creatio.pipeline.io import provenance
-    from creatio.reports.sweep import write_sweep_report
+    from creatio.reports.sweep import report_paths, write_sweep_report
+    from creatio.store.forked import run_all
     from creatio.store.netcdf import write_dataset
 
     if compute_missing:
@@ -636,8 +637,12 @@ def write_sweep(plan: SweepPlan, compute_missing: bool = False) -> dict[str, Pat
                        ds.attrs["title"])
     ds.attrs = {**attrs, **ds.attrs}
     outdir = Path(plan.outdir)
-    paths = {"nc": write_dataset(ds, outdir / "sweep.nc")}
-    paths.update(write_sweep_report(ds, outdir))
+    outdir.mkdir(parents=True, exist_ok=True)
+    # the table and figure (most of the time) drawn in a forked child where a core is free,
+    # while this process writes the dataset and the record (creatio.store.forked)
+    paths = {"nc": outdir / "sweep.nc", **report_paths(outdir)}
+    run_all([lambda: write_sweep_report(ds, outdir),
+             lambda: write_dataset(ds, paths["nc"])])
     paths["record"] = record_sweep(outdir, plan.study, plan.axes, plan.base,
                                    int(ds.attrs["points"]), int(ds.attrs["points_run"]))
     if compute_missing:  # outside Snakemake (creatio run -m): no workflow hook lists it

@@ -10,7 +10,8 @@ import xarray as xr
 
 from creatio.reports.common import plt, readable_y, save_figure, table, write_text
 
-__all__ = ["axis_label", "figure_label", "log_scale", "status_cells", "write_sweep_report"]
+__all__ = ["axis_label", "figure_label", "log_scale", "report_paths", "status_cells",
+           "write_sweep_report"]
 
 #: A positive figure spanning more than this ratio is drawn on a log axis (the slip speed
 #: falls from 0.1 m/s at mu = 0 to 1e-5 m/s: on a linear axis all but one point sit at 0).
@@ -118,6 +119,11 @@ def _value(x: float) -> float | str:
     return float(x) if np.isfinite(x) else NO_VALUE
 
 
+def report_paths(outdir: str | Path) -> dict[str, Path]:
+    """The files :func:`write_sweep_report` writes into outdir."""
+    return {"md": Path(outdir) / "sweep.md", "png": Path(outdir) / "sweep.png"}
+
+
 def write_sweep_report(ds: xr.Dataset, outdir: str | Path) -> dict[str, Path]:
     """sweep.md (one row per point) and sweep.png (a line or heat map per figure)."""
     outdir = Path(outdir)
@@ -145,9 +151,8 @@ def write_sweep_report(ds: xr.Dataset, outdir: str | Path) -> dict[str, Path]:
     lines += table(header, rows)
     if notes:
         lines += ["", *[f"{n}  " for n in notes]]
-    md = outdir / "sweep.md"
+    md, png = report_paths(outdir).values()
     write_text(md, "\n".join(lines) + "\n")
-    png = outdir / "sweep.png"
     ncol = min(3, len(names)) or 1
     nrow = max(1, math.ceil(len(names) / ncol))
     fig, axes = plt.subplots(nrow, ncol, figsize=(4.6 * ncol, 3.6 * nrow), squeeze=False)
