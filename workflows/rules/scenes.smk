@@ -5,10 +5,11 @@
 #   snakemake scenes -c 2 --config 'scenes=["en02"]'            a subset of the scenes
 #
 # Each scene writes scene.nc (exactly what it draws, with provenance), index.html (one offline
-# file), animation.webp and poster.png. A sphere scene reads a study dataset of the same
-# resolved config when one exists (its extra input), else computes its frames alone. An
-# explorable scene (scene.axes) also has a family: batch jobs compute its members (each kept
-# in data/scenes/members/ and reused by key), its dataset job gathers them.
+# file), animation.webp and poster.png. Its frames job computes the scene's own frames
+# (frames.nc, temporary: what the animation draws), reading a study dataset of the same
+# resolved config when one exists (its extra input). An explorable scene (scene.axes) also
+# has a family: batch jobs compute its members (each kept in data/scenes/members/ and reused
+# by key) while the frames job and the animation run, and its dataset job gathers them.
 from creatio.scenes.assets import library_inputs
 from creatio.scenes.plan import SceneRuns, scene_ids
 
@@ -85,9 +86,33 @@ rule scene_family_batch:
         "--store {params.store} 2> {log}"
 
 
-rule scene_dataset:
+rule scene_frames:
     input:
         lambda wc: list(SCENES.reuse(wc.root, wc.scene).values()),
+        config="{root}/scenes/{scene}/config.yaml",
+    output:
+        temp("{root}/scenes/{scene}/frames.nc"),
+    wildcard_constraints:
+        scene=scene_ids(),
+    priority: 1  # first: the animation, the longest job, waits for it
+    params:
+        creatio=CREATIO,
+        code=code_version("datasets") + code_version("scenes"),
+        reuse=lambda wc: SCENES.reuse_args(wc.root, wc.scene),
+    conda:
+        "../envs/creatio.yaml"
+    benchmark:
+        "{root}/logs/scenes/{scene}_frames.tsv"
+    log:
+        "{root}/logs/scenes/{scene}_frames.log",
+    shell:
+        "{params.creatio} task scene frames {wildcards.scene} {output} "
+        "--config-file {input.config} {params.reuse} 2> {log}"
+
+
+rule scene_dataset:
+    input:
+        frames="{root}/scenes/{scene}/frames.nc",
         config="{root}/scenes/{scene}/config.yaml",
         family=lambda wc: SCENES.family(wc.root, wc.scene),
     output:
@@ -97,7 +122,6 @@ rule scene_dataset:
     params:
         creatio=CREATIO,
         code=code_version("datasets") + code_version("scenes"),
-        reuse=lambda wc: SCENES.reuse_args(wc.root, wc.scene),
         store=SCENES.store,
     conda:
         "../envs/creatio.yaml"
@@ -107,7 +131,7 @@ rule scene_dataset:
         "{root}/logs/scenes/{scene}_dataset.log",
     shell:
         "{params.creatio} task scene dataset {wildcards.scene} {output} "
-        "--config-file {input.config} {params.reuse} --family {input.family} "
+        "--config-file {input.config} --frames {input.frames} --family {input.family} "
         "--store {params.store} 2> {log}"
 
 
@@ -134,7 +158,7 @@ rule scene_page:
 
 rule scene_media:
     input:
-        "{root}/scenes/{scene}/scene.nc",
+        "{root}/scenes/{scene}/frames.nc",
     output:
         animation="{root}/scenes/{scene}/animation.webp",
         poster=reported_scene("{root}/scenes/{scene}/poster.png"),

@@ -1,13 +1,15 @@
 """`creatio task scene ...`: the steps of the scene rules (workflows/rules/scenes.smk).
 
     creatio task scene library OUT.js                       bundle three.js (npm ci + esbuild)
-    creatio task scene dataset SCENE OUT.nc [--config-file F | --config-yaml Y | --override K=V]
+    creatio task scene frames SCENE OUT.nc [--config-file F | --config-yaml Y | --override K=V]
                                             [--reuse STUDY=DATASET.nc ...]
+    creatio task scene dataset SCENE OUT.nc [--config-file F | --config-yaml Y | --override K=V]
+                                            [--reuse STUDY=DATASET.nc ... | --frames F.nc]
                                             [--family BATCH.nc ...] [--store DIR]
     creatio task scene family-batch SCENE OUT.nc --batch K [--batch-size N] [--store DIR]
                                             [--config-file F | --config-yaml Y | --override K=V]
     creatio task scene page SCENE.nc LIBRARY.js OUT.html
-    creatio task scene media SCENE.nc ANIMATION.webp POSTER.png
+    creatio task scene media FRAMES.nc ANIMATION.webp POSTER.png   (or SCENE.nc)
 """
 
 from __future__ import annotations
@@ -30,16 +32,22 @@ def main(argv: Sequence[str]) -> int:
     sub = ap.add_subparsers(dest="step", required=True)
     lib = sub.add_parser("library", help="bundle the pages' three.js (needs Node.js and npm)")
     lib.add_argument("out", type=Path)
+    fr = sub.add_parser("frames", help="compute a scene's own frames (what its animation "
+                        "draws, without the family): frames.nc")
     d = sub.add_parser("dataset", help="compute (or read) a scene's data: scene.nc")
-    d.add_argument("scene", choices=list(registry.SCENES))
-    d.add_argument("out", type=Path)
-    d.add_argument("--config-yaml", default=None, help="the resolved scene config (YAML)")
-    d.add_argument("--config-file", type=Path, default=None,
-                   help="a file holding the resolved scene config (the workflow's)")
-    d.add_argument("--override", action="append", default=[], metavar="KEY=VALUE",
-                   help="a Hydra override, routed to the scene (sphere.mu reaches its bases)")
-    d.add_argument("--reuse", action="append", default=[], metavar="STUDY=DATASET",
-                   help="read a study's frames from its own dataset instead of computing")
+    for q in (fr, d):
+        q.add_argument("scene", choices=list(registry.SCENES))
+        q.add_argument("out", type=Path)
+        q.add_argument("--config-yaml", default=None, help="the resolved scene config (YAML)")
+        q.add_argument("--config-file", type=Path, default=None,
+                       help="a file holding the resolved scene config (the workflow's)")
+        q.add_argument("--override", action="append", default=[], metavar="KEY=VALUE",
+                       help="a Hydra override, routed to the scene (sphere.mu reaches its "
+                       "bases)")
+        q.add_argument("--reuse", action="append", default=[], metavar="STUDY=DATASET",
+                       help="read a study's frames from its own dataset instead of computing")
+    d.add_argument("--frames", type=Path, default=None,
+                   help="the scene's own frames, written by `frames` (else computed here)")
     d.add_argument("--family", nargs="*", default=[], type=Path, metavar="BATCH",
                    help="the family's batch files (else the family is computed here)")
     d.add_argument("--store", type=Path, default=None,
@@ -63,7 +71,7 @@ def main(argv: Sequence[str]) -> int:
     p.add_argument("library", type=Path)
     p.add_argument("out", type=Path)
     m = sub.add_parser("media", help="write the animated WebP and the poster PNG")
-    m.add_argument("dataset", type=Path)
+    m.add_argument("dataset", type=Path, help="frames.nc (or scene.nc)")
     m.add_argument("animation", type=Path)
     m.add_argument("poster", type=Path)
     args = ap.parse_args(argv)
@@ -72,11 +80,18 @@ def main(argv: Sequence[str]) -> int:
             from creatio.scenes.assets import build_library
 
             build_library(args.out)
+        elif args.step == "frames":
+            from creatio.scenes.run import write_scene_frames
+
+            write_scene_frames(_config(args), args.out, dict(_pair(r) for r in args.reuse))
         elif args.step == "dataset":
             from creatio.scenes.run import write_scene_dataset
 
+            if args.frames is not None and args.reuse:
+                raise ConfigError("--reuse", args.reuse, "the frames given (--frames) were "
+                                  "computed with their own reused datasets")
             write_scene_dataset(_config(args), args.out, dict(_pair(r) for r in args.reuse),
-                                args.family, args.store)
+                                args.family, args.store, args.frames)
         elif args.step == "family-batch":
             _family_batch(args)
         elif args.step == "page":
