@@ -197,9 +197,9 @@ def test_the_page_draws_the_dataset_at_the_chosen_time(scene, need_chromium):
 
 
 def test_beyond_builds_the_scene_after_its_studys_dataset(tmp_path):
-    """`snakemake beyond` with EN-04 plans the scene under the same overrides, its dataset job
-    waiting for the study's control dataset of that config; `snakemake scenes` without a
-    selection leaves it out."""
+    """`snakemake beyond` with EN-04 plans the scene under the same overrides, its frames job
+    (whose frames.nc its dataset job reads) waiting for the study's control dataset of that
+    config; `snakemake scenes` without a selection leaves it out."""
     import re
 
     repo = Path(__file__).resolve().parents[2]
@@ -215,7 +215,10 @@ def test_beyond_builds_the_scene_after_its_studys_dataset(tmp_path):
               'overrides=["bases.en02.sphere.mu=0.2"]')
     study = resolve_study("en04", ["bases.en02.sphere.mu=0.2"]).key
     scene = resolve("en04", ["bases.en04.bases.en02.sphere.mu=0.2"]).key
-    inputs = re.search(rf"input: (.*)\n\s+output: data/runs/{scene}/scenes/en04/scene.nc", out)
+    inputs = re.search(rf"input: (.*)\n\s+output: data/runs/{scene}/scenes/en04/frames.nc", out)
     assert inputs is not None, out[-3000:]
     assert f"data/runs/{study}/studies/en04/en04_control.nc" in inputs.group(1).split(", ")
+    dataset = re.search(rf"input: (.*)\n\s+output: data/runs/{scene}/scenes/en04/scene.nc", out)
+    assert dataset is not None, out[-3000:]
+    assert f"data/runs/{scene}/scenes/en04/frames.nc" in dataset.group(1).split(", ")
     assert "scenes/en04/" not in dry("scenes")
