@@ -90,3 +90,27 @@ def test_a_studys_parts_computed_in_children_are_those_computed_in_order(tmp_pat
             for key in ("date_created", "history"):
                 ds.attrs.pop(key, None)
         assert a.identical(b), one.name
+
+
+def test_an_analysiss_timed_parts_are_computed_alone_in_turn(tmp_path, monkeypatch):
+    """An analysis's datasets are timings: its parts run in this process one after the
+    other, while a sphere study's are dealt to two processes."""
+    from types import SimpleNamespace
+
+    from creatio.pipeline import run
+
+    def fake(resolved, out, name):  # what compute_dataset would write, and who wrote it
+        Path(out).write_text(f"{name} {os.getpid()}\n")
+        return out
+
+    monkeypatch.setattr(forked, "cores", lambda: 2)
+    monkeypatch.setattr(run, "compute_dataset", fake)
+    pids = {}
+    for kind in ("analysis", "sphere"):
+        resolved = SimpleNamespace(entry=SimpleNamespace(kind=SimpleNamespace(name=kind)))
+        (tmp_path / kind).mkdir()
+        outs = run.compute_parts(resolved, tmp_path / kind, ["a", "b", "c"])
+        assert [p.read_text().split()[0] for p in outs] == ["a", "b", "c"]
+        pids[kind] = [int(p.read_text().split()[1]) for p in outs]
+    assert pids["analysis"] == [os.getpid()] * 3
+    assert pids["sphere"][0] == pids["sphere"][2] == os.getpid() != pids["sphere"][1]

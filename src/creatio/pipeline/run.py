@@ -84,16 +84,24 @@ def write_report(study: str, outdir: Path, datasets: Sequence[Path]) -> dict[str
     return paths
 
 
+#: The kinds whose parts may compute at once: not the analyses, whose datasets are timings
+#: (each measured alone, as their rules run them), nor EN-05's uncertainty study.
+PARALLEL_KINDS = ("sphere", "kinematic")
+
+
 def compute_parts(resolved: Resolved, directory: Path, names: Sequence[str]) -> list[Path]:
-    """Every named part of a study written to directory/<name>.nc, the parts dealt in turn
-    to one process per free core (creatio.store.forked: this one and forked children, which
-    inherit its imports and compiled loops): EN-02's two timesteps then take the time of
-    the longer one. The datasets are those each part gives alone, whatever the split."""
+    """Every named part of a study written to directory/<name>.nc. A sphere or kinematic
+    study's parts are dealt in turn to one process per free core (creatio.store.forked:
+    this one and forked children, which inherit its imports and compiled loops): EN-02's two
+    timesteps then take the time of the longer one. The datasets are those each part gives
+    alone, whatever the split."""
     from creatio.store.forked import cores, run_all
 
     outs = [directory / f"{name}.nc" for name in names]
-    groups = [list(zip(names, outs, strict=True))[k::max(1, min(cores(), len(names)))]
-              for k in range(max(1, min(cores(), len(names))))]
+    pairs = list(zip(names, outs, strict=True))
+    alone = resolved.entry.kind.name not in PARALLEL_KINDS
+    n = 1 if alone else max(1, min(cores(), len(pairs)))
+    groups = [pairs[k::n] for k in range(n)]
 
     def task(group: list[tuple[str, Path]]) -> None:
         for name, out in group:
