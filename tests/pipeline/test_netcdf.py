@@ -74,3 +74,24 @@ def test_read_missing_file_is_a_clear_error(tmp_path):
     """Reading a dataset that does not exist names the path."""
     with pytest.raises(FileNotFoundError, match="no dataset here"):
         read_dataset(tmp_path / "nope.nc")
+
+
+def test_a_dataset_read_again_is_an_equal_copy_and_a_rewrite_is_read_anew(tmp_path,
+                                                                          ct02_dataset):
+    """read_dataset keeps what it read: the same file read again gives an identical dataset
+    and config that the caller may change without changing the next read's; the file
+    written again (atomically: a new file) is read from disk, with its new values."""
+    ds = ct02_dataset[1]
+    path = write_dataset(ds, tmp_path / "ct02.nc")
+    first, config = read_dataset(path)
+    second, config2 = read_dataset(path)
+    assert second.identical(first) and config2 == config and second is not first
+    name = next(n for n, v in second.data_vars.items() if v.dtype.kind == "f")
+    second[name].values[...] = -1.0
+    config2["changed"] = True
+    third, config3 = read_dataset(path)
+    assert third.identical(first) and "changed" not in config3
+    changed = ds.copy(deep=True)
+    changed[name].values[...] = 7.0
+    write_dataset(changed, path)
+    assert (read_dataset(path)[0][name].values == 7.0).all()
