@@ -31,19 +31,20 @@ rule scenes:
         lambda wc: SCENES.targets(),
 
 
+# No params: the library exists in every invocation after the first, and checking a job's
+# params makes Snakemake's process import pandas while it builds the DAG (0.15 s of every
+# `snakemake scenes`); its command is the workflow's CREATIO, its inputs what it bundles.
 rule scene_library:
     input:
         [str(p) for p in library_inputs()],
     output:
         SCENE_LIBRARY,
-    params:
-        creatio=CREATIO,
     conda:
         "../envs/scene-library.yaml"
     log:
         "data/logs/scenes/library.log",
     shell:
-        "{params.creatio} task scene library {output} 2> {log}"
+        f"{CREATIO} task scene library {{output}} 2> {{log}}"
 
 
 rule scene_config:
