@@ -87,17 +87,52 @@ def test_a_frame_drawn_after_others_equals_it_drawn_alone(scene, overrides, tmp_
     fig = media.plt.figure(figsize=size, dpi=100)
     try:
         draw = setup(fig)
+        titles = media._Titles(fig)  # as _render draws them: the titles pasted
         order = [*indices, indices[0], got["poster"]]
         seen = []
         for i in order:
             draw(i)
-            seen.append(media._rgb(fig))
+            seen.append(titles.rgb())
     finally:
         media.plt.close(fig)
     fresh = {i: alone(i) for i in set(order)}
     assert not np.array_equal(fresh[indices[0]], fresh[indices[-1]])  # the frames differ
     for i, rgb in zip(order, seen, strict=True):
         np.testing.assert_array_equal(rgb, fresh[i], err_msg=f"{scene} frame {i}")
+
+
+def test_titles_are_drawn_whole_over_another_background_or_when_they_change():
+    """A frame with something drawn where a title sits, and a frame whose title changed,
+    are drawn whole: every frame equals it drawn with its title, pasted or not."""
+
+    def frame(fig, k: int, title: str) -> None:
+        fig.clear()
+        ax = fig.add_axes((0.1, 0.1, 0.8, 0.7))
+        ax.plot([0, 1], [0, k])
+        ax.set_title(title, y=1.02)  # placed as the scenes place theirs
+        if k == 2:  # across the title
+            fig.text(0.5, 0.84, "in the way", ha="center", color="red")
+
+    fig = media.plt.figure(figsize=(3.2, 2.0), dpi=100)
+    try:
+        frame(fig, 0, "panel")
+        titles = media._Titles(fig)
+        seen = [titles.rgb()]
+        for k in (1, 2, 3):
+            frame(fig, k, "panel")
+            titles.texts = [ax.title for ax in fig.axes if ax.title.get_text()]
+            seen.append(titles.rgb())
+        pasted = titles.pasted
+        frame(fig, 4, "another panel")
+        titles.texts = [ax.title for ax in fig.axes if ax.title.get_text()]
+        seen.append(titles.rgb())
+    finally:
+        media.plt.close(fig)
+    titled = ["panel"] * 4 + ["another panel"]
+    for k, rgb in enumerate(seen):
+        np.testing.assert_array_equal(rgb, _fresh(lambda f, k=k: frame(f, k, titled[k])),
+                                      err_msg=f"frame {k}")
+    assert pasted == 2 and not titles.static  # frames 1 and 3; frame 2 whole; then changed
 
 
 def _decoded(data: bytes) -> np.ndarray:
