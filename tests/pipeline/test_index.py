@@ -160,3 +160,30 @@ def test_a_sweep_writes_its_record(tmp_path):
                       "overrides": ["study.inclinations_deg=[0,90]"], "points": 2,
                       "points_run": 2}
     assert (tmp_path / "data" / "index.html").is_file()  # outside Snakemake: listed too
+
+
+def test_the_attributes_read_of_results_are_kept_until_a_file_changes(data, monkeypatch):
+    """A second scan lists the same results without opening a NetCDF file (their attributes
+    kept in data/.index-attrs.json by file identity); a result written again, or a damaged
+    cache, is read anew."""
+    from creatio.pipeline import index
+
+    opened: list[str] = []
+    read = index._nc_all_attrs
+
+    def counting(path):
+        opened.append(Path(path).name)
+        return read(path)
+
+    monkeypatch.setattr(index, "_nc_all_attrs", counting)
+    first = scan(data)
+    assert opened and (data / index.ATTR_CACHE).is_file()
+    opened.clear()
+    assert scan(data) == first and opened == []
+    scene = data / "scenes" / "compare" / "scene.nc"
+    write_dataset(xr.Dataset({"status": ("run", ["ok", "contact_lost"])}), scene)
+    entries = {e.name: e for e in scan(data)}
+    assert opened == ["scene.nc"] and entries["scenes/compare"].status == "contact_lost"
+    (data / index.ATTR_CACHE).write_text("{not json")
+    opened.clear()
+    assert {e.name: e for e in scan(data)} == entries and len(opened) >= 2
