@@ -286,9 +286,10 @@ def _render(setup: Setup, indices: Sequence[int], poster_index: int,
         finally:
             plt.close(fig)
 
-    # The parts are independent: each drawn and encoded by a forked child where a core is
-    # free (creatio.store.forked), handed back as a file beside the animation; the last part
-    # also draws the poster. Spliced here in order.
+    # The parts and the poster are independent: each drawn (and encoded) by a forked child
+    # where a core is free (creatio.store.forked), handed back as a file beside the
+    # animation; spliced here in order. The poster is a task of its own: drawn by the last
+    # part, as before, it made that part the job's longest by a poster's time.
     n = max(1, min(PARTS, len(indices) // 8))
     shares = [list(indices[k * len(indices) // n:(k + 1) * len(indices) // n]) for k in range(n)]
     # temporaries of creatio.store.atomic: a killed job's are cleaned by the next write
@@ -296,17 +297,17 @@ def _render(setup: Setup, indices: Sequence[int], poster_index: int,
     done: dict[int, bytes] = {}
 
     def part(k: int) -> None:
-        out = {k: _webp(draw_all(shares[k]), frame_ms, media.quality)}
-        if k == n - 1:
-            out[n] = _png(draw_all([poster_index], dpi=200)[0])
-        for j, data in out.items():
-            if k == 0:
-                done[j] = data
-            else:
-                tmps[j].write_bytes(data)
+        if k == n:
+            data = _png(draw_all([poster_index], dpi=200)[0])
+        else:
+            data = _webp(draw_all(shares[k]), frame_ms, media.quality)
+        if k == 0:
+            done[k] = data
+        else:
+            tmps[k].write_bytes(data)
 
     try:
-        forked.run_all([lambda k=k: part(k) for k in range(n)])
+        forked.run_all([lambda k=k: part(k) for k in range(n + 1)])
         data = [done[j] if j in done else tmps[j].read_bytes() for j in range(n + 1)]
     finally:
         for tmp in tmps:
