@@ -46,7 +46,6 @@ __all__ = [
     "refuse_interpolations",
     "refuse_resolvers",
     "register_schemas",
-    "registered_schemas",
     "resolve",
     "schemas_of",
     "validate",
@@ -89,30 +88,29 @@ class Resolved:
         return {name: validate(cfg) for name, cfg in self.data.get("bases", {}).items()}
 
 
-def register_schemas(*extra: str, only: bool = False) -> None:
+def register_schemas(*extra: str, only: bool = False) -> bool:
     """Put the schemas in Hydra's ConfigStore so composition is typed from the start
     (``conf/<group>/<id>.yaml`` pulls in ``/schema/<id>@_here_``): every study of the
     ``study`` group (an analysis includes them as its bases), the probe's, and the extra
     studies named (loading an analysis's schema imports its module, so only on demand);
-    ``only``: just the extra ones (what one composition needs, :func:`schemas_of`)."""
+    ``only``: just the extra ones (what one composition needs, :func:`schemas_of`). True
+    when it stored one not stored before."""
     from hydra.core.config_store import ConfigStore
 
     cs = ConfigStore.instance()
     names = [] if only else [s.id for s in registry.STUDIES.values() if s.group == "study"]
+    stored = False
     for name in [*names, *extra, *([] if only else ["probe"])]:
         if name in _REGISTERED:  # storing converts the dataclass: once per process
             continue
         schema = ProbeConfig if name == "probe" else registry.get(name).schema
         cs.store(group="schema", name=name, node=schema, package="_global_")
         _REGISTERED.add(name)
+        stored = True
+    return stored
 
 
 _REGISTERED: set[str] = set()
-
-
-def registered_schemas() -> frozenset[str]:
-    """The schemas this process has put in Hydra's ConfigStore so far."""
-    return frozenset(_REGISTERED)
 
 
 @functools.lru_cache(maxsize=64)
@@ -174,20 +172,13 @@ def compose(study: str, overrides: Sequence[str] = (), config_name: str | None =
             try:
                 return hydra_compose(config_name=config_name, overrides=[*extra, *overrides])
             except Exception:
-                if needed is None or not _store_all():
-                    raise
                 # an override reached a schema the defaults lists do not name: all of them
+                # (none new stored: the composition failed for another reason)
+                if needed is None or not register_schemas():
+                    raise
                 return hydra_compose(config_name=config_name, overrides=[*extra, *overrides])
     finally:
         GlobalHydra.instance().hydra = outer
-
-
-def _store_all() -> bool:
-    """Register every schema of the study group and the probe's; False when each already
-    was (a composition that failed then failed for another reason)."""
-    before = len(_REGISTERED)
-    register_schemas()
-    return len(_REGISTERED) > before
 
 
 def validate(cfg: DictConfig | dict, schema: type | None = None, check: bool = True
@@ -488,10 +479,9 @@ def _fingerprint() -> str:
     """sha256 over conf/ (recomputed when a file's size or modification time changes) and
     over the package sources as this process imported them (hashed once, at import: a
     process still running old code never files its results under the new code's key)."""
-    files = sorted(CONF_DIR.rglob("*.yaml"))
-    stamp = tuple((str(p), st.st_mtime_ns, st.st_size) for p in files for st in [p.stat()])
+    stamp = _conf_stamp()
     if _FINGERPRINT.get("stamp") != stamp:
-        _FINGERPRINT.update(stamp=stamp, digest=_digest(files))
+        _FINGERPRINT.update(stamp=stamp, digest=_digest([Path(p) for p, _, _ in stamp]))
     return hashlib.sha256((_FINGERPRINT["digest"] + _PACKAGE_DIGEST).encode()).hexdigest()
 
 

@@ -174,10 +174,9 @@ def _nc_attrs(path: Path) -> dict[str, Any]:
 
 
 def _plain(value: Any) -> Any:
-    """A netCDF attribute or variable as JSON: numbers, text, lists of them."""
-    if hasattr(value, "tolist"):
-        return value.tolist()
-    return value.item() if hasattr(value, "item") else value
+    """A netCDF attribute or variable as JSON: numbers, text, lists of them (numpy's
+    scalars and arrays as Python's)."""
+    return value.tolist() if hasattr(value, "tolist") else value
 
 
 def _read_attrs(path: Path) -> dict[str, Any]:

@@ -281,10 +281,11 @@ def plan_sweep(
     plan = SweepPlan(study, tuple((k, tuple(v)) for k, v in axes), base, name,
                      f"{data_dir}/sweeps/{name}", batch_size, tuple(str(t) for t in sweep),
                      max_points)
+    if not check_first:
+        return plan
     first = plan.overrides(0)
     try:
-        if check_first:
-            resolve(study, [*base, *first])
+        resolve(study, [*base, *first])
     except ConfigError as e:
         if e.key.split("[")[0] not in {k for k, _ in axes}:
             raise ConfigError(e.key, e.value, f"{e.rule} (in the base config of the sweep: "

@@ -33,7 +33,6 @@ from creatio.pipeline.config import (
     refuse_identity,
     refuse_interpolations,
     refuse_resolvers,
-    registered_schemas,
 )
 from creatio.scenes import registry
 from creatio.studies import registry as study_registry
@@ -50,31 +49,33 @@ __all__ = [
 PRIMARY = "scene"
 
 
-def register_schemas(scene: str | None = None) -> None:
+def register_schemas(scene: str | None = None) -> bool:
     """Put the study schemas (the pipeline's) and every scene schema in Hydra's ConfigStore
     (``conf/scene/<id>.yaml`` pulls in ``/schema/scene_<id>@_here_``); with ``scene``, only
     the schemas composing that scene pulls in (creatio.pipeline.config.schemas_of), when
-    they can be told."""
+    they can be told. True when it stored one not stored before."""
     from hydra.core.config_store import ConfigStore
 
     from creatio.pipeline.config import register_schemas as register_study_schemas
     from creatio.pipeline.config import schemas_of
 
     needed = schemas_of("scene", scene) if scene is not None else None
-    studies = None if needed is None else sorted(n for n in needed if n in study_registry.STUDIES)
-    if needed is not None and set(needed) - set(studies or ()) != {f"scene_{scene}"}:
-        needed = studies = None  # a schema neither a study's nor the scene's own: all
-    if studies is None:
-        register_study_schemas()
-    else:
-        register_study_schemas(*studies, only=True)
+    studies = sorted(set(needed or ()) & study_registry.STUDIES.keys())
+    if needed is not None and needed - set(studies) == {f"scene_{scene}"}:
+        stored = register_study_schemas(*studies, only=True)
+        scenes = [registry.get(scene)]
+    else:  # every scene, or a schema neither a study's nor the scene's own: all of them
+        stored = register_study_schemas()
+        scenes = list(registry.SCENES.values())
     cs = ConfigStore.instance()
-    for entry in registry.SCENES.values():
-        if entry.id in _REGISTERED or (needed is not None and entry.id != scene):
-            continue  # storing converts the dataclass: once per process
+    for entry in scenes:
+        if entry.id in _REGISTERED:  # storing converts the dataclass: once per process
+            continue
         cs.store(group="schema", name=f"scene_{entry.id}", node=entry.schema,
                  package="_global_")
         _REGISTERED.add(entry.id)
+        stored = True
+    return stored
 
 
 _REGISTERED: set[str] = set()
@@ -96,11 +97,10 @@ def compose(scene: str, overrides: Sequence[str] = ()) -> DictConfig:
                 return hydra_compose(config_name=PRIMARY,
                                      overrides=[f"scene={scene}", *overrides])
             except Exception:
-                before = len(_REGISTERED) + len(registered_schemas())
-                register_schemas()
-                if len(_REGISTERED) + len(registered_schemas()) == before:
-                    raise
                 # an override reached a schema the defaults lists do not name: all of them
+                # (none new stored: the composition failed for another reason)
+                if not register_schemas():
+                    raise
                 return hydra_compose(config_name=PRIMARY,
                                      overrides=[f"scene={scene}", *overrides])
     finally:

@@ -257,18 +257,10 @@ def _same(a: Any, b: Any) -> bool:
     return str(a) == str(b)
 
 
-def _links(study: str) -> tuple[tuple[str, str | None, str], ...]:
-    """(key, the key it copies or None for an expression, the expression's text) of every
-    interpolation in a study's composed config (``study.duration: ${..phases.T}``)."""
-    from creatio.pipeline.sweep import study_links
-
-    return study_links(study)
-
-
 def plan_family(obj: Any) -> Family | None:
     """The family a sphere scene config declares (None without axes). Checks every axis
     against the scene's studies and the page size; lists no member."""
-    from creatio.pipeline.sweep import MAX_BATCH, parse_axes
+    from creatio.pipeline.sweep import MAX_BATCH, parse_axes, study_links
 
     declared = flatten_axes(obj.scene.axes)
     if not declared:
@@ -325,7 +317,9 @@ def plan_family(obj: Any) -> Family | None:
             values.insert(at, base_value)
             hit = [at]
         for study in own:
-            for dep, source, text in _links(obj.bases[study].study.id):
+            # (key, the key it copies or None for an expression, the expression's text)
+            # of every interpolation in the study's config (study.duration: ${..phases.T})
+            for dep, source, text in study_links(obj.bases[study].study.id):
                 if source == key and _same(_get(obj.bases[study], dep), base_value):
                     links.append((study, key, dep))
                 elif source is None and key in text:

@@ -157,10 +157,8 @@ class _Titles:
             return _rgb(self.fig)
         if self.kept is None:
             full = _rgb(self.fig)
-            renderer = self.fig.canvas.get_renderer()
-            boxes = [_box(t.get_window_extent(renderer), full.shape, self.MARGIN)
-                     for t in self.texts]
             extents = self._extents()
+            boxes = [_box(e, full.shape, self.MARGIN) for e in extents]
             bare = self._bare()
             self.kept = (self._keys(), extents, boxes, [full[b].copy() for b in boxes],
                          [bare[b].copy() for b in boxes])
@@ -179,14 +177,16 @@ class _Titles:
         return bare
 
 
-def _box(extent: Any, shape: tuple[int, ...], margin: int) -> tuple[slice, slice]:
-    """Rows and columns of an image (top row first) covering a display box (origin at the
-    bottom left), widened by margin pixels and cut to the image."""
+def _box(bounds: tuple[float, float, float, float], shape: tuple[int, ...],
+         margin: int) -> tuple[slice, slice]:
+    """Rows and columns of an image (top row first) covering a display box (x0, y0, width,
+    height, origin at the bottom left), widened by margin pixels and cut to the image."""
+    x0, y0, w, h = bounds
     height, width = shape[0], shape[1]
-    top = max(0, height - math.ceil(extent.y1) - margin)
-    bottom = min(height, height - math.floor(extent.y0) + margin)
-    left = max(0, math.floor(extent.x0) - margin)
-    right = min(width, math.ceil(extent.x1) + margin)
+    top = max(0, height - math.ceil(y0 + h) - margin)
+    bottom = min(height, height - math.floor(y0) + margin)
+    left = max(0, math.floor(x0) - margin)
+    right = min(width, math.ceil(x0 + w) + margin)
     return slice(top, bottom), slice(left, right)
 
 
