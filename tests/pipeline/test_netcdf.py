@@ -78,9 +78,9 @@ def test_read_missing_file_is_a_clear_error(tmp_path):
 
 def test_a_dataset_read_again_is_an_equal_copy_and_a_rewrite_is_read_anew(tmp_path,
                                                                           ct02_dataset):
-    """read_dataset keeps what it read: the same file read again gives an identical dataset
-    and config that the caller may change without changing the next read's; the file
-    written again (atomically: a new file) is read from disk, with its new values."""
+    """The same file read again gives an identical dataset and config that the caller may
+    change without changing the next read's; the file written again (atomically: a new
+    file) is read with its new values."""
     ds = ct02_dataset[1]
     path = write_dataset(ds, tmp_path / "ct02.nc")
     first, config = read_dataset(path)

@@ -3,12 +3,10 @@ atomically (creatio.store.atomic), and read back as their study made them."""
 
 from __future__ import annotations
 
-import copy
 import errno
 import json
 import os
 import shutil
-from collections import OrderedDict
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
@@ -93,27 +91,12 @@ def write_dataset(ds: xr.Dataset, path: str | Path) -> Path:
     return path
 
 
-#: Datasets this process has read, by file identity (path, device, inode, size, modification
-#: time: an atomic rewrite is a new inode), most recent last: a report reads the datasets its
-#: checks have just read (creatio.pipeline.run.write_report), 20-25 ms each for EN-02's.
-_READ: OrderedDict[tuple, tuple[xr.Dataset, dict]] = OrderedDict()
-#: How many are kept, and the largest kept (bytes in memory).
-READ_KEPT, READ_KEPT_BYTES = 8, 32 * 2**20
-
-
 def read_dataset(path: str | Path) -> tuple[xr.Dataset, dict]:
     """Load a dataset fully into memory and return it with its resolved config, as its
-    study made it: the units it stated and text labels as strings (cf.restore). Each call
-    returns its own copy (a file read again unchanged comes from memory)."""
+    study made it: the units it stated and text labels as strings (cf.restore)."""
     path = Path(path)
     if not path.is_file():
         raise FileNotFoundError(errno.ENOENT, "no dataset here", str(path))
-    st = path.stat()
-    key = (str(path.resolve()), st.st_dev, st.st_ino, st.st_size, st.st_mtime_ns)
-    if key in _READ:
-        _READ.move_to_end(key)
-        ds, config = _READ[key]
-        return ds.copy(deep=True), copy.deepcopy(config)
     try:
         # Times stay seconds (CF's reference date is a placeholder: docs/datasets.md).
         ds = cf.restore(xr.load_dataset(path, engine="netcdf4", decode_times=False))
@@ -121,8 +104,4 @@ def read_dataset(path: str | Path) -> tuple[xr.Dataset, dict]:
     except Exception as e:  # noqa: BLE001 - truncated, not NetCDF, unreadable attrs
         raise OSError(errno.EIO, f"not a readable creatio dataset ({type(e).__name__}): "
                       "remove it and rerun the rule that makes it", str(path)) from None
-    if ds.nbytes <= READ_KEPT_BYTES:
-        _READ[key] = (ds.copy(deep=True), copy.deepcopy(config))
-        while len(_READ) > READ_KEPT:
-            _READ.popitem(last=False)
     return ds, config
