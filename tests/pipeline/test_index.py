@@ -17,6 +17,7 @@ from creatio.cli import main as cli
 from creatio.pipeline.config import resolve
 from creatio.pipeline.index import (
     changes,
+    record_calibration,
     record_run,
     record_sweep,
     refresh_index,
@@ -187,3 +188,80 @@ def test_the_attributes_read_of_results_are_kept_until_a_file_changes(data, monk
     (data / index.ATTR_CACHE).write_text("{not json")
     opened.clear()
     assert {e.name: e for e in scan(data)} == entries and len(opened) >= 2
+
+
+def _calibration(data: Path, name: str) -> Path:
+    """A calibration folder as `creatio calibrate` leaves it (dataset, JSON report, markdown,
+    figure)."""
+    folder = data / "calibration" / name
+    ds = _dataset("ok")
+    ds.attrs.update(study="en02", track_file="tracks/lab.csv")
+    write_dataset(ds, folder / "calibration.nc")
+    (folder / "calibration.json").write_text(json.dumps(
+        {"study": "en02", "track": "tracks/lab.csv", "status": "ok",
+         "estimate": {"sphere.mu": 0.21, "sphere.eps": 0.01}}))
+    (folder / "calibration.md").write_text("# Calibration of en02 to lab.csv\n")
+    (folder / "calibration.png").write_bytes(b"png")
+    return folder
+
+
+def test_calibrations_are_listed_and_opened(data, capsys, monkeypatch):
+    """Issue 34.6: a calibration is a result: in `creatio ls`, on the index page, found by
+    `creatio open`; what made it from its record when there is one, else its report."""
+    _calibration(data, "lab-0123456789ab")
+    example = _calibration(data, "en02_example")
+    record = record_calibration(example, "en02r", "examples/tracks/en02_synthetic.csv",
+                                ["sphere.mu"], ["phases.T=10.0"], "ab" * 32)
+    assert json.loads(record.read_text()) == {
+        "kind": "calibration", "name": "en02_example", "study": "en02r",
+        "track": "examples/tracks/en02_synthetic.csv", "fit": ["sphere.mu"],
+        "overrides": ["phases.T=10.0"], "config_sha256": "ab" * 32}
+    entries = {e.name: e for e in scan(data)}
+    lab = entries["calibration/lab-0123456789ab"]
+    assert (lab.kind, lab.study, lab.status) == ("calibration", "en02", "ok")
+    assert lab.overrides == ["track=lab.csv", "fit=[sphere.mu,sphere.eps]"]
+    assert lab.main == "calibration/lab-0123456789ab/calibration.md"
+    assert set(lab.links) == {"report", "figure", "summary", "dataset"}
+    example = entries["calibration/en02_example"]
+    assert example.study == "en02r"  # the record wins over the report
+    assert example.overrides == ["track=en02_synthetic.csv", "fit=[sphere.mu]",
+                                 "phases.T=10.0"]
+    monkeypatch.chdir(data.parent)
+    assert cli(["ls"]) == 0
+    out = capsys.readouterr().out
+    assert "calibration/lab-0123456789ab" in out and "8 result(s)" in out
+    row = next(line for line in out.splitlines() if "lab-0123456789ab" in line)
+    assert row.split()[0] == "calibration"
+    assert cli(["open", "lab-0123"]) == 0
+    assert capsys.readouterr().out.strip() == str(
+        (data / "calibration" / "lab-0123456789ab" / "calibration.md").resolve())
+    page = write_index(data).read_text()
+    assert "Calibrations (data/calibration/)" in page
+    assert "href='calibration/en02_example/calibration.png'" in page
+
+
+def test_the_index_says_what_is_not_built_and_how(data):
+    """Issue 34.7: the page names the targets with no result yet and the command for each;
+    a target once built leaves the list."""
+    from creatio.pipeline.index import unbuilt
+    from creatio.studies import registry
+
+    todo = {t: (what, command) for t, what, command in unbuilt(scan(data), data)}
+    beyond = [s.id for s in registry.select(kind="sphere", in_all=False)]
+    assert todo["beyond"] == (f"the studies beyond the notebook: {', '.join(beyond)}",
+                              "snakemake beyond -c 2")
+    assert todo["en05"][1] == "snakemake en05 -c 2"
+    assert todo["calibrate_example"][1] == "snakemake calibrate_example -c 1"
+    analyses = [s.id for s in registry.select(kind="analysis")]
+    assert todo["benchmarks"][0].endswith(", ".join(a for a in analyses
+                                                    if a != "stability_map"))
+    assert "compare" not in todo["scenes"][0] and "en02r" in todo["scenes"][0]
+    missing = {s.id for s in registry.select(in_all=True)} - {"en02"}
+    assert set(todo["all"][0].split(": ")[1].split(", ")) == missing
+    assert "sweep_en02_mu" not in todo  # a sweep is built
+    page = write_index(data).read_text()
+    assert "<h2>Not built yet</h2>" in page
+    for target, (_, command) in todo.items():
+        assert f"<td class=name>{target}</td>" in page and f"<code>{command}</code>" in page
+    _calibration(data, "en02_example")
+    assert "calibrate_example" not in {t for t, _, _ in unbuilt(scan(data), data)}

@@ -235,3 +235,92 @@ def test_diff_refuses_a_release_file_that_no_longer_matches(data_dir, layout):
     target.write_text(json.dumps({"study": "ct02", "figure": 2.0}))
     with pytest.raises(DamagedRelease, match=r"reports/ct02\.json: sha256 .* != manifest"):
         diff(str(dest), str(data_dir))
+
+
+def _rewrite(dest: Path, edit) -> dict:
+    """Apply edit(manifest) to a release's MANIFEST.json (made writable) and return it."""
+    path = dest / "MANIFEST.json"
+    path.chmod(0o644)
+    manifest = json.loads(path.read_text())
+    edit(manifest)
+    path.write_text(json.dumps(manifest, indent=2))
+    return manifest
+
+
+def _replace_file(dest: Path, rel: str, body: bytes, manifest: dict) -> None:
+    """Put body at rel and rewrite its entry (size, sha256, total) to match, as a forger
+    would: the digests alone then pass."""
+    target = dest / rel
+    target.chmod(0o644)
+    target.write_bytes(body)
+    entry = next(f for f in manifest["files"] if f["path"] == rel)
+    entry.update(size=len(body), sha256=hashlib.sha256(body).hexdigest())
+    manifest["total_size"] = sum(f["size"] for f in manifest["files"])
+    (dest / "MANIFEST.json").write_text(json.dumps(manifest, indent=2))
+
+
+def test_a_duplicated_manifest_entry_is_refused(data_dir, layout, capsys):
+    """Issue 38.10: an entry listed twice passed verify; the manifest is damaged (exit 2)."""
+    dest, _, _ = make_release("0.2.0", data_dir, layout=layout)
+    _rewrite(dest, lambda m: m["files"].append(dict(m["files"][0])))
+    assert release.main(["verify", "0.2.0", "--data-dir", str(data_dir)]) == 2
+    err = capsys.readouterr().err
+    assert "'studies/ct02/ct02.nc' is listed twice" in err and len(err.splitlines()) == 1
+    _rewrite(dest, lambda m: (m["files"].pop(), m["omitted"].append(
+        {"path": m["files"][1]["path"]})))  # kept and omitted at once: twice too
+    with pytest.raises(ReleaseError, match="listed twice"):
+        verify_release(dest)
+
+
+@pytest.mark.parametrize(("body", "problem"), [
+    (b"", "empty (a release never holds an empty file)"),
+    (b"CDF\x01 not really", "not a readable NetCDF dataset"),
+])
+def test_a_dataset_that_is_not_netcdf_is_refused_whatever_the_manifest_says(
+        data_dir, layout, body, problem, capsys):
+    """Issue 38.10: a 0-byte dataset whose entry was rewritten to size 0 and the matching
+    sha256 passed verify; a dataset must be a readable NetCDF file (exit 1, one line)."""
+    dest, manifest, _ = make_release("0.2.0", data_dir, layout=layout)
+    assert verify_release(dest) == []
+    (dest / "MANIFEST.json").chmod(0o644)
+    _replace_file(dest, "studies/ct02/ct02.nc", body, manifest)
+    problems = verify_release(dest)
+    assert len(problems) == 1 and problems[0].startswith(f"studies/ct02/ct02.nc: {problem}")
+    assert release.main(["verify", "0.2.0", "--data-dir", str(data_dir)]) == 1
+    err = capsys.readouterr().err
+    assert problem in err and len(err.splitlines()) == 1
+    from creatio.diff.core import DamagedRelease
+
+    with pytest.raises(DamagedRelease, match=problem.split(" (")[0]):
+        diff(str(dest), str(data_dir))
+
+
+def test_a_dataset_of_another_study_is_refused(data_dir, layout):
+    """A dataset swapped for another study's, its entry rewritten to the new digest: the
+    file's own study and config hash are not the entry's."""
+    dest, manifest, _ = make_release("0.2.0", data_dir, layout=layout)
+    (dest / "MANIFEST.json").chmod(0o644)
+    other = (dest / "studies" / "en02" / "en02_dt0.002.nc").read_bytes()
+    _replace_file(dest, "studies/ct02/ct02.nc", other, manifest)
+    assert verify_release(dest) == ["studies/ct02/ct02.nc: a dataset of study 'en02', "
+                                    "listed as 'ct02'",
+                                    "studies/ct02/ct02.nc: a dataset of config_sha256 "
+                                    f"{config_for('en02')[1][:12]!r}, listed as "
+                                    f"{config_for('ct02')[1][:12]!r}"]
+
+
+def test_a_size_or_total_that_is_not_the_files_is_refused(data_dir, layout):
+    """A listed size other than the file's, and a total other than the sum, are problems
+    even where the sha256 matches."""
+    dest, _, _ = make_release("0.2.0", data_dir, layout=layout)
+    real = (dest / "reports" / "ct02.md").stat().st_size
+    total = sum(p.stat().st_size for p in dest.rglob("*")
+                if p.is_file() and p.name != "MANIFEST.json")  # measured, not read back
+
+    def resize(m: dict) -> None:
+        next(f for f in m["files"] if f["path"] == "reports/ct02.md")["size"] = real + 1
+    _rewrite(dest, resize)
+    assert verify_release(dest) == [f"reports/ct02.md: size {real} != manifest {real + 1}"]
+    _rewrite(dest, lambda m: m.update(total_size=total + 7))
+    assert verify_release(dest)[1:] == [f"MANIFEST.json: total_size {total + 7} != {total}, "
+                                        "the sum of the listed sizes"]

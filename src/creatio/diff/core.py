@@ -37,6 +37,7 @@ from creatio.pipeline.release import (
     verify_release,
 )
 from creatio.store.atomic import atomic_write
+from creatio.store.regular import read_json
 
 __all__ = ["DamagedRelease", "DiffError", "Tolerance", "compare_arrays", "diff", "main",
            "render_text"]
@@ -482,6 +483,9 @@ def tree_files(root: Path) -> dict[str, Path]:
 def resolve_side(spec: str, data_dir: str | Path = "data") -> Side:
     """A file, a directory, a release version or 'latest' (in <data_dir>/releases)."""
     path = Path(spec)
+    if path.exists() and not path.is_file() and not path.is_dir():
+        raise DiffError(f"{spec}: not a regular file (a FIFO, a device or a socket): creatio "
+                        "compares regular files only")
     if path.is_file():
         if path.name == MANIFEST:
             path = path.parent
@@ -492,7 +496,7 @@ def resolve_side(spec: str, data_dir: str | Path = "data") -> Side:
         else:
             raise DiffError(f"{spec}: not a dataset (.nc) or a report (.json)")
     if path.is_dir():
-        if (path / MANIFEST).is_file():
+        if (path / MANIFEST).exists():  # read_manifest refuses one that is not a file
             try:
                 manifest = read_manifest(path)
             except ReleaseError as e:
@@ -535,7 +539,7 @@ def _load_dataset(path: Path) -> tuple[xr.Dataset, dict]:
 
 def _load_report(path: Path) -> dict:
     try:
-        data = json.loads(path.read_text())
+        data = read_json(path)
     except (OSError, ValueError) as e:
         raise DiffError(f"cannot read report {path}: {e}") from None
     if not isinstance(data, dict):

@@ -2,13 +2,16 @@
 
 The pipeline writes results in stable folders for the default configs (``data/studies``,
 ``data/reports``, ``data/scenes``, ``data/benchmarks``) and in hash-named ones for the rest
-(``data/runs/<config hash>/``, ``data/sweeps/<study>-<sweep hash>/``). Each hash-named folder
-gets a small ``overrides.json`` beside its files (:func:`record_run`, :func:`record_sweep`,
-written by the jobs that make the folder): what made it, as given and as the resolved config
-differs from the default. :func:`scan` lists every built study, run, sweep, scene and
-benchmark with its overrides, status and files; :func:`write_index` writes the static page
-(offline, relative links), :func:`main` is `creatio ls` / `creatio open`. Scanning reads
-small files only (JSON reports, NetCDF attributes): no numba, nothing recomputed.
+(``data/runs/<config hash>/``, ``data/sweeps/<study>-<sweep hash>/``,
+``data/calibration/<track>-<hash>/``). Each hash-named folder gets a small ``overrides.json``
+beside its files (:func:`record_run`, :func:`record_sweep`, written by the jobs that make the
+folder): what made it, as given and as the resolved config differs from the default.
+:func:`scan` lists every built study, run, sweep, scene, calibration and benchmark with its
+overrides, status and files; :func:`write_index` writes the static page (offline, relative
+links) with the targets not built yet and the command that builds each (:func:`unbuilt`),
+:func:`main` is `creatio ls` / `creatio open`. Scanning reads small files only (JSON
+reports, NetCDF attributes), and only regular files (a FIFO in their place is skipped with a
+note): no numba, nothing recomputed.
 """
 
 from __future__ import annotations
@@ -25,16 +28,23 @@ from pathlib import Path
 from typing import Any
 
 from creatio.errors import Parser
+from creatio.store.regular import NotRegularFile, check_regular, read_json, read_text
 
-__all__ = ["INDEX", "RECORD", "Entry", "changes", "main", "record_run",
-           "record_sweep", "refresh_index", "render_table", "scan", "write_index"]
+__all__ = ["CALIBRATION_FILES", "INDEX", "RECORD", "Entry", "changes", "main",
+           "record_calibration", "record_run", "record_sweep", "refresh_index", "render_table",
+           "scan", "unbuilt", "write_index"]
 
 #: The record beside a hash-named folder's files.
 RECORD = "overrides.json"
 #: The index page, in the data directory.
 INDEX = "index.html"
 #: Kinds of result, in the order the index lists them.
-KINDS = ("study", "run", "sweep", "scene", "benchmark")
+KINDS = ("study", "run", "sweep", "scene", "calibration", "benchmark")
+#: Where `creatio calibrate` writes by default (one folder per track and fit), and the files
+#: of a calibration folder by link name (creatio.pipeline.calibrate, creatio.reports.en05).
+CALIBRATION_DIR = "calibration"
+CALIBRATION_FILES = (("report", "calibration.md"), ("figure", "calibration.png"),
+                     ("summary", "calibration.json"), ("dataset", "calibration.nc"))
 
 
 # ------------------------------------------------------------------------------ records
@@ -99,6 +109,17 @@ def record_sweep(outdir: str | Path, study: str, axes: Sequence[tuple[str, Seque
     })
 
 
+def record_calibration(outdir: str | Path, study: str, track: str | Path, fit: Sequence[str],
+                       overrides: Sequence[str], sha256: str) -> Path:
+    """Write ``<outdir>/overrides.json`` for a calibration folder (`creatio calibrate`): the
+    study, the track fitted, the keys fitted, the study's overrides and its config hash."""
+    return _write_json(Path(outdir) / RECORD, {
+        "kind": "calibration", "name": Path(outdir).name, "study": study,
+        "track": str(track), "fit": list(fit), "overrides": list(overrides),
+        "config_sha256": sha256,
+    })
+
+
 # ------------------------------------------------------------------------------ scanning
 @dataclass
 class Entry:
@@ -134,9 +155,30 @@ def _mtime(paths: Sequence[Path]) -> float:
     return max((p.stat().st_mtime for p in paths if p.exists()), default=0.0)
 
 
+def _regular(path: Path) -> bool:
+    """Whether path is a regular file to list; a note when something else stands there."""
+    if path.is_file():
+        return True
+    if path.exists():
+        _note(f"{path}: not a regular file: skipped")
+    return False
+
+
+def _note(text: str) -> None:
+    """Keep a note for the end of the scan (`creatio ls` prints each on one line)."""
+    notes = _ATTRS.get("notes")
+    if isinstance(notes, list) and text not in notes:
+        notes.append(text)
+
+
 def _json(path: Path) -> dict[str, Any]:
+    """A small JSON object of a result (a record, a report); {} when absent or unreadable,
+    with a note when it is not a regular file (a FIFO would block the whole listing)."""
     try:
-        data = json.loads(path.read_text())
+        data = read_json(path)
+    except NotRegularFile as e:
+        _note(f"{e}: skipped")
+        return {}
     except (OSError, ValueError):
         return {}
     return data if isinstance(data, dict) else {}
@@ -184,6 +226,9 @@ def _read_attrs(path: Path) -> dict[str, Any]:
     variable); {} if unreadable."""
     try:
         out = _nc_all_attrs(path)
+    except NotRegularFile as e:
+        _note(f"{e}: skipped")
+        return {}
     except Exception:  # noqa: BLE001 - an unreadable file is listed as such
         return {}
     return {k: _plain(v) for k, v in out.items() if k in LISTED_ATTRS}
@@ -193,6 +238,7 @@ def _nc_all_attrs(path: Path) -> dict[str, Any]:
     """Global attributes of a NetCDF file, and its status variable as text."""
     import netCDF4
 
+    check_regular(path)  # netCDF4 would wait forever on a FIFO
     with netCDF4.Dataset(path) as nc:
         out = {k: nc.getncattr(k) for k in nc.ncattrs()}
         if "status" in nc.variables and "status" not in out:
@@ -220,7 +266,7 @@ def _study_entries(root: Path, data_dir: Path, kind: str, overrides: list[str],
     out = []
     for study in registry.STUDIES.values():
         base = root / study.kind.dataset_dir / study.id
-        datasets = sorted(base.glob("*.nc")) if base.is_dir() else []
+        datasets = sorted(p for p in base.glob("*.nc") if _regular(p)) if base.is_dir() else []
         reports_dir = root / study.kind.report_dir
         reports = [p for p in (reports_dir / f"{study.id}{s}" for s in study.kind.reports)
                    if p.is_file()]
@@ -287,8 +333,11 @@ def _run_overrides(root: Path) -> list[str]:
         try:
             import yaml
 
-            data = yaml.safe_load(config.read_text()) or {}
+            data = yaml.safe_load(read_text(config)) or {}
             default = resolve(config.stem).data
+        except NotRegularFile as e:
+            _note(f"{e}: skipped")
+            continue
         except Exception:  # noqa: BLE001 - a config no longer valid: say so, list the rest
             out.append(f"({config.name}: not comparable with today's default)")
             continue
@@ -326,19 +375,60 @@ def _sweep_entries(data_dir: Path) -> list[Entry]:
     return out
 
 
-def scan(data_dir: str | Path = "data") -> list[Entry]:
+def _strings(value: Any) -> list[str]:
+    """The text items of a list read from JSON ([] for anything else)."""
+    return [v for v in value if isinstance(v, str)] if isinstance(value, list) else []
+
+
+def _calibration_entries(data_dir: Path) -> list[Entry]:
+    """The calibrations `creatio calibrate` wrote under data_dir/calibration/ (one folder
+    each): the study and track from the folder's record (overrides.json, when the command
+    wrote one), else from its JSON report or dataset; the fit's status."""
+    out = []
+    base = data_dir / CALIBRATION_DIR
+    for folder in sorted(base.glob("*")) if base.is_dir() else []:
+        if not folder.is_dir():
+            continue
+        present = {k: folder / f for k, f in CALIBRATION_FILES if (folder / f).is_file()}
+        if not present:
+            continue
+        record = _json(folder / RECORD)
+        summary = _json(present["summary"]) if "summary" in present else {}
+        attrs = _nc_attrs(present["dataset"]) if "dataset" in present else {}
+        study = str(record.get("study") or summary.get("study") or attrs.get("study") or "?")
+        track = record.get("track") or summary.get("track")
+        fit = _strings(record.get("fit")) or _strings(list(summary.get("estimate") or {}))
+        given = _strings(record.get("overrides"))
+        overrides = [*([f"track={Path(str(track)).name}"] if track else []),
+                     *([f"fit=[{','.join(fit)}]"] if fit else []),
+                     *(o for o in given if not o.startswith(("track=", "fit=", "study=")))]
+        status = str(summary.get("status") or attrs.get("status") or "ok")
+        if "summary" not in present:
+            status = f"{status}; report not built"
+        out.append(Entry("calibration", f"{CALIBRATION_DIR}/{folder.name}", study, overrides,
+                         status, _mtime(list(present.values())), _rel(folder, data_dir),
+                         {k: _rel(p, data_dir) for k, p in present.items()}))
+    return out
+
+
+def scan(data_dir: str | Path = "data", notes: list[str] | None = None) -> list[Entry]:
     """Every built result under data_dir: default studies and benchmarks, runs (each
-    data/runs/<hash>/ with its overrides), sweeps, scenes; in KINDS order, then by name.
-    The attributes it reads of NetCDF files are kept in data_dir/:data:`ATTR_CACHE`."""
+    data/runs/<hash>/ with its overrides), sweeps, scenes, calibrations; in KINDS order,
+    then by name. The attributes it reads of NetCDF files are kept in
+    data_dir/:data:`ATTR_CACHE`; what it skipped (a file that is not a regular file) is
+    added to notes, one line each."""
     data_dir = Path(data_dir)
     cache = data_dir / ATTR_CACHE
     try:
-        kept = json.loads(cache.read_text())
+        kept = read_json(cache)
     except (OSError, ValueError):
         kept = {}
-    _ATTRS.update(files=kept if isinstance(kept, dict) else {}, seen=set(), changed=False)
+    _ATTRS.update(files=kept if isinstance(kept, dict) else {}, seen=set(), changed=False,
+                  notes=[])
     try:
         entries = _scan(data_dir)
+        if notes is not None:
+            notes.extend(_ATTRS["notes"])
         files, seen = _ATTRS["files"], _ATTRS["seen"]
         if _ATTRS["changed"] or set(files) - seen:  # new reads, or files gone
             with contextlib.suppress(OSError):
@@ -361,6 +451,7 @@ def _scan(data_dir: Path) -> list[Entry]:
         entries += _study_entries(root, data_dir, "run", overrides, prefix)
         entries += _scene_entries(root, data_dir, overrides, prefix)
     entries += _sweep_entries(data_dir)
+    entries += _calibration_entries(data_dir)
     from creatio.studies import registry
 
     order = {s: i for i, s in enumerate(registry.STUDIES)}  # the notebook's order
@@ -385,7 +476,7 @@ def render_table(entries: Sequence[Entry], data_dir: str | Path = "data") -> str
     for e in entries:
         rows.append((e.kind, e.name, e.status, " ".join(e.overrides) or "default",
                      _when(e.updated), f"{Path(data_dir) / e.main}"))
-    caps = (9, 36, 28, 44, 16, 200)
+    caps = (11, 36, 28, 44, 16, 200)
     widths = [min(cap, max(len(r[i]) for r in rows)) for i, cap in enumerate(caps)]
 
     def cut(text: str, width: int) -> str:
@@ -413,10 +504,56 @@ a{color:#1a56b0;text-decoration:none;margin-right:.7em}a:hover{text-decoration:u
 
 _TITLES = {"study": "Studies (default configs)", "run": "Runs with overrides (data/runs/)",
            "sweep": "Sweeps (data/sweeps/)", "scene": "Scenes",
+           "calibration": "Calibrations (data/calibration/)",
            "benchmark": "Benchmarks (data/benchmarks/)"}
 _HOW = {"study": "make all", "run": "snakemake all -c 2 --config 'overrides=[...]'",
         "sweep": "snakemake sweep_en02_mu -c 2", "scene": "snakemake scenes -c 2",
+        "calibration": "creatio calibrate study=en02 track=TRACK.csv",
         "benchmark": "snakemake benchmarks -c 1"}
+#: The calibration of the committed example track (snakemake calibrate_example).
+EXAMPLE_CALIBRATION = f"{CALIBRATION_DIR}/en02_example"
+
+
+def unbuilt(entries: Sequence[Entry], data_dir: str | Path = "data") -> list[tuple[str, str,
+                                                                                  str]]:
+    """The targets the workflow knows that have no result under data_dir yet, as (target,
+    what it makes, the command that builds it): the default studies, the studies beyond
+    the notebook, EN-05, the example calibration, the benchmarks, the scenes, a sweep."""
+    from creatio.pipeline.config import CONF_DIR
+    from creatio.studies import registry
+
+    built = {e.name for e in entries if e.kind in ("study", "benchmark", "calibration",
+                                                    "scene")}
+    kinds = {e.kind for e in entries}
+
+    def missing(studies: Sequence[Any]) -> list[str]:
+        return [s.id for s in studies if s.id not in built]
+
+    out = []
+    rows = (
+        ("all", missing(registry.select(in_all=True)), "the notebook's studies",
+         "make all (or snakemake all -c 2)"),
+        ("beyond", missing(registry.select(kind="sphere", in_all=False)),
+         "the studies beyond the notebook", "snakemake beyond -c 2"),
+        ("en05", missing(registry.select(kind="uncertainty")),
+         "which inputs matter (Sobol' indices), the calibration round trip",
+         "snakemake en05 -c 2"),
+        ("calibrate_example", [] if EXAMPLE_CALIBRATION in built else [EXAMPLE_CALIBRATION],
+         "the committed example track fitted (your own: creatio calibrate study=en02 "
+         "track=TRACK.csv)", "snakemake calibrate_example -c 1"),
+        ("benchmarks", missing(registry.select(kind="analysis")),
+         "the analyses, timed on one core", "snakemake benchmarks -c 1"),
+        ("scenes", [p.stem for p in sorted((CONF_DIR / "scene").glob("*.yaml"))
+                    if f"scenes/{p.stem}" not in built], "the viewers",
+         "snakemake scenes -c 2"),
+        ("sweep_en02_mu", [] if "sweep" in kinds else ["sweep_en02_mu"],
+         "the worked sweep of conf/sweeps/en02_mu.yaml", "snakemake sweep_en02_mu -c 2"),
+    )
+    for target, names, what, command in rows:
+        if names:
+            out.append((target, what if names == [target] else f"{what}: {', '.join(names)}",
+                        command))
+    return out
 
 
 def _status_class(status: str) -> str:
@@ -454,6 +591,14 @@ def render_html(entries: Sequence[Entry], data_dir: str | Path = "data") -> str:
                          f"{html.escape(e.status)}</span></td><td>{_when(e.updated)}</td>"
                          f"<td>{links}</td></tr>")
         parts.append("</table>")
+    todo = unbuilt(entries, data_dir)
+    if todo:
+        parts.append("<h2>Not built yet</h2><p class=lead>Targets of the workflow with no "
+                     "result here; the command builds each (from the project directory).</p>"
+                     "<table><tr><th>target</th><th>what</th><th>command</th></tr>")
+        parts += [f"<tr><td class=name>{html.escape(t)}</td><td>{html.escape(w)}</td>"
+                  f"<td><code>{html.escape(c)}</code></td></tr>" for t, w, c in todo]
+        parts.append("</table>")
     return ("<!DOCTYPE html><html lang=en><head><meta charset=utf-8>"
             "<meta name=viewport content='width=device-width, initial-scale=1'>"
             f"<meta name=creatio-listing content='{_listing(entries)}'>"
@@ -482,7 +627,7 @@ def refresh_index(data_dir: str | Path = "data") -> Path | None:
     page = data_dir / INDEX
     entries = scan(data_dir)
     try:
-        current = page.read_text(encoding="utf-8")
+        current = read_text(page)
     except OSError:
         current = ""
     if f"name=creatio-listing content='{_listing(entries)}'" not in current:
@@ -526,7 +671,10 @@ def main(argv: Sequence[str]) -> int:
         ap.add_argument("--browser", action="store_true",
                         help="open it in the default browser instead of printing its path")
     args = ap.parse_args(rest)
-    entries = scan(args.data_dir)
+    notes: list[str] = []
+    entries = scan(args.data_dir, notes)
+    for note in notes:
+        print(f"creatio {command}: note: {note}", file=sys.stderr)
     if command == "ls":
         if args.json:
             print(json.dumps([e.as_json() for e in entries], indent=2, default=str))

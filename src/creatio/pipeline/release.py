@@ -31,6 +31,7 @@ from pathlib import Path
 from typing import Any
 
 from creatio.errors import Parser, ReleaseError, one_line_errors
+from creatio.store.regular import NotRegularFile, check_regular, open_regular, read_json
 
 __all__ = [
     "released_studies",
@@ -84,12 +85,14 @@ def releases_dir(data_dir: str | Path = "data") -> Path:
 
 
 def list_releases(data_dir: str | Path = "data") -> list[Path]:
-    """Release directories (those with a MANIFEST.json), oldest to newest by version order."""
+    """Release directories (those with a MANIFEST.json), oldest to newest by version order;
+    one whose manifest is not a regular file is listed too, for its readers to refuse (the
+    newest is not passed over for an older one)."""
     root = releases_dir(data_dir)
     if not root.is_dir():
         return []
     found = [p for p in root.iterdir()
-             if p.is_dir() and is_version(p.name) and (p / MANIFEST).is_file()]
+             if p.is_dir() and is_version(p.name) and (p / MANIFEST).exists()]
     return sorted(found, key=lambda p: parse_version(p.name))
 
 
@@ -105,6 +108,9 @@ def find_release(spec: str, data_dir: str | Path = "data") -> Path:
     parse_version(spec)
     path = releases_dir(data_dir) / spec
     if not (path / MANIFEST).is_file():
+        if (path / MANIFEST).exists():
+            raise ReleaseError(f"{path / MANIFEST} is not a regular file: restore the release "
+                               "from git")
         raise ReleaseError(f"no release {spec} in {releases_dir(data_dir)} (available: {names})")
     return path
 
@@ -113,9 +119,11 @@ def read_manifest(release: str | Path) -> dict[str, Any]:
     """The parsed MANIFEST.json of a release directory."""
     path = Path(release) / MANIFEST
     try:
-        manifest = json.loads(path.read_text())
+        manifest = read_json(path)
     except FileNotFoundError:
         raise ReleaseError(f"{release} is not a release: no {MANIFEST}") from None
+    except NotRegularFile as e:
+        raise ReleaseError(f"{e}: restore the release from git") from None
     except (OSError, ValueError) as e:
         raise ReleaseError(f"cannot read {path}: {e}") from None
     if not isinstance(manifest, dict) or manifest.get("format") != FORMAT:
@@ -131,11 +139,16 @@ def read_manifest(release: str | Path) -> dict[str, Any]:
             isinstance(f, dict) and isinstance(f.get("path"), str) for f in omitted):
         raise ReleaseError(f"{path}: damaged manifest (every omitted file needs a path): "
                            "restore it from git")
+    seen: set[str] = set()
     for rel in [f["path"] for f in files] + [f["path"] for f in omitted]:
         if not _inside(rel):
             raise ReleaseError(f"{path}: damaged manifest: path {rel!r} lies outside the "
                                "release (a manifest names files below its own directory): "
                                "restore it from git")
+        if rel in seen:
+            raise ReleaseError(f"{path}: damaged manifest: path {rel!r} is listed twice (a "
+                               "manifest lists each file once): restore it from git")
+        seen.add(rel)
     if not isinstance(manifest.get("studies", {}), dict):
         raise ReleaseError(f"{path}: damaged manifest (studies must be a mapping): restore "
                            "it from git")
@@ -163,8 +176,8 @@ def released_studies(spec: str = "latest", data_dir: str | Path = "data") -> lis
 
 
 def sha256_file(path: str | Path) -> str:
-    """Hex sha256 of a file's bytes."""
-    with open(path, "rb") as fh:
+    """Hex sha256 of a regular file's bytes (NotRegularFile for a FIFO or a device)."""
+    with open_regular(path, "rb") as fh:
         return hashlib.file_digest(fh, "sha256").hexdigest()
 
 
@@ -210,6 +223,7 @@ def _attrs(path: Path) -> dict[str, Any]:
     import xarray as xr
 
     try:
+        check_regular(path)
         with xr.open_dataset(path, engine="netcdf4") as ds:
             return dict(ds.attrs)
     except Exception as e:  # noqa: BLE001 - any unreadable file is refused the same way
@@ -309,7 +323,7 @@ def make_release(
         report = next((r for r in sf.reports if r.endswith(".json")), None)
         if report is not None:
             try:
-                found = str(json.loads((data_dir / report).read_text()).get("config_sha256"))
+                found = str(read_json(data_dir / report).get("config_sha256"))
             except (OSError, ValueError, AttributeError) as e:
                 raise ReleaseError(f"cannot read {data_dir / report}: {e}") from None
             if found != sf.config_sha256:
@@ -411,27 +425,100 @@ def clean_stale_releases(data_dir: str | Path = "data") -> list[Path]:
 
 # ------------------------------------------------------------------------------ verify
 def verify_release(release: str | Path) -> list[str]:
-    """Problems found checking a release against its manifest (empty when it is intact)."""
+    """Problems found checking a release against its manifest as a whole (empty when it is
+    intact): each listed file a regular file of the listed size and sha256, never empty; a
+    dataset a readable NetCDF file of the study and config its entry names, whatever the
+    digests say (a rewritten entry matches a damaged file); a JSON report a JSON object;
+    every study's datasets listed; the total size the sum; no file that is not listed."""
     release = Path(release)
     manifest = read_manifest(release)
     problems = []
     listed = set()
-    for entry in manifest.get("files", []):
+    sizes = []
+    for entry in manifest["files"]:
         rel = entry["path"]
         listed.add(rel)
         path = release / rel
-        if not path.is_file():
+        if not path.exists():
             problems.append(f"{rel}: missing")
             continue
-        size, digest = path.stat().st_size, sha256_file(path)
+        try:
+            size, digest = _size_digest(path)
+        except NotRegularFile as e:
+            problems.append(f"{rel}: {e.strerror}")
+            continue
+        except OSError as e:
+            problems.append(f"{rel}: cannot be read ({e.strerror or e})")
+            continue
+        stated = entry.get("size")
         if digest != entry["sha256"]:
             problems.append(f"{rel}: sha256 {digest[:12]} != manifest {entry['sha256'][:12]}"
-                            f" (size {size}, manifest {entry.get('size')})")
+                            f" (size {size}, manifest {stated})")
+            continue
+        if not isinstance(stated, int) or isinstance(stated, bool) or stated != size:
+            problems.append(f"{rel}: size {size} != manifest {stated!r}")
+        sizes.append(size)
+        problems += [f"{rel}: {p}" for p in _content_problems(path, entry, size)]
+    total = manifest.get("total_size")
+    if (isinstance(total, int) and not isinstance(total, bool) and len(sizes) == len(listed)
+            and total != sum(sizes)):
+        problems.append(f"{MANIFEST}: total_size {total} != {sum(sizes)}, the sum of the "
+                        "listed sizes")
+    for study, info in manifest.get("studies", {}).items():
+        named = info.get("datasets") if isinstance(info, dict) else None
+        for rel in named if isinstance(named, list) else []:
+            if rel not in listed:
+                problems.append(f"{MANIFEST}: study {study}'s dataset {rel!r} is not among "
+                                "the listed files")
     for path in sorted(release.rglob("*")):
         rel = path.relative_to(release).as_posix()
-        if path.is_file() and rel != MANIFEST and rel not in listed:
+        if rel == MANIFEST or rel in listed or path.is_dir():
+            continue
+        if path.is_file():
             problems.append(f"{rel}: not in the manifest")
+        else:
+            problems.append(f"{rel}: not a regular file, and not in the manifest")
     return problems
+
+
+def _size_digest(path: Path) -> tuple[int, str]:
+    """(size, hex sha256) of a regular file, both from the one descriptor read."""
+    with open_regular(path, "rb") as fh:
+        return os.fstat(fh.fileno()).st_size, hashlib.file_digest(fh, "sha256").hexdigest()
+
+
+def _content_problems(path: Path, entry: Mapping[str, Any], size: int) -> list[str]:
+    """What is wrong with a listed file's content, whatever its entry says: empty (a release
+    never holds an empty file), a dataset that is not a readable NetCDF file of the entry's
+    study and config, a JSON report that is not a JSON object."""
+    rel = entry["path"]
+    is_nc = rel.endswith(".nc")
+    if entry.get("kind") not in (None, "dataset" if is_nc else "report"):
+        return [f"listed as a {entry.get('kind')!r} (a .nc file is a dataset, any other a "
+                "report)"]
+    if size == 0:
+        return ["empty (a release never holds an empty file)"]
+    if rel.endswith(".json"):
+        try:
+            ok = isinstance(read_json(path), dict)
+        except (OSError, ValueError):
+            ok = False
+        return [] if ok else ["not a readable JSON report (a JSON object)"]
+    if not is_nc:
+        return []
+    import netCDF4
+
+    try:
+        with netCDF4.Dataset(path) as nc:
+            attrs = {k: nc.getncattr(k) for k in ("study", "config_sha256") if k in nc.ncattrs()}
+    except Exception as e:  # noqa: BLE001 - whatever the library says, it is not readable
+        return [f"not a readable NetCDF dataset ({str(e).splitlines()[0] if str(e) else e!r})"]
+    out = []
+    for key in ("study", "config_sha256"):
+        if entry.get(key) and str(attrs.get(key, "")) != str(entry[key]):
+            out.append(f"a dataset of {key} {str(attrs.get(key, '?'))[:12]!r}, listed as "
+                       f"{str(entry[key])[:12]!r}")
+    return out
 
 
 # -------------------------------------------------------------- the workflow's release rules
@@ -522,8 +609,9 @@ A release keeps each study's dataset at its configured dt, the JSON and markdown
 listed in the manifest with their sha256 but not copied (--with-partners copies the
 partners too). The files are written read-only.
 
-exit status: 0 done (verify: intact); 1 verify found a missing, changed or unexpected file;
-2 error (invalid version, release exists, missing or out-of-date data, unreadable manifest).
+exit status: 0 done (verify: intact); 1 verify found a missing, changed, unreadable or
+unexpected file; 2 error (invalid version, release exists, missing or out-of-date data,
+damaged or unreadable manifest).
 
 Compare releases with `creatio diff 0.1.0 0.2.0` or with the current data: `creatio diff
 latest data`."""
@@ -545,9 +633,11 @@ def _create_parser() -> argparse.ArgumentParser:
 def _verify_parser() -> argparse.ArgumentParser:
     ap = Parser(
         prog="creatio release verify",
-        description="Check every file of a release against the sha256 in its MANIFEST.json.",
-        epilog="exit status: 0 intact, 1 a file is missing, changed or not in the manifest, "
-               "2 no such release or unreadable manifest.")
+        description="Check a release against its MANIFEST.json as a whole: every file's size "
+                    "and sha256, each dataset a readable NetCDF file of its study and config, "
+                    "each file listed once.",
+        epilog="exit status: 0 intact, 1 a file is missing, changed, unreadable or not in the "
+               "manifest, 2 no such release or a damaged or unreadable manifest.")
     ap.add_argument("release", metavar="VERSION|latest|DIR",
                     help="a release version, 'latest', or a release directory")
     ap.add_argument("--data-dir", type=Path, default=Path("data"),

@@ -15,7 +15,8 @@ import numpy as np
 import xarray as xr
 
 from creatio.store import cf
-from creatio.store.atomic import atomic_path, clean_stale
+from creatio.store.atomic import _create, _prepare, atomic_path, clean_stale
+from creatio.store.regular import check_regular
 from creatio.store.yamlio import load_yaml
 
 __all__ = ["read_dataset", "write_dataset"]
@@ -70,7 +71,7 @@ def write_dataset(ds: xr.Dataset, path: str | Path) -> Path:
     """Write ds as compressed CF-1.10 NetCDF4 atomically (temp file, then rename); the
     metadata are made CF-conformant here, once for every dataset (creatio.store.cf)."""
     path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
+    _prepare(path)
     ds = ds.copy()
     ds.attrs = {k: _netcdf_attr(v) for k, v in ds.attrs.items()}
     for var in ds.variables.values():
@@ -80,6 +81,7 @@ def write_dataset(ds: xr.Dataset, path: str | Path) -> Path:
     clean_stale(path)
     tmp = atomic_path(path)
     try:
+        _create(tmp, path)  # a place that holds no file is named as such, not "HDF error"
         try:
             ds.to_netcdf(tmp, format="NETCDF4", engine="netcdf4", encoding=encoding)
         except (OSError, RuntimeError) as e:  # netCDF4 reports a full disk as "HDF error"
@@ -95,8 +97,10 @@ def read_dataset(path: str | Path) -> tuple[xr.Dataset, dict]:
     """Load a dataset fully into memory and return it with its resolved config, as its
     study made it: the units it stated and text labels as strings (cf.restore)."""
     path = Path(path)
-    if not path.is_file():
-        raise FileNotFoundError(errno.ENOENT, "no dataset here", str(path))
+    try:
+        check_regular(path)  # netCDF4 would block on a FIFO and read a device forever
+    except FileNotFoundError:
+        raise FileNotFoundError(errno.ENOENT, "no dataset here", str(path)) from None
     try:
         # Times stay seconds (CF's reference date is a placeholder: docs/datasets.md).
         ds = cf.restore(xr.load_dataset(path, engine="netcdf4", decode_times=False))
