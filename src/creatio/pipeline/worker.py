@@ -11,14 +11,22 @@ command would have run it, and the client exits with the child's status. Signals
 receives are passed on to the child; a client that goes away takes its child with it.
 
 The worker serves only what it would compute the same way as a fresh process: a client of
-another checkout, another interpreter or ``sys.path``, or an environment that differs in a
-variable the libraries read at import (``CREATIO_*``, ``NUMBA_*``, ``OMP_*``, ...) is refused
-and runs in its own process, as does every client once a source of the package has changed
+another checkout, another interpreter or ``sys.path``, an environment that differs in any
+variable but the few of :data:`NEUTRAL_ENV` and :data:`CALL_TIME` (``LD_PRELOAD``,
+``NUMBA_*``, ``SCIPY_ARRAY_API``, ... : a library may read any of them when it loads), or
+other resource limits, niceness or CPU affinity (:func:`limits`: ``ulimit -t 3`` must stop
+the job at 3 s, as it stops a process of its own) is refused and runs in its own process, as
+does every client once a source of the package has changed
 (creatio.pipeline.code.package_version; the worker then exits): a worker never computes a
-result with older code. A job in a batch scheduler (``SLURM_JOB_ID``, ...) never uses a
-worker; a worker that dies during a job has that job stopped, and the command runs again in
-its own process. The analyses' timing jobs pin thread counts in
-their environment and so always run alone.
+result with older code. A job forked while conf/ differs by content from what the worker
+composed composes again (creatio.pipeline.config.forget_if_changed). A job in a batch
+scheduler (``SLURM_JOB_ID``, ...) never uses a worker; a worker that dies during a job has
+that job stopped, and the command runs again in its own process. The analyses' timing jobs
+pin thread counts in their environment and so always run alone.
+
+A client that stalls or sends what is not a request costs only its own connection: each one
+has :data:`REQUEST_DEADLINE` seconds to send its request, read as it arrives while the
+worker serves the others, and anything malformed closes it.
 
 Compiled loops: a child tells the worker which specialisations it loaded or compiled, and the
 worker loads them from numba's cache between requests, so the next jobs inherit them; the
@@ -59,12 +67,15 @@ from creatio.pipeline.code import package_version
 __all__ = [
     "COMMANDS",
     "ENV",
+    "NEUTRAL_ENV",
     "SHARED_IDLE",
     "Server",
     "daemon_socket",
     "delegate",
     "ensure",
     "env_mismatch",
+    "limits",
+    "limits_mismatch",
     "main",
     "shared_socket",
     "start",
@@ -75,11 +86,15 @@ __all__ = [
 ENV = "CREATIO_WORKER"
 #: Commands a worker runs (`creatio task ...`, `creatio run ...`); the rest run in place.
 COMMANDS = ("task", "run")
-#: Environment variables the libraries read when they are imported (a job whose values
-#: differ from the worker's would compute differently, or elsewhere): by prefix, and by name.
-IMPORT_TIME_PREFIXES = ("CREATIO_", "NUMBA_", "PYTHON", "OMP_", "MKL_", "OPENBLAS_",
-                        "NUMEXPR_", "VECLIB_", "MPL", "HDF5_", "XDG_", "HYDRA_")
-IMPORT_TIME_NAMES = ("HOME", "TZ", "LANG", "LC_ALL", "LC_NUMERIC", "LC_CTYPE")
+#: The only environment variables in which a client may differ from its worker (besides
+#: :data:`CALL_TIME`): every other one may be read when a library or the dynamic loader
+#: loads (``LD_PRELOAD``, ``NUMBA_*``, ``SCIPY_ARRAY_API``, ``NETCDF_PLUGIN_DIR``, ...), so
+#: the worker compares them all. These change no result: the working directory (a job
+#: takes the client's own), what the shell sets per command (``SHLVL``, ``_``), the
+#: terminal (read when output is written), and the temporary directory, which Snakemake
+#: sets per job and a job reads again (``tempfile.tempdir``).
+NEUTRAL_ENV = frozenset(("PWD", "OLDPWD", "SHLVL", "_", "TERM", "COLUMNS", "LINES",
+                         "TMPDIR", "TMP", "TEMP", "TEMPDIR"))
 #: Seconds without a job after which the shared worker of Snakemake's jobs stops
 #: (``CREATIO_WORKER_IDLE`` sets it).
 SHARED_IDLE = 900.0
@@ -90,6 +105,13 @@ CALL_TIME = (ENV, "CREATIO_DEBUG", "CREATIO_WORKER_IDLE", "CREATIO_FORK")
 BATCH_JOB = ("SLURM_JOB_ID", "PBS_JOBID", "LSB_JOBID")
 #: Seconds a client waits for a worker that is still starting before it runs alone.
 START_WAIT = 60.0
+#: Seconds a connection has to send its whole request (a client sends it at once); one
+#: that stalls is closed, the others are served meanwhile.
+REQUEST_DEADLINE = 5.0
+#: The largest request a worker reads (a client's environment is a few kB).
+MAX_MESSAGE = 1 << 22
+#: Seconds a worker waits to hand a reply to a client that does not read it.
+SEND_TIMEOUT = 5.0
 _HEADER = struct.Struct("!I")
 _PACKAGE = Path(__file__).resolve().parents[1]
 
@@ -100,7 +122,8 @@ def _send(sock: socket.socket, message: Mapping[str, Any], fds: Sequence[int] = 
     payload = _HEADER.pack(len(data)) + data
     if fds:
         sent = socket.send_fds(sock, [payload], list(fds))
-        sock.sendall(payload[sent:])
+        if sent < len(payload):  # never an empty send: the peer may have answered and gone
+            sock.sendall(payload[sent:])
     else:
         sock.sendall(payload)
 
@@ -149,20 +172,19 @@ def daemon_socket() -> Path:
     return _private_dir() / f"d-{key}.sock"
 
 
-def _import_time(env: Mapping[str, str]) -> dict[str, str]:
-    """The variables of env that the libraries read at import (what a worker and its
-    clients must agree on)."""
-    return {k: v for k, v in env.items()
-            if (k.startswith(IMPORT_TIME_PREFIXES) or k in IMPORT_TIME_NAMES)
-            and k not in CALL_TIME}
+def _compared(env: Mapping[str, str]) -> dict[str, str]:
+    """The variables of env a worker and its clients must agree on: all of them but
+    :data:`NEUTRAL_ENV` and :data:`CALL_TIME`."""
+    return {k: v for k, v in env.items() if k not in NEUTRAL_ENV and k not in CALL_TIME}
 
 
 def shared_socket(env: Mapping[str, str]) -> Path:
     """The socket of the shared worker of this checkout for clients whose environment is env
-    (Snakemake's jobs): one per checkout and per value of the variables read at import, so
-    that invocations from another environment get a worker of their own."""
+    (Snakemake's jobs): one per checkout and per environment (but :data:`NEUTRAL_ENV` and
+    :data:`CALL_TIME`), so that invocations from another environment get a worker of their
+    own."""
     key = hashlib.sha256(str(_PACKAGE).encode() + b"\0" + json.dumps(
-        sorted(_import_time(env).items())).encode()).hexdigest()[:12]
+        sorted(_compared(env).items())).encode()).hexdigest()[:12]
     return _private_dir() / f"j-{key}.sock"
 
 
@@ -171,13 +193,59 @@ def _identity() -> dict[str, Any]:
     return {"package": str(_PACKAGE), "executable": sys.executable, "path": sys.path[1:]}
 
 
-def env_mismatch(worker_env: Mapping[str, str], client_env: Mapping[str, str]) -> str | None:
-    """The first variable read at import whose value differs between a worker's environment
-    (as it started) and a client's, as ``NAME`` (None: they agree)."""
-    names = {*_import_time(worker_env), *_import_time(client_env)}
+def env_mismatch(worker_env: Mapping[str, str], client_env: Mapping[str, str],
+                 imported: Mapping[str, str] | None = None) -> str | None:
+    """The first variable (but :data:`NEUTRAL_ENV` and :data:`CALL_TIME`) whose value
+    differs between a worker's environment (as it started) and a client's, as ``NAME``
+    (None: they agree). imported: what the worker's imports set where it was unset
+    (netCDF4 sets ``HDF5_PLUGIN_PATH`` to its own plugins): a client that holds the same
+    value (Snakemake's process imported netCDF4 too, and its later jobs inherit it)
+    computes as a fresh process would, which sets it the same way."""
+    names = {*_compared(worker_env), *_compared(client_env)}
     for name in sorted(names):
-        if worker_env.get(name) != client_env.get(name):
+        mine, theirs = worker_env.get(name), client_env.get(name)
+        if mine != theirs and not (mine is None and theirs is not None
+                                   and (imported or {}).get(name) == theirs):
             return name
+    return None
+
+
+def limits() -> dict[str, Any]:
+    """What the kernel limits a process by that a forked job would inherit from its worker
+    instead of its caller: every resource limit (soft, hard; ``ulimit``), the niceness and
+    the CPUs it may run on (``taskset``)."""
+    import resource
+
+    rlimits = {name: list(resource.getrlimit(getattr(resource, name)))
+               for name in sorted(dir(resource)) if name.startswith("RLIMIT_")}
+    out: dict[str, Any] = {"rlimits": rlimits, "nice": os.getpriority(os.PRIO_PROCESS, 0)}
+    if hasattr(os, "sched_getaffinity"):
+        out["affinity"] = sorted(os.sched_getaffinity(0))
+    return out
+
+
+def limits_mismatch(worker: Mapping[str, Any], client: Any) -> str | None:
+    """How a client's limits (:func:`limits`) differ from its worker's, as
+    ``RLIMIT_CPU 3 (the worker's unlimited)`` (None: they agree)."""
+    if not isinstance(client, dict):
+        return "limits (not sent)"
+
+    def shown(value: Any) -> str:
+        import resource
+
+        if not (isinstance(value, list) and len(value) == 2):
+            return str(value)
+        soft, hard = ("unlimited" if v == resource.RLIM_INFINITY else str(v) for v in value)
+        return soft if soft == hard else f"{soft} (hard {hard})"
+
+    theirs = client.get("rlimits")
+    for name, value in worker["rlimits"].items():
+        other = theirs.get(name) if isinstance(theirs, dict) else None
+        if other != value:
+            return f"{name} {shown(other)} (the worker's {shown(value)})"
+    for key in ("nice", "affinity"):
+        if client.get(key) != worker.get(key):
+            return f"{key} {client.get(key)} (the worker's {worker.get(key)})"
     return None
 
 
@@ -223,14 +291,19 @@ def delegate(argv: Sequence[str]) -> int | None:
         return None
     with sock:
         request = {"argv": list(argv), "sys_argv": sys.argv, "cwd": os.getcwd(),
-                   "env": dict(os.environ), "umask": _umask(), **_identity()}
+                   "env": dict(os.environ), "umask": _umask(), "limits": limits(),
+                   **_identity()}
         try:
+            sock.settimeout(START_WAIT)  # a worker that does not answer: run alone
             _send(sock, request, fds=[0, 1, 2])
             reply, _ = _recv(sock)
-        except OSError:
+            sock.settimeout(None)
+        except (OSError, ValueError):
             return None
-        if reply is None or "refused" in reply:
-            if reply is not None and os.environ.get("CREATIO_DEBUG"):
+        if not isinstance(reply, dict) or not ("refused" in reply or "pid" in reply):
+            return None
+        if "refused" in reply:
+            if os.environ.get("CREATIO_DEBUG"):
                 print(f"creatio: worker refused the job: {reply['refused']}", file=sys.stderr)
             return None
         child = int(reply["pid"])
@@ -271,9 +344,9 @@ def _wait(sock: socket.socket, child: int) -> int | None:
             reply, _ = _recv(sock)
         except InterruptedError:
             continue
-        except OSError:
+        except (OSError, ValueError):
             reply = None
-        if reply is None:
+        if not isinstance(reply, dict):
             return None
         if "exit" in reply:
             return int(reply["exit"])
@@ -306,6 +379,25 @@ def _end(child: int, grace: float = 5.0) -> None:
 
 
 # ----------------------------------------------------------------------------- server
+#: The fields of a job's request and their types (anything else is malformed).
+REQUEST_FIELDS: dict[str, type | tuple[type, ...]] = {
+    "argv": list, "sys_argv": list, "cwd": str, "env": dict, "umask": int, "limits": dict,
+    "package": str, "executable": str, "path": list}
+
+
+def _malformed(request: Any) -> bool:
+    """Whether a message is neither a control message nor a job's request whose fields
+    have their types (a command's words and its environment are strings)."""
+    if not isinstance(request, dict):
+        return True
+    if "control" in request:
+        return request.get("control") not in ("status", "stop")
+    if any(not isinstance(request.get(k), t) for k, t in REQUEST_FIELDS.items()):
+        return True
+    words = [*request["argv"], *request["sys_argv"], *request["env"], *request["env"].values()]
+    return not all(isinstance(w, str) for w in words)
+
+
 #: Imported before the first request: what the jobs of the workflow use.
 WARM_MODULES = (
     "numpy", "scipy.linalg", "scipy.optimize", "xarray", "netCDF4", "numba", "matplotlib",
@@ -354,10 +446,15 @@ class Server:
     """The worker: warm, then fork a child per request until stopped, orphaned or idle."""
 
     def __init__(self, path: Path, entry: Callable[[list[str]], int], idle: float | None = None,
-                 owner: int | None = None) -> None:
+                 owner: int | None = None, deadline: float = REQUEST_DEADLINE) -> None:
         self.path, self.entry, self.idle, self.owner = Path(path), entry, idle, owner
         self.env = dict(os.environ)  # as started: what import-time reads saw
+        self.limits = limits()  # what a forked job inherits
+        self.imported: dict[str, str] = {}  # what its imports set (see env_mismatch)
+        self.deadline = deadline
         self.jobs: dict[int, dict[str, Any]] = {}  # child pid -> its client and report pipe
+        #: connections whose request is still arriving: what came so far, and by when
+        self.pending: dict[socket.socket, dict[str, Any]] = {}
         self.learned: list[tuple[str, str, Any, Any]] = []
         self.served = 0
         self.stopping = False
@@ -369,6 +466,7 @@ class Server:
         try:
             self.version = package_version()
             _warm()
+            self.imported = {k: v for k, v in os.environ.items() if k not in self.env}
             _freeze()
             self.known = {d: set(disp.signatures) for d, disp in _dispatchers()}
             with contextlib.suppress(FileNotFoundError):
@@ -377,6 +475,7 @@ class Server:
             self.listener.bind(str(self.path))
             self.inode = self.path.stat().st_ino
             self.listener.listen(64)
+            self.listener.setblocking(False)
         finally:
             with contextlib.suppress(FileNotFoundError):
                 starting.unlink()
@@ -399,21 +498,28 @@ class Server:
                     watched += [] if job["pipe"] is None else [job["pipe"]]
                 if not self.stopping:
                     watched.append(self.listener)
-                ready, _, _ = select.select(watched, [], [], 0 if self.learned else 1.0)
+                watched += list(self.pending)
+                wait = 0.0 if self.learned else min(
+                    [1.0, *(max(0.0, c["deadline"] - time.monotonic()) + 0.01
+                            for c in self.pending.values())])
+                ready, _, _ = select.select(watched, [], [], wait)
                 if wake_r in ready:
                     with contextlib.suppress(BlockingIOError):
                         os.read(wake_r, 4096)
                 for item in ready:
                     if item is self.listener:
                         self._accept()
+                    elif item in self.pending:
+                        self._read(item)
                     elif isinstance(item, socket.socket):
                         self._client_gone(item)
                     elif item != wake_r:
                         self._drain(item)
+                self._expire()
                 self._reap()
                 if not ready and self.learned:
                     self._load_one()
-                if self.jobs or self.listener in ready:
+                if self.jobs or self.pending or self.listener in ready:
                     last = time.monotonic()
                 if self.owner is not None and os.getppid() != self.owner:
                     self.stopping = True  # its Snakemake is gone
@@ -423,6 +529,8 @@ class Server:
                     self._withdraw()
         finally:
             self.listener.close()
+            for conn in list(self.pending):
+                self._drop(conn)
             self._withdraw()
 
     def _withdraw(self) -> None:
@@ -439,18 +547,82 @@ class Server:
         self.stopping = True
 
     def _accept(self) -> None:
-        conn, _ = self.listener.accept()
+        """Take a new connection; its request is read as it arrives (:meth:`_read`)."""
         try:
-            request, fds = _recv(conn, maxfds=3)
+            conn, _ = self.listener.accept()
+        except OSError:  # gone before it was taken
+            return
+        conn.setblocking(False)
+        self.pending[conn] = {"data": b"", "fds": [],
+                              "deadline": time.monotonic() + self.deadline}
+
+    def _drop(self, conn: socket.socket) -> None:
+        """Close a connection whose request did not arrive whole, and what it sent."""
+        state = self.pending.pop(conn, None)
+        for fd in state["fds"] if state else []:
+            with contextlib.suppress(OSError):
+                os.close(fd)
+        conn.close()
+
+    def _expire(self) -> None:
+        """Close the connections that missed their deadline (a stalled client)."""
+        now = time.monotonic()
+        for conn, state in list(self.pending.items()):
+            if now > state["deadline"]:
+                self._drop(conn)
+
+    def _read(self, conn: socket.socket) -> None:
+        """Read what a connection has sent; once its whole message is there, answer it.
+        Anything malformed (too long, more than three descriptors, not a JSON object of
+        the expected fields) closes that connection only."""
+        state = self.pending[conn]
+        try:
+            chunk, fds, flags, _ = socket.recv_fds(conn, 65536, 3)
+        except (BlockingIOError, InterruptedError):
+            return
         except OSError:
-            conn.close()
+            self._drop(conn)
             return
-        if request is None:
-            conn.close()
+        state["fds"] += fds
+        state["data"] += chunk
+        data = state["data"]
+        if not chunk or flags & socket.MSG_CTRUNC or len(state["fds"]) > 3:
+            self._drop(conn)  # gone before its request was whole, or sent what none sends
             return
-        if "control" in request:
-            self._control(conn, request["control"])
+        if len(data) < _HEADER.size:
             return
+        (n,) = _HEADER.unpack(data[:_HEADER.size])
+        if n > MAX_MESSAGE or len(data) > _HEADER.size + n:
+            self._drop(conn)
+            return
+        if len(data) < _HEADER.size + n:
+            return
+        try:
+            request = json.loads(data[_HEADER.size:])
+        except (ValueError, RecursionError):  # not JSON, or nested past the parser's depth
+            request = None
+        if _malformed(request):
+            self._drop(conn)
+            return
+        del self.pending[conn]
+        conn.settimeout(SEND_TIMEOUT)  # replies are small: a client that never reads them
+        fds = state["fds"]
+        try:
+            if "control" in request:
+                for fd in fds:
+                    os.close(fd)
+                self._control(conn, request["control"])
+            else:
+                self._serve_one(conn, request, fds)
+        except Exception as e:  # noqa: BLE001 - one request's failure is not the worker's
+            print(f"creatio worker: a request failed: {type(e).__name__}: {e}",
+                  file=sys.stderr, flush=True)
+            with contextlib.suppress(OSError):
+                conn.close()
+
+    def _serve_one(self, conn: socket.socket, request: Mapping[str, Any],
+                   fds: list[int]) -> None:
+        """Refuse a request or fork its job."""
         reason = self._refusal(request, fds)
         if reason is not None:
             for fd in fds:
@@ -463,15 +635,21 @@ class Server:
         sys.stdout.flush()
         sys.stderr.flush()
         pid = os.fork()
-        if pid == 0:  # the job
-            os.close(report_r)
-            self.listener.close()
-            conn.close()
-            for job in self.jobs.values():
-                job["conn"].close()
-                if job["pipe"] is not None:
-                    os.close(job["pipe"])
-            os._exit(_child(self.entry, request, fds, report_w, self.known))
+        if pid == 0:  # the job: never returns to the worker's loop
+            code = 1
+            try:
+                os.close(report_r)
+                self.listener.close()
+                conn.close()
+                for other in self.pending:
+                    other.close()
+                for job in self.jobs.values():
+                    job["conn"].close()
+                    if job["pipe"] is not None:
+                        os.close(job["pipe"])
+                code = _child(self.entry, request, fds, report_w, self.known)
+            finally:
+                os._exit(code)
         os.close(report_w)
         os.set_blocking(report_r, False)
         for fd in fds:
@@ -493,15 +671,19 @@ class Server:
         for key in ("package", "executable", "path"):
             if request.get(key) != mine[key]:
                 return f"another {key} ({request.get(key)!r}, the worker's {mine[key]!r})"
-        name = env_mismatch(self.env, request.get("env", {}))
+        name = env_mismatch(self.env, request.get("env", {}), self.imported)
         if name is not None:
             return f"the environment differs in {name}"
+        limit = limits_mismatch(self.limits, request.get("limits"))
+        if limit is not None:
+            return f"the caller's limits differ: {limit}"
         if package_version() != self.version:  # older code never computes a result
             self.stopping = True
             return "the sources changed since the worker started (it stops)"
         return None
 
     def _control(self, conn: socket.socket, what: str) -> None:
+        """Answer `status` (and `stop`, which stops the worker) with the worker's state."""
         with conn:
             if what == "stop":
                 self.stopping = True
@@ -778,14 +960,19 @@ def snakemake_job_env(threads: int = 1) -> dict[str, str]:
 
 def start(path: Path, *, idle: float | None = None, owner: int | None = None,
           log: Path | None = None, wait: bool = False,
-          env: Mapping[str, str] | None = None) -> subprocess.Popen:
+          env: Mapping[str, str] | None = None, deadline: float | None = None
+          ) -> subprocess.Popen:
     """Start a worker at path (a process of its own; a daemon when owner is None), its
     output appended to log, in env (default: this process's environment): the worker
-    serves only clients whose import-time variables equal env's."""
+    serves only clients whose environment equals env (but :data:`NEUTRAL_ENV`) and whose
+    limits equal this process's. deadline: seconds a connection has to send its request
+    (default :data:`REQUEST_DEADLINE`)."""
     _mark_starting(path, os.getpid())
     args = [sys.executable, "-m", "creatio.cli", "worker", "serve", str(path)]
     if idle is not None:
         args += ["--idle", str(idle)]
+    if deadline is not None:
+        args += ["--deadline", str(deadline)]
     if owner is not None:
         args += ["--owner", str(owner)]
     out = (os.open(log, os.O_WRONLY | os.O_CREAT | os.O_APPEND, 0o600) if log is not None
@@ -801,6 +988,7 @@ def start(path: Path, *, idle: float | None = None, owner: int | None = None,
     if wait:
         sock = _connect(path, START_WAIT)
         if sock is None:
+            stop(proc)
             raise RuntimeError(f"the worker at {path} did not start (see {log})")
         sock.close()
     return proc
@@ -838,15 +1026,20 @@ def _starting(path: Path) -> bool:
     return True
 
 
-def control(path: Path, what: str) -> dict[str, Any] | None:
-    """Ask the worker at path for its status, or to stop (None: no worker answers)."""
+def control(path: Path, what: str, timeout: float = 10.0) -> dict[str, Any] | None:
+    """Ask the worker at path for its status, or to stop (None: no worker answers within
+    timeout s)."""
     sock = _connect(path, 0.0)
     if sock is None:
         return None
     with sock:
-        _send(sock, {"control": what})
-        reply, _ = _recv(sock)
-    return reply
+        sock.settimeout(timeout)
+        try:
+            _send(sock, {"control": what})
+            reply, _ = _recv(sock)
+        except (OSError, ValueError):
+            return None
+    return reply if isinstance(reply, dict) else None
 
 
 def stop(proc: subprocess.Popen | None, timeout: float = 10.0) -> None:
@@ -880,11 +1073,12 @@ def main(argv: Sequence[str], entry: Callable[[list[str]], int] | None = None) -
     v.add_argument("socket", type=Path)
     v.add_argument("--idle", type=float, default=None)
     v.add_argument("--owner", type=int, default=None)
+    v.add_argument("--deadline", type=float, default=REQUEST_DEADLINE)
     args = ap.parse_args(argv)
     if args.what == "serve":
         if entry is None:
             raise ValueError("a worker needs the command it runs (creatio worker serve)")
-        Server(args.socket, entry, args.idle, args.owner).serve()
+        Server(args.socket, entry, args.idle, args.owner, args.deadline).serve()
         return 0
     path = daemon_socket()
     state = control(path, "status")
