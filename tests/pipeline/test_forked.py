@@ -114,3 +114,46 @@ def test_an_analysiss_timed_parts_are_computed_alone_in_turn(tmp_path, monkeypat
         pids[kind] = [int(p.read_text().split()[1]) for p in outs]
     assert pids["analysis"] == [os.getpid()] * 3
     assert pids["sphere"][0] == pids["sphere"][2] == os.getpid() != pids["sphere"][1]
+
+
+@pytest.mark.skipif(not os.path.exists("/proc/self/status"), reason="Linux's prctl")
+def test_children_die_with_a_parent_killed_by_its_limits(tmp_path):
+    """A parent killed outright (as `ulimit -t` kills it) takes its forked children along:
+    the child's task, still sleeping, never writes its file."""
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    done, pids = tmp_path / "child-wrote", tmp_path / "pids"
+    script = f"""
+import os, time
+from creatio.store import forked
+forked.cores = lambda: 2
+def child():
+    open({str(pids)!r}, "a").write(f"{{os.getpid()}}\\n")
+    time.sleep(2)
+    open({str(done)!r}, "w").write("too late")
+def parent():
+    time.sleep(60)
+forked.run_all([parent, child])
+"""
+    proc = subprocess.Popen([sys.executable, "-c", script])
+    deadline = time.monotonic() + 30
+    while not (pids.exists() and pids.read_text().strip()) and time.monotonic() < deadline:
+        time.sleep(0.05)
+    child_pid = int(pids.read_text().split()[0])
+    proc.send_signal(signal.SIGKILL)
+    proc.wait(timeout=10)
+    status = Path(f"/proc/{child_pid}/status")
+    for _ in range(100):  # the kernel delivers the child's SIGKILL at once (a zombie is dead)
+        try:
+            if "\nState:\tZ" in status.read_text():
+                break
+        except (FileNotFoundError, ProcessLookupError):
+            break
+        time.sleep(0.05)
+    else:
+        pytest.fail(f"child {child_pid} outlived its killed parent")
+    time.sleep(2.5)
+    assert not done.exists()

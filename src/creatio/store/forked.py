@@ -19,6 +19,27 @@ from collections.abc import Callable, Sequence
 
 __all__ = ["cores", "run_all"]
 
+#: prctl's option that sends a signal to a process when its parent dies (Linux).
+PR_SET_PDEATHSIG = 1
+
+
+def die_with_parent(parent: int) -> None:
+    """Have the Linux kernel kill this forked child when its parent dies (a parent killed at
+    its caller's `ulimit -t` takes its children along instead of leaving them to finish and
+    write); elsewhere nothing happens."""
+    import signal
+
+    try:
+        import ctypes
+
+        libc = ctypes.CDLL(None, use_errno=True)
+        libc.prctl(PR_SET_PDEATHSIG, int(signal.SIGKILL), 0, 0, 0)
+    except (OSError, AttributeError):
+        return
+    if os.getppid() != parent:  # the parent died before the request took effect
+        os._exit(1)
+
+
 def cores() -> int:
     """How many processors this process may run on (1 where forking is unsafe or absent)."""
     if not hasattr(os, "fork") or threading.active_count() > 1 or os.environ.get(
@@ -43,12 +64,14 @@ def run_all(tasks: Sequence[Callable[[], None]]) -> None:
         if stream is not None:
             stream.flush()
     children: list[int] = []
+    parent = os.getpid()
     try:
         for task in tasks[1:]:
             pid = os.fork()
             if pid == 0:  # the child: its task, then out without the parent's exit handlers
                 code = 1
                 try:
+                    die_with_parent(parent)
                     task()
                     code = 0
                 except BaseException:  # noqa: BLE001, S110 - the parent runs it again, raising
