@@ -160,12 +160,21 @@ def _multirun(args: Sequence[str]) -> int:
     computed before reused), then the aggregate `snakemake sweep` writes."""
     from hydra.core.override_parser.overrides_parser import OverridesParser
 
-    from creatio.pipeline.sweep import plan_sweep, write_sweep
+    from creatio.pipeline.sweep import grammar_error, plan_sweep, write_sweep
 
     items = [a for a in args if not a.startswith("-") and not a.startswith("hydra")]
+    parser = OverridesParser.create()
     try:
-        parsed = OverridesParser.create().parse_overrides(items)
+        parsed = parser.parse_overrides(items)
     except Exception as e:  # noqa: BLE001 - Hydra's grammar errors, re-worded
+        for item in items:  # the override it refuses, and what is wrong with it
+            try:
+                parser.parse_overrides([item])
+            except Exception as one:  # noqa: BLE001 - the culprit
+                key, _, value = item.partition("=")
+                print(f"creatio run: {ConfigError(key, value, grammar_error(item, one))}",
+                      file=sys.stderr)
+                return 2
         print(f"creatio run: invalid override: {str(e).splitlines()[0]}", file=sys.stderr)
         return 2
     study = next((o.get_value_element_as_str() for o in parsed
@@ -215,7 +224,9 @@ def _selected(overrides: Sequence[str]) -> tuple[str, list[str]]:
 
 
 def _prevalidate(args: Sequence[str], config_name: str) -> None:
-    """Refuse bad overrides with creatio's own message before Hydra starts."""
+    """Refuse bad overrides with creatio's own message before Hydra starts: interpolations
+    always (Hydra's own options print or resolve the config: --cfg job --resolve printed
+    ${oc.env:HOME} resolved), every other rule when Hydra's options are absent."""
     from creatio.pipeline.config import (
         compose,
         override_error,
@@ -225,6 +236,11 @@ def _prevalidate(args: Sequence[str], config_name: str) -> None:
     )
     from creatio.studies.schema import ProbeConfig
 
+    try:
+        refuse_interpolations([a for a in args if not a.startswith("-")])
+    except ConfigError as e:
+        print(f"creatio {'probe' if config_name == 'probe' else 'run'}: {e}", file=sys.stderr)
+        sys.exit(2)
     if any(a.startswith("-") for a in args):  # --help, --cfg, -m: Hydra's business
         return
     overrides = [a for a in args if not a.startswith("hydra")]

@@ -158,6 +158,13 @@ def _creatio(*args: str, cwd: Path) -> subprocess.CompletedProcess:
     ["run", "-m", "study=en02", "sphere.mu=0.1,abc", "sphere.g=1e300"],
     ["probe", "alpha=inf"],
     ["task", "dataset", "en02", "out.nc", "--override", "solver.dt=1e300"],
+    ["run", "study=en04", "study.control.duration=1e9"],
+    ["run", "study=en04", "study.control.extrema.n_alpha=10000000"],
+    ["run", "study=en05", "study.sensitivity.base_sizes=[1048576]"],
+    ["run", "study=en02g", "study.initial.alpha_deg=1e15"],
+    ["run", "study=ct02", "study.title=${oc.env:HOME}", "--cfg", "job", "--resolve"],
+    ["run", "study=en02", "sphere.mu=0,3"],
+    ["run", "-m", "study=en02", "sphere.mu=range(0,0.3,abc)"],
 ])
 def test_the_command_line_refuses_in_one_line_writing_nothing(tmp_path, args):
     proc = _creatio(*args, cwd=tmp_path)
@@ -172,13 +179,46 @@ def test_the_command_line_refuses_in_one_line_writing_nothing(tmp_path, args):
     'overrides=["sphere.eps=inf"]',
     'overrides=["geometry.R0=abc"]',
     "overrides=['study.title=''${oc.env:HOME}''']",
+    'overrides=["sphere.muu=0.3"]',
+    'overrides=["study.control.duration=1e9"]',
+    'overrides=["sphere.mu=0,3"]',
+    'studies=["en2"]',
+    ("diff", "against=0.2.0", 'tol=["x=abc"]'),
+    ("scenes", 'scenes=["en2"]'),
 ])
 def test_snakemake_refuses_in_one_line_writing_nothing(tmp_path, entry):
+    target, *entries = ("all", entry) if isinstance(entry, str) else entry
     proc = subprocess.run(
         [sys.executable, "-m", "snakemake", "-s", str(REPO / "Snakefile"), "-d", str(tmp_path),
-         "-c", "1", "all", "--config", entry], capture_output=True, text=True, cwd=tmp_path)
+         "-c", "1", target, "--config", *entries], capture_output=True, text=True,
+        cwd=tmp_path)
     assert proc.returncode == 2, proc.stderr[-2000:]
     lines = [ln for ln in proc.stderr.splitlines() if ln.startswith("creatio")]
     assert len(lines) == 1 and "invalid config: " in lines[0], proc.stderr[-2000:]
     assert "Traceback" not in proc.stderr
     assert not (tmp_path / "data").exists()
+
+
+@pytest.mark.parametrize("study", ["en04", "en05", "en02f", "en01"])
+def test_every_size_through_hydra_is_refused_in_one_line(study, monkeypatch):
+    """The size walk of test_boundary.py as `creatio run` composes it (Hydra, OmegaConf,
+    validate): each size past its limit refused by its key, in one line, stating the limit."""
+    from test_boundary import SIZES, WITH
+
+    from creatio.pipeline import config
+
+    monkeypatch.setenv("CREATIO_CONFIG_CACHE", "off")
+    wrong = []
+    for key, value in SIZES[study]:
+        text = f"[{','.join(repr(v) for v in value)}]" if isinstance(value, list) else repr(value)
+        overrides = [f"{key}={text}", *(f"{k}={v!r}" for k, v in WITH.get(key, {}).items())]
+        try:
+            config.resolve(study, overrides)
+        except Exception as e:  # noqa: BLE001 - the corpus classifies every outcome
+            why = _one_line_refusal(e)
+            if why or not (e.key == key or e.key.startswith(f"{key}[")) or (
+                    "more than" not in e.rule):
+                wrong.append(f"{overrides}: {why or e}")
+            continue
+        wrong.append(f"{overrides}: accepted")
+    assert wrong == []

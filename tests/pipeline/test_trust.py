@@ -368,7 +368,7 @@ def test_a_large_allowed_sweep_gives_its_jobs_the_range_not_its_values():
     ("scene:surface_family", ["scene.gamma_step_deg=1e-6"], "scene.gamma_step_deg"),  # issue's
     ("scene:en02", ["scene.playback.fps=4000"], "scene.playback.fps"),
     ("ct02", ["study.n_radii=100000"], "study.n_radii"),
-    ("en01", ["study.regularity.n_angles=100000"], "study.regularity.n_radii"),
+    ("en01", ["study.regularity.n_angles=100000"], "study.regularity.n_angles"),
     ("en01", ["study.pattern.sample_interval=1e-5"], "study.pattern.sample_interval"),
     ("en02", ["solver.dt=1e-5", "solver.output_interval=1e-5"], "solver.output_interval"),
     ("en02f", ["study.cycles_s=[200000]"], "solver.output_interval"),
@@ -402,7 +402,7 @@ def test_the_sweep_limit_has_a_ceiling(tmp_path):
 @pytest.mark.parametrize(("entry", "words"), [
     ('scenes=["xx"]', "scenes=['xx']: must be among"),  # the issue's example
     ('overrides=["scene.playback.fps=0"]', "scene.playback.fps=0.0: must be finite and > 0"),
-    ('overrides=["sphere.muu=0.3"]', "no selected scene has these keys"),
+    ('overrides=["sphere.muu=0.3"]', "sphere.muu='0.3': unknown key (did you mean sphere.mu?)"),
 ])
 def test_a_refused_scene_config_is_one_line(tmp_path, entry, words):
     """Scene planning raised InputFunctionException with a traceback; now creatio's line,

@@ -19,13 +19,21 @@ from typing import Any
 
 from creatio.errors import ConfigError, one_line_errors
 from creatio.pipeline.code import CODE, code_version
-from creatio.pipeline.config import Resolved, applicable, output_root, resolve
+from creatio.pipeline.config import (
+    Resolved,
+    applicable,
+    nearest_key,
+    nearest_name,
+    output_root,
+    resolve,
+)
 from creatio.studies import registry
 
 __all__ = [
     "CODE",
     "PASSED_CONFIG",
     "JobConfigs",
+    "check_tol",
     "check_workflow_config",
     "pass_config_safely",
     "code_version",
@@ -72,6 +80,27 @@ def check_workflow_config(config: Mapping[str, Any], schema: str | Path) -> None
         if error.schema.get("description"):
             rule += f" ({error.schema['description']})"
         raise ConfigError(key, error.instance, rule) from None
+    for i, entry in enumerate(as_list(config.get("tol"))):
+        check_tol(f"tol[{i}]", entry)
+
+
+def check_tol(key: str, text: str) -> None:
+    """Refuse a per-variable tolerance of `snakemake diff` that `creatio diff --tol` would
+    refuse after the workflow has run (NAME=ATOL or NAME=ATOL,RTOL, finite and >= 0): the
+    rule of creatio.diff's parse_tol, checked with the other --config keys."""
+    import math
+
+    name, sep, values = text.partition("=")
+    parts = values.split(",")
+    try:
+        if not sep or not name or len(parts) > 2:
+            raise ValueError
+        numbers = [float(p) for p in parts]
+    except ValueError:
+        raise ConfigError(key, text, "must be NAME=ATOL or NAME=ATOL,RTOL with numbers, e.g. "
+                          "'fd_error*=1e-9,1e-6'") from None
+    if not all(math.isfinite(x) and x >= 0.0 for x in numbers):
+        raise ConfigError(key, text, "tolerances must be finite and >= 0")
 
 
 #: The only --config entry a re-invoked job gets (a `run:` job, a cluster job): the
@@ -211,7 +240,8 @@ def plan(
     studies = default_studies() if studies is None else as_list(studies)
     unknown = [s for s in studies if s not in registry.STUDIES]
     if unknown:
-        raise ConfigError("studies", unknown, f"must be among {', '.join(registry.STUDIES)}")
+        raise ConfigError("studies", unknown, f"must be among {', '.join(registry.STUDIES)}"
+                          + nearest_name(unknown[0], registry.STUDIES))
     used: set[str] = set()
     out = {}
     for study in studies:
@@ -222,8 +252,20 @@ def plan(
                                str(output_root(resolved, data_dir)))
     unused = [o for o in overrides if o not in used]
     if unused:
-        raise ConfigError("overrides", unused, "no selected study has these keys")
+        raise unused_overrides(unused, studies)
     return out
+
+
+def unused_overrides(unused: Sequence[str], studies: Sequence[str]) -> ConfigError:
+    """The refusal of overrides no selected study has: the first one's key with the nearest
+    key of the studies' configs (``sphere.muu`` -> did you mean sphere.mu?), as `creatio
+    run` says it."""
+    for ov in unused:
+        key, _, value = str(ov).partition("=")
+        near = nearest_key(key, [s for s in studies if s in registry.STUDIES])
+        if near is not None:
+            return ConfigError(key.lstrip("+~"), value, f"unknown key (did you mean {near}?)")
+    return ConfigError("overrides", list(unused), "no selected study has these keys")
 
 
 def compare_targets(plans: dict[str, StudyPlan]) -> list[str]:

@@ -41,6 +41,7 @@ __all__ = [
     "SweepPlan",
     "aggregate",
     "interpolations",
+    "grammar_error",
     "parse_axes",
     "plan_sweep",
     "run_batch",
@@ -207,7 +208,7 @@ def parse_axes(sweep: Sequence[str], max_points: int = MAX_POINTS
         try:
             (ov,) = parser.parse_overrides([str(text)])
         except Exception as e:  # noqa: BLE001 - Hydra's grammar errors, re-worded
-            raise ConfigError("sweep", text, str(e).splitlines()[0]) from None
+            raise ConfigError("sweep", text, grammar_error(str(text), e)) from None
         try:
             size = _axis_size(ov)
         except ValueError as e:
@@ -236,6 +237,31 @@ def parse_axes(sweep: Sequence[str], max_points: int = MAX_POINTS
     return axes
 
 
+_FUNCTION = re.compile(r"^\s*(range|interval)\s*\((.*)\)\s*$")
+
+
+def grammar_error(text: str, error: Exception) -> str:
+    """What is wrong with a sweep override Hydra's grammar refused, in one line: a range()
+    or interval() argument that is no number is named; otherwise Hydra's first line and
+    the syntax."""
+    value = text.partition("=")[2]
+    m = _FUNCTION.match(value)
+    if m:
+        name, args = m.group(1), [a.strip() for a in m.group(2).split(",")]
+        shape = "range(START, STOP[, STEP])" if name == "range" else "interval(LOW, HIGH)"
+        for arg in args:
+            try:
+                float(arg.partition("=")[2] if "=" in arg else arg)
+            except ValueError:
+                return f"{shape} takes numbers: {arg!r} is not a number"
+        if len(args) not in ((2, 3) if name == "range" else (2,)):
+            return (f"{shape} takes {'2 or 3' if name == 'range' else '2'} numbers, not "
+                    f"{len(args)}")
+    first = str(error).splitlines()[0] if str(error) else type(error).__name__
+    return (f"{first} (sweep syntax: KEY=V1,V2,... or KEY=range(START,STOP,STEP); quote "
+            "a value holding a comma or a bracket)")
+
+
 def _too_many(n: int, max_points: int) -> None:
     hint = (f"raise the limit with --config sweep_max_points={n}" if n <= HARD_MAX_POINTS
             else f"the limit cannot exceed {HARD_MAX_POINTS:,}")
@@ -255,12 +281,13 @@ def plan_sweep(
     off: the jobs of a planned sweep, whose points are each checked as they run), and a
     product larger than max_points (with its size and what to do).
     """
-    from creatio.pipeline.config import applicable, resolve
+    from creatio.pipeline.config import applicable, nearest_key, nearest_name, resolve
 
     if not study:
         raise ConfigError("study", study, "a sweep needs the study to sweep (study=en02)")
     if study not in registry.STUDIES:
-        raise ConfigError("study", study, f"must be one of {', '.join(registry.STUDIES)}")
+        raise ConfigError("study", study, f"must be one of {', '.join(registry.STUDIES)}"
+                          + nearest_name(study, registry.STUDIES))
     if not (isinstance(max_points, int) and 1 <= max_points <= HARD_MAX_POINTS):
         raise ConfigError("sweep_max_points", max_points,
                           f"must be an integer in [1, {HARD_MAX_POINTS:,}] (the aggregate "
@@ -269,7 +296,9 @@ def plan_sweep(
     base = tuple(str(o) for o in base)
     for key, values in axes:
         if not applicable(study, [f"{key}={values[0]}"]):
-            raise ConfigError(key, values[0], f"unknown key (not in {study}'s config)")
+            near = nearest_key(key, [study])
+            raise ConfigError(key, values[0], f"unknown key (did you mean {near}?)" if near
+                              else f"unknown key (not in {study}'s config)")
     n = math.prod(len(v) for _, v in axes)
     if batch_size is None:
         batches = max(1, min(TARGET_BATCHES, n // MIN_BATCH))

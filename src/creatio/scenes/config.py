@@ -29,10 +29,12 @@ from creatio.errors import ConfigError
 from creatio.pipeline.config import (
     CONF_DIR,
     Resolved,
+    nearest_name,
     omit_nulls,
     refuse_identity,
     refuse_interpolations,
     refuse_resolvers,
+    reword,
 )
 from creatio.scenes import registry
 from creatio.studies import registry as study_registry
@@ -246,7 +248,8 @@ def _resolve(scene: str, overrides: tuple[str, ...]) -> Resolved:
         # without overrides, the composition route() reads (planning asks for both)
         cfg = compose(scene, overrides) if overrides else _base_config(scene)
     except KeyError:
-        raise ConfigError("scene", scene, f"must be one of {', '.join(registry.SCENES)}") from None
+        raise ConfigError("scene", scene, f"must be one of {', '.join(registry.SCENES)}"
+                          + nearest_name(scene, registry.SCENES)) from None
     except Exception as e:  # Hydra refused an override: name the first culprit
         raise _override_error(scene, overrides, e) from None
     return validate(cfg)
@@ -258,7 +261,7 @@ def _override_error(scene: str, overrides: Sequence[str], error: Exception) -> C
             compose(scene, [ov])
         except Exception as e:  # noqa: BLE001 - any refusal pins the culprit
             key, _, value = ov.partition("=")
-            reason = str(e.__cause__ or e).splitlines()[0]
+            reason = reword(str(e.__cause__ or e).splitlines()[0], key.lstrip("+~"), value)
             if "not in struct" in reason or "Could not override" in reason:
                 reason = "unknown key (not in this scene's config)"
             return ConfigError(key.lstrip("+~"), value, f"scene {scene}: {reason}")

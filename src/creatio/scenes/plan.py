@@ -25,7 +25,7 @@ from typing import Any
 
 from creatio.errors import ConfigError, one_line_errors
 from creatio.model.numerics import steps_in
-from creatio.pipeline.config import Resolved
+from creatio.pipeline.config import Resolved, nearest_key, nearest_name
 from creatio.pipeline.config import output_root as study_root
 from creatio.scenes import registry
 from creatio.scenes.config import output_root, resolve, route
@@ -131,19 +131,29 @@ class SceneRuns:
         """Resolve every selected scene under the overrides."""
         unknown = [s for s in self.scenes if s not in registry.SCENES]
         if unknown:
-            raise ConfigError("scenes", unknown, f"must be among {', '.join(registry.SCENES)}")
+            raise ConfigError("scenes", unknown, f"must be among {', '.join(registry.SCENES)}"
+                              + nearest_name(unknown[0], registry.SCENES))
         used: set[str] = set()
         out = {}
         for scene in self.scenes:
             routed, applied = route(scene, self.overrides)
             used.update(applied)
-            resolved = resolve(scene, routed)
+            try:
+                resolved = resolve(scene, routed)
+            except ConfigError as e:
+                raise as_typed(e, applied) from None
             root = str(output_root(resolved, self.data_dir))
             out[scene] = ScenePlan(scene, resolved, tuple(routed), root)
             if routed:
                 print(f"creatio: scene {scene} {routed} -> {root}", file=sys.stderr)
         unused = [o for o in self.overrides if o not in used]
         if unused and self.strict:
+            for ov in unused:
+                key, _, value = ov.partition("=")
+                near = nearest_key(key, list(studies.STUDIES))
+                if near is not None:
+                    raise ConfigError(key.lstrip("+~"), value,
+                                      f"unknown key (did you mean {near}?)")
             raise ConfigError("overrides", unused, "no selected scene has these keys")
         return out
 
@@ -246,6 +256,21 @@ class SceneRuns:
             return []
         family = family_of(plan.resolved)
         return family.batch_files(plan.entry.directory(root)) if family else []
+
+
+def as_typed(error: ConfigError, typed: Sequence[str]) -> ConfigError:
+    """A scene's refusal named by the key the user typed (``sphere.mu``), not the base's key
+    it was routed to (``bases.en02.sphere.mu``)."""
+    keys = [ov.partition("=")[0].lstrip("+~").split("@", 1)[0] for ov in typed]
+    parts = str(error.key).split(".")
+    if len(parts) < 3 or parts[0] != "bases":
+        return error
+    inner = ".".join(parts[2:])
+    if not any(inner == k or inner.startswith(f"{k}.") or inner.startswith(f"{k}[")
+               for k in keys):
+        return error
+    routed = ".".join(parts[:2]) + "."
+    return ConfigError(inner, error.value, str(error.rule).replace(routed, ""))
 
 
 def scene_ids(scenes: Sequence[str] | None = None) -> str:

@@ -22,6 +22,7 @@ from creatio.studies.schema import (
     DynamicConfig,
     GeometryConfig,
     PhasesConfig,
+    check_angle_deg,
     require,
 )
 
@@ -363,6 +364,7 @@ class VelocityNormalConfig:
         require(0.0 <= s.R <= self.geometry.dR, "scene.R", s.R,
                 f"must lie in [0, geometry.dR = {self.geometry.dR}]")
         require(math.isfinite(s.alpha_deg), "scene.alpha_deg", s.alpha_deg, "must be finite")
+        check_angle_deg("scene.alpha_deg", s.alpha_deg)
         require(s.duration > 0.0 and math.isfinite(s.duration), "scene.duration", s.duration,
                 "must be finite and > 0")
         require(2 <= s.frames <= 2000, "scene.frames", s.frames, "must lie in [2, 2000]")

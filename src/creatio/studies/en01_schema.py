@@ -6,6 +6,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 from creatio.studies.schema import (
+    MAX_SAMPLES,
     MISSING,
     NO_CYCLE,
     GeometryConfig,
@@ -13,6 +14,7 @@ from creatio.studies.schema import (
     check_grid,
     check_inclinations,
     check_positive_list,
+    culprit,
     require,
     require_samples,
 )
@@ -46,7 +48,7 @@ class RegularityConfig:
     def check(self, path: str) -> None:
         """Inclinations in range, grid sizes sane."""
         check_inclinations(f"{path}.inclinations_deg", self.inclinations_deg)
-        check_grid(path, self.n_radii, self.n_angles)
+        check_grid(path, self.n_radii, self.n_angles, len(self.inclinations_deg))
 
 
 @dataclass
@@ -69,7 +71,9 @@ class PatternConfig:
             f"must lie in (0, T = {self.T}]",
         )
         require(self.fd_step > 0.0, f"{path}.fd_step", self.fd_step, "must be > 0")
-        require_samples(f"{path}.sample_interval", self.sample_interval,
+        key = culprit(self, ["T", "sample_interval"],
+                      lambda x: x.T / x.sample_interval <= MAX_SAMPLES)
+        require_samples(f"{path}.{key}", getattr(self, key),
                         self.T / self.sample_interval, "pattern samples (T / sample_interval)")
 
 

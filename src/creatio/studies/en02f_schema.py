@@ -6,9 +6,10 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 from enum import StrEnum
+from typing import Any
 
 from creatio.dynamics import problem as core
-from creatio.dynamics.problem import MAX_IMPACT_CAP, SphereProblem
+from creatio.dynamics.problem import MAX_IMPACT_CAP, MAX_RHS_EVALS, SphereProblem
 from creatio.model.laws import Law
 from creatio.model.numerics import steps_in
 from creatio.model.surface import Motion
@@ -16,7 +17,10 @@ from creatio.studies.schema import (
     MISSING,
     DynamicConfig,
     DynamicStudy,
+    count,
+    culprit,
     require,
+    require_runs,
     require_samples,
     with_cycle,
 )
@@ -80,6 +84,11 @@ class DropConfig:
         require_samples(f"{path}.duration", self.duration,
                         self.duration / self.output_interval(),
                         f"history rows ({path}.duration / {self.output_interval():g} s)")
+        steps = self.duration / self.dt
+        key = culprit(self, ["duration", "dt"], lambda x: x.duration / x.dt <= MAX_RHS_EVALS)
+        require(steps <= MAX_RHS_EVALS, f"{path}.{key}", getattr(self, key),
+                f"asks for {count(steps)} steps of the drop test ({path}.duration / {path}.dt), "
+                f"more than {MAX_RHS_EVALS:,} (the runs' default budget of evaluations)")
 
     def output_interval(self) -> float:
         """The drop test's history interval: the multiple of dt nearest 0.01 s."""
@@ -105,6 +114,10 @@ class En02fStudy(DynamicStudy):
             require(math.isfinite(T) and T > 0.0, f"{path}.cycles_s[{i}]", T, "must be > 0 s")
         for i, e in enumerate(self.restitutions):
             require(0.0 <= e <= 1.0, f"{path}.restitutions[{i}]", e, "must be in [0, 1]")
+        longer = max(("cycles_s", "restitutions"), key=lambda n: len(getattr(self, n)))
+        require_runs(f"{path}.{longer}", f"[{len(getattr(self, longer)):,} values]",
+                     2 * len(self.cycles_s) * len(self.restitutions),
+                     "runs (cycles_s x restitutions, at dt and dt / refine)")
         self.drop.check(f"{path}.drop")
 
 
@@ -136,6 +149,11 @@ class En02fConfig(DynamicConfig):
     def durations(self) -> list[float]:
         """The default run's length and each cycle's (one run per cycle)."""
         return [self.study.duration, *self.study.cycles_s]
+
+    def duration_keys(self) -> list[tuple[str, Any]]:
+        """study.duration, then study.cycles_s[i] for each cycle."""
+        return [("study.duration", self.study.duration),
+                *((f"study.cycles_s[{i}]", T) for i, T in enumerate(self.study.cycles_s))]
 
     def run_problems(self, dt: float | None = None
                      ) -> list[tuple[float, float, SphereProblem]]:

@@ -14,6 +14,7 @@ from creatio.studies.schema import (
     DynamicStudy,
     check_inertia,
     require,
+    require_runs,
 )
 
 __all__ = ["BisectionConfig", "En03mConfig", "En03mStudy"]
@@ -64,6 +65,14 @@ class En03mStudy(DynamicStudy):
         require(self.max_force_factor > 0.0, f"{path}.max_force_factor",
                 self.max_force_factor, "must be > 0")
         self.bisection.check(f"{path}.bisection")
+        cases = {n: len(getattr(self, n)) for n in ("confinements", "inertias")}
+        cases["bisection.decades"] = len(self.bisection.decades)
+        longest = max(cases, key=lambda n: cases[n])
+        searches = len(self.confinements) * len(self.inertias)
+        per = len(self.bisection.decades) + math.ceil(math.log2(1.0 / self.bisection.rtol)) + 2
+        require_runs(f"{path}.{longest}", f"[{cases[longest]:,} values]", searches * per,
+                     f"runs (confinements x inertias x ({len(self.bisection.decades)} decades + "
+                     "the bisection's steps + 2))")
         require(self.figure_factor >= 1.0, f"{path}.figure_factor", self.figure_factor,
                 "must be >= 1")
         require(self.fallback_force > 0.0, f"{path}.fallback_force", self.fallback_force,

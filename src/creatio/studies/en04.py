@@ -51,7 +51,15 @@ from creatio.studies.en04_control import (
     run_control,
 )
 from creatio.studies.registry import Part
-from creatio.studies.schema import MISSING, DynamicConfig, require
+from creatio.studies.schema import (
+    MAX_SAMPLES,
+    MISSING,
+    DynamicConfig,
+    culprit,
+    require,
+    require_runs,
+    require_samples,
+)
 
 if TYPE_CHECKING:
     import xarray as xr
@@ -217,10 +225,74 @@ class En04Study:
     control: ControlConfig = field(default_factory=ControlConfig)
 
     def check(self, path: str, bases: dict[str, DynamicConfig]) -> None:
-        """Each part's rules against the bases."""
+        """Each part's rules against the bases, then every size within its limit."""
         self.actuation.check(f"{path}.actuation", bases)
         self.oscillation.check(f"{path}.oscillation", bases)
         self.control.check(f"{path}.control", bases)
+        self.check_sizes(path, bases)
+
+    def check_sizes(self, path: str, bases: dict[str, DynamicConfig]) -> None:
+        """Every size that sets an allocation (MAX_SAMPLES: rows, grid points) or a run
+        count (MAX_RUNS), named by the key that sets it: a control duration of 1e9 s passed
+        validation and asked for 171 TiB after 69 s of runs; a grid of 29 million
+        controllers was accepted."""
+        a, o, c = self.actuation, self.oscillation, self.control
+        for name in a.studies:
+            base = bases[name]
+            require_samples(f"{path}.actuation.sample_interval", a.sample_interval,
+                            base.study.duration / a.sample_interval,
+                            f"rows of bases.{name} (its duration / sample_interval)")
+        q = a.quadrature
+        longest = max(bases[name].study.duration for name in a.studies)
+        require_samples(f"{path}.actuation.quadrature.check_interval", q.check_interval,
+                        longest / q.check_interval,
+                        f"check times ({longest:g} s / check_interval)")
+
+        def finest(x: QuadratureConfig) -> float:
+            try:
+                scale = x.growth ** (x.max_levels - 1)
+                return x.n_alpha * scale * x.n_R * scale
+            except OverflowError:  # growth ** 1e15: beyond any limit
+                return math.inf
+
+        names = ["n_alpha", "n_R", "growth", "max_levels"]
+        key = culprit(q, names, lambda x: finest(x) <= MAX_SAMPLES)
+        require_samples(f"{path}.actuation.quadrature.{key}", getattr(q, key), finest(q),
+                        "points of the finest quadrature grid (n_alpha x n_R x "
+                        "growth^(2 (max_levels - 1)))")
+        for where, grid in ((f"{path}.actuation.extrema", a.extrema),
+                            (f"{path}.control.extrema", c.extrema)):
+            key = culprit(grid, ["n_alpha", "n_R"],
+                          lambda x: x.n_alpha * x.n_R <= MAX_SAMPLES)
+            require_samples(f"{where}.{key}", getattr(grid, key), grid.n_alpha * grid.n_R,
+                            "start points of the extrema search (n_alpha x n_R)")
+        sv = bases[o.base].solver
+        require_samples(f"{path}.oscillation.duration", o.duration, o.duration / sv.dt,
+                        f"rows of each still-cavity run (duration / bases.{o.base}.solver.dt)")
+        require_runs(f"{path}.oscillation.mus", f"[{len(o.mus):,} values]", 4 * len(o.mus),
+                     "runs (mus x 2 amplitudes x 2 directions)")
+        sv = bases[c.base].solver
+        finest_dt = min(sv.timesteps())
+        require_samples(f"{path}.control.duration", c.duration, c.duration / finest_dt,
+                        f"rows of each controlled run (every step recorded: duration / "
+                        f"{finest_dt:g} s)")
+        grids = {
+            "": ["omega_max", "delta_max_deg", "omega_c", "omega_n"],
+            "trapezoid.": ["omega_max", "a_max"],
+            "robustness.": ["mus", "mass_factors"],
+        }
+        runs, longest = 0, ("", "", 0)
+        for prefix, keys in grids.items():
+            node = c if not prefix else getattr(c, prefix.rstrip("."))
+            count = 1
+            for k in keys:
+                count *= len(getattr(node, k))
+                if len(getattr(node, k)) > longest[2]:
+                    longest = (prefix, k, len(getattr(node, k)))
+            runs += 2 * count
+        require_runs(f"{path}.control.{longest[0]}{longest[1]}", f"[{longest[2]:,} values]",
+                     runs, "runs of the closed and open loops (their grids, at dt and "
+                     "dt / refine)")
 
 
 @dataclass

@@ -14,7 +14,15 @@ from dataclasses import dataclass, field
 from enum import StrEnum
 
 from creatio.errors import ConfigError
-from creatio.studies.schema import MISSING, DynamicConfig, require, vary
+from creatio.studies.schema import (
+    MISSING,
+    DynamicConfig,
+    culprit,
+    require,
+    require_runs,
+    require_samples,
+    vary,
+)
 
 __all__ = [
     "BASE",
@@ -35,6 +43,9 @@ BASE = "en02"
 COORDINATES = ("x", "y", "z")
 #: How far a normal distribution's tails are checked (in standard deviations).
 NORMAL_TAIL_SD = 8.0
+#: The most fits of the round trip (2 windows x seeds + spread_seeds): each fit integrates
+#: the model tens of times (the defaults ask for 500).
+MAX_FITS = 10_000
 
 
 class Dist(StrEnum):
@@ -214,6 +225,8 @@ class CalibrationConfig:
             vary(base, {"phases.T": self.cycle_s, "study.duration": self.cycle_s,
                         **dict(zip(self.fit, self.truth, strict=True))})
         except ConfigError as e:
+            if e.key in ("phases.T", "study.duration"):  # the cycle sets both
+                raise ConfigError(f"{path}.cycle_s", self.cycle_s, e.rule) from None
             raise ConfigError(f"{path}.{e.key}", e.value, e.rule) from None
         require(self.seeds >= 1, f"{path}.seeds", self.seeds, "must be >= 1")
         require(0 <= self.example_seed < self.seeds, f"{path}.example_seed", self.example_seed,
@@ -297,6 +310,29 @@ class En05Config:
         st.design.check("study.design", self.base)
         require(math.isfinite(st.camera.noise_m), "study.camera.noise_m", st.camera.noise_m,
                 "must be finite")
+        self._check_sizes()
+
+    def _check_sizes(self) -> None:
+        """Every size that sets a run count or an allocation within its limit (MAX_RUNS,
+        MAX_SAMPLES), named by the key that sets it, before anything runs."""
+        st = self.study
+        s, c, d = st.sensitivity, st.calibration, st.design
+        n, k = max(s.base_sizes), len(self.uncertainty.inputs)
+        require_runs("study.sensitivity.base_sizes", list(s.base_sizes), n * (k + 2),
+                     f"runs (the largest base size x ({k} inputs + 2), Saltelli's design)")
+        require_samples("study.sensitivity.resamples", s.resamples, s.resamples * n,
+                        "bootstrap indices (resamples x the largest base size)")
+        key = culprit(c, ["seeds", "spread_seeds"],
+                      lambda x: 2 * x.seeds + x.spread_seeds <= MAX_FITS)
+        require(2 * c.seeds + c.spread_seeds <= MAX_FITS, f"study.calibration.{key}",
+                getattr(c, key), f"asks for {2 * c.seeds + c.spread_seeds:,} fits (2 windows "
+                f"x seeds + spread_seeds), more than {MAX_FITS:,} (time): use fewer")
+        require_samples("study.camera.rate_hz", st.camera.rate_hz,
+                        st.camera.rate_hz * c.cycle_s, "frames of a track (rate_hz x cycle_s)")
+        longer = max(("cycles_s", "mu"), key=lambda name: len(getattr(d, name)))
+        require_runs(f"study.design.{longer}", f"[{len(getattr(d, longer)):,} values]",
+                     len(d.cycles_s) * len(d.mu) * 5,
+                     "runs (cycles_s x mu x 5: the point and two steps either side)")
 
     @property
     def base(self) -> DynamicConfig:

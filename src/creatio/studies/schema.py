@@ -18,7 +18,7 @@ import copy
 import dataclasses
 import math
 import sys
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field, fields, is_dataclass
 from enum import Enum, StrEnum
 from typing import Any
@@ -50,7 +50,10 @@ __all__ = [
     "GeometryConfig",
     "InitialConfig",
     "LawConfig",
+    "MAX_ITEMS",
+    "MAX_RUNS",
     "MAX_SAMPLES",
+    "MAX_START_DEG",
     "MISSING",
     "Method",
     "NO_CYCLE",
@@ -62,12 +65,16 @@ __all__ = [
     "SolverConfig",
     "SphereConfig",
     "StructureConfig",
+    "check_angle_deg",
     "check_finite",
     "check_grid",
     "check_inclinations",
     "check_inertia",
     "check_positive_list",
+    "count",
+    "culprit",
     "require",
+    "require_runs",
     "require_samples",
     "still_cavity_k_alpha",
     "vary",
@@ -108,6 +115,10 @@ def check_finite(obj: Any, prefix: str = "") -> None:
             f.default_factory() if f.default_factory is not dataclasses.MISSING else None)
         infinite_ok = f.metadata.get("infinite", False) or _has_inf(default)
         items = value if isinstance(value, list) else [value]
+        if isinstance(value, list):
+            require(len(value) <= MAX_ITEMS, key, f"[{len(value):,} values]",
+                    f"holds more than {MAX_ITEMS:,} values (each is a run or a sampled "
+                    "point): use fewer")
         for i, item in enumerate(items):
             where = f"{key}[{i}]" if isinstance(value, list) else key
             if isinstance(item, float) and not math.isfinite(item):
@@ -229,7 +240,56 @@ def require_samples(key: str, value: Any, n: float, what: str) -> None:
     """Refuse a config whose `what` would number n > MAX_SAMPLES, naming the key that sets
     it and the count."""
     require(n <= MAX_SAMPLES, key, value,
-            f"asks for {n:,.0f} {what}, more than {MAX_SAMPLES:,} (memory): use fewer")
+            f"asks for {count(n)} {what}, more than {MAX_SAMPLES:,} (memory): use fewer")
+
+
+def count(n: float) -> str:
+    """A size for a message: digits grouped up to 1e15, then 3 significant digits."""
+    if not math.isfinite(n):
+        return "an unbounded number of"
+    return f"{n:,.0f}" if n < 1e15 else f"{n:.3g}"
+
+
+#: The most runs (integrations, or fits) one study may ask for: the sweeps' default limit
+#: (creatio.pipeline.sweep.MAX_POINTS). The defaults ask for 4,096 at most (EN-05's Sobol'
+#: design, 512 x (6 inputs + 2)); a grid of 29 million controllers was accepted and ran.
+MAX_RUNS = 200_000
+
+#: The most values one list of a config may hold: each is a run, a grid line or a sampled
+#: point (the defaults hold 22 at most), so a longer list is a mistake or a sweep.
+MAX_ITEMS = 10_000
+
+
+def require_runs(key: str, value: Any, n: float, what: str) -> None:
+    """Refuse a config whose `what` would number n > MAX_RUNS runs, naming the key that
+    sets it and the count."""
+    require(n <= MAX_RUNS, key, value,
+            f"asks for {count(n)} {what}, more than {MAX_RUNS:,} (time): use fewer")
+
+
+def culprit(obj: Any, names: Sequence[str], fits: Callable[[Any], bool]) -> str:
+    """The field of obj (a dataclass) among names whose default alone makes fits(obj) true:
+    the key a size refusal names when several set the size (the first one otherwise)."""
+    for name in names:
+        f = next(f for f in fields(obj) if f.name == name)
+        default = (f.default if f.default is not dataclasses.MISSING
+                   else f.default_factory())  # type: ignore[misc]
+        if fits(dataclasses.replace(obj, **{name: default})):
+            return name
+    return names[0]
+
+
+#: The bound of a start angle in degrees: one turn either way. A start angle is bounded, not
+#: reduced modulo 360 (a reduced value would key another config than the one typed); 1e15
+#: degrees passed validation and lost every significant digit in its sine.
+MAX_START_DEG = 360.0
+
+
+def check_angle_deg(key: str, value: float) -> None:
+    """Refuse a start angle in degrees outside [-MAX_START_DEG, MAX_START_DEG]."""
+    require(-MAX_START_DEG <= value <= MAX_START_DEG, key, value,
+            f"must lie in [-{MAX_START_DEG:g}, {MAX_START_DEG:g}] degrees (one turn either "
+            "way; angles are bounded, not reduced)")
 
 
 # --------------------------------------------------------------------------------- schemas
@@ -483,7 +543,8 @@ def check_grid(path: str, n_radii: int, n_angles: int, per: int = 1) -> None:
     MAX_SAMPLES."""
     require(n_radii >= 2, f"{path}.n_radii", n_radii, "must be >= 2 (both ends are sampled)")
     require(n_angles >= 1, f"{path}.n_angles", n_angles, "must be >= 1")
-    require_samples(f"{path}.n_radii", n_radii, n_radii * n_angles * per,
+    name, value = ("n_angles", n_angles) if n_angles > n_radii else ("n_radii", n_radii)
+    require_samples(f"{path}.{name}", value, n_radii * n_angles * per,
                     f"grid points ({n_radii} x {n_angles}" + (f" x {per})" if per > 1 else ")"))
 
 
@@ -551,8 +612,9 @@ class DynamicStudy:
     )
 
     def check(self, path: str) -> None:
-        """Duration positive; outputs include the trajectory."""
+        """Duration positive; outputs include the trajectory; the start angle bounded."""
         require(self.duration > 0.0, f"{path}.duration", self.duration, "must be > 0")
+        check_angle_deg(f"{path}.initial.alpha_deg", self.initial.alpha_deg)
         require(Output.trajectory in self.outputs, f"{path}.outputs",
                  [o.value for o in self.outputs], "must include trajectory")
 
@@ -608,11 +670,30 @@ class DynamicConfig:
 
     def _check_rows(self) -> None:
         """The longest run's history (one row every solver.output_interval) within
-        MAX_SAMPLES rows."""
-        longest = max(self.durations())
-        require_samples("solver.output_interval", self.solver.output_interval,
-                        longest / self.solver.output_interval,
+        MAX_SAMPLES rows, and a fixed step's finest run (at dt / refine) within the run's
+        budget of evaluations (solver.max_rhs_evals): refused by the key that sets it."""
+        sv, default = self.solver, SolverConfig()
+        durations = self.durations()
+        longest = max(durations)
+        # the key named: the solver setting whose default would fit, else the duration
+        where = self.duration_keys()[durations.index(longest)]
+        key, value = (("solver.output_interval", sv.output_interval)
+                      if longest / default.output_interval <= MAX_SAMPLES else where)
+        require_samples(key, value, longest / sv.output_interval,
                         f"history rows ({longest:g} s / solver.output_interval)")
+        if not sv.adaptive:  # a fixed step: the finest run's steps, each >= 1 evaluation
+            steps = longest / (sv.dt / sv.refine)
+            key, value = (("solver.refine", sv.refine) if longest / sv.dt <= sv.max_rhs_evals
+                          else ("solver.dt", sv.dt)
+                          if longest / default.dt * sv.refine <= sv.max_rhs_evals else where)
+            require(steps <= sv.max_rhs_evals, key, value,
+                    f"asks for {count(steps)} steps of the finest run ({longest:g} s / "
+                    f"(solver.dt / solver.refine)), more than solver.max_rhs_evals = "
+                    f"{sv.max_rhs_evals:,} (each step takes at least one evaluation)")
+
+    def duration_keys(self) -> list[tuple[str, Any]]:
+        """(key, value) that sets each of :meth:`durations`, for a refusal to name."""
+        return [("study.duration", self.study.duration)]
 
     def _check_stability(self) -> None:
         """Refuse a fixed dt beyond the explicit scheme's limit for the regularised friction
@@ -768,6 +849,7 @@ class ProbeConfig:
         for name in ("alpha", "R", "t"):
             v = getattr(self, name)
             require(math.isfinite(v), name, v, "must be a finite number")
+        check_angle_deg("alpha", self.alpha)
 
 
 # ------------------------------------------ structure (EN-03, EN-03M, the analyses)
