@@ -118,6 +118,10 @@ def test_calibrate_the_example_track(tmp_path):
     assert d @ np.linalg.solve(cov, d) <= stats.chi2.ppf(0.95, 2)  # joint 95 % region
     assert all(s["identifiable"][k] for k in keys)
     assert s["residual_rms_m"] == pytest.approx(s["noise_m"], rel=0.1)
+    # in range: nothing held, the interval the fit's own, the record says ok
+    assert not any(s["at_bound"].values()) and s["unconstrained"] == {}
+    assert s["interval"] == s["interval_95"] and s["status"] == "ok" and not s["next_step"]
+    assert s["kind"] == "calibration" and s["parameters"] == keys and s["created"]
     assert {p.name for p in out.iterdir()} >= {"calibration.nc", "calibration.json",
                                                "calibration.md", "calibration.png"}
 
@@ -210,3 +214,110 @@ def test_the_en05_target_builds_everything_into_its_hash_dir(tmp_path):
     assert len(list((tmp_path / "data" / "sweeps" / "en05").glob("*/batches/p*.nc"))) == 8
     again = subprocess.run([*cmd, "-n"], capture_output=True, text=True, timeout=600)
     assert "Nothing to be done" in again.stdout + again.stderr
+
+
+# --------------------------------------------------------- plausible tracks, bounded fits
+def _track_in(tmp_path, scale: float, name: str):
+    """GOOD's points (0.78 m from the centre, inside the annulus) with coordinates x scale."""
+    lines = GOOD.splitlines()
+    rows = [f"{t},{float(x) * scale!r},{float(y) * scale!r}"
+            for t, x, y in (ln.split(",") for ln in lines[3:])]
+    path = tmp_path / name
+    path.write_text("\n".join([*lines[:3], *rows]) + "\n")
+    return path
+
+
+@pytest.mark.parametrize(("scale", "unit", "factor"), [(1e3, "millimetres", "x 1e-3"),
+                                                       (1e2, "centimetres", "x 1e-2")])
+def test_a_track_in_other_units_is_refused_with_the_unit_it_looks_like(scale, unit, factor,
+                                                                       tmp_path, capsys):
+    """Points ~780 m (or 78 m) from the centre lie far outside EN-02's annulus [0.68, 2.4] m:
+    one line naming the distance and the unit, exit 2, nothing written, no fit started."""
+    track = _track_in(tmp_path, scale, "track.csv")
+    out = tmp_path / "out"
+    code = calibrate.main(["study=en02", f"track={track}", f"out={out}"])
+    err = capsys.readouterr().err
+    assert code == 2 and len(_lines(err)) == 1, err
+    distance = math.hypot(0.5, 0.6) * scale
+    assert f"~{distance:.3g} m from the centre" in err
+    assert f"they look like {unit} ({factor} puts them in the annulus)" in err
+    assert "[0.68, 2.4] m" in err and "3 of 3 points" in err
+    assert not out.exists()
+
+
+def test_points_just_outside_the_annulus_in_metres_are_refused_without_a_unit(tmp_path,
+                                                                              capsys):
+    """5 m from the centre is beyond R0 + dR + b = 2.52 m, and no unit scale puts it inside."""
+    track = _track_in(tmp_path, 5.0 / math.hypot(0.5, 0.6), "far.csv")
+    code = calibrate.main(["study=en02", f"track={track}", f"out={tmp_path / 'out'}"])
+    err = capsys.readouterr().err
+    assert code == 2 and "~5 m from the centre" in err and "do not look like metres" in err
+    assert not (tmp_path / "out").exists()
+
+
+def test_the_annulus_check_accepts_the_sphere_radius_of_slack():
+    """A point b inside R0 is accepted, one a millimetre further is not."""
+    cfg = resolve("en02").obj
+    r_ok = cfg.geometry.R0 - cfg.sphere.b + 1e-9
+    for r, fine in ((r_ok, True), (r_ok - 1e-3, False)):
+        track = en05.Track(np.array([0.0, 0.1, 0.2]), np.array([[r, 0.0]] * 3), ("x", "y"))
+        if fine:
+            calibrate.check_annulus(cfg, track, "t.csv")
+        else:
+            with pytest.raises(calibrate.TrackError, match="1 of|3 of"):
+                calibrate.check_annulus(cfg, track, "t.csv")
+
+
+def test_a_fit_that_leaves_the_range_is_held_at_the_bound_and_never_printed(tmp_path):
+    """A track made by the model at mu = 0.02, below EN-02's declared range [0.05, 0.3]: the
+    unconstrained fit finds mu near 0.02 (the truth), the report holds mu at 0.05, calls it
+    not identifiable, prints no estimate outside the range, gives every table its units,
+    points to EN-05's design, and writes the record `creatio ls` lists."""
+    import json
+
+    track = tmp_path / "low.csv"
+    calibrate.write_example_track(resolve("en05", [
+        "study.calibration.truth=[0.02,0.01]", "study.calibration.window_s=[1.0,3.0]",
+        "study.camera.rate_hz=10"]), track)
+    out = tmp_path / "cal"
+    assert calibrate.main(["study=en02", f"track={track}", "phases.T=10", f"out={out}"]) == 0
+    s = json.loads((out / "calibration.json").read_text())
+    ranges = {"sphere.mu": [0.05, 0.30], "sphere.eps": [0.002, 0.05]}
+    assert s["physical_range"] == ranges
+    x, se = s["unconstrained"]["sphere.mu"]
+    assert x < 0.05 and abs(x - 0.02) < 4 * se  # the track did point below the range
+    for k, (lo, hi) in ranges.items():
+        assert lo <= s["estimate"][k] <= hi, (k, s["estimate"][k])
+    assert s["estimate"]["sphere.mu"] == 0.05 and s["at_bound"]["sphere.mu"]
+    assert not s["identifiable"]["sphere.mu"] and s["interval"]["sphere.mu"] == [None, None]
+    assert "not identifiable: sphere.mu" in s["status"] and s["run_status"] == "ok"
+    assert "snakemake en05" in s["next_step"]
+    assert {"kind", "study", "track", "parameters", "estimate", "interval", "identifiable",
+            "status", "created"} <= set(s)
+    assert s["kind"] == "calibration" and s["parameters"] == ["sphere.mu", "sphere.eps"]
+    assert s["units"] == {"sphere.mu": "1", "sphere.eps": "m/s"} and s["created"]
+    md = (out / "calibration.md").read_text()
+    rows = {ln.split("|")[1].strip(): [c.strip() for c in ln.split("|")[2:-1]]
+            for ln in md.split("Correlation")[0].splitlines() if ln.startswith("| sphere.")}
+    assert rows["sphere.mu"][:2] == ["1", "0.05 (held at the bound)"]
+    assert rows["sphere.eps"][0] == "m/s"
+    assert "| key | unit | estimate |" in md and "Correlation (dimensionless)" in md
+    assert f"{x:.4g}" not in md.split("Correlation")[0]  # never shown as the estimate
+    with xr.open_dataset(out / "calibration.nc") as ds:
+        assert list(ds.unit.values) == ["1", "m/s"]
+        assert np.all((ds.estimate.values >= ds.physical_range.values[:, 0])
+                      & (ds.estimate.values <= ds.physical_range.values[:, 1]))
+
+
+def test_design_pointer_names_the_cycles_from_en05s_report(tmp_path):
+    """Built: the cycle lengths EN-05's design found, per mu; not built: the command."""
+    import json
+
+    report = tmp_path / "en05.json"
+    assert "`snakemake en05 -c 2` computes it" in calibrate.design_pointer(report)
+    report.write_text(json.dumps({"design": {
+        "pins_mu_to_0_01": {"0.05": [8.0, 10.0], "0.3": []}, "camera_noise_m": 0.001,
+        "camera_hz": 30.0, "target": 0.01}}))
+    text = calibrate.design_pointer(report)
+    assert "mu = 0.05: T = 8, 10 s; mu = 0.3: no cycle" in text
+    assert "1 mm, 30 Hz camera" in text and "+-0.01" in text

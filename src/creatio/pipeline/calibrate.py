@@ -10,8 +10,13 @@ coordinates with their units in the header (``t_s,x_m,y_m`` and optionally ``z_m
 optional ``# key: value`` lines (``study``, ``noise_m``, ``source``). Every refusal (a
 missing column, a unit other than s or m, NaN, times not increasing, off one frame grid or
 outside the run, a track of another study) is one line and exit 2, before anything is
-written. Output (default ``data/calibration/<track name>-<hash>/``): ``calibration.nc``,
-``.json``, ``.md`` and ``.png`` (creatio.reports.en05).
+written; so is a track whose points lie outside the membrane's annulus (R0 .. R0 + dR, give
+or take the sphere's radius), with the unit its numbers look like. The fit stays within each
+key's physical range (conf/uncertainty/<study>.yaml): a key whose best fit lies beyond it is
+held at the bound (not identifiable when its whole interval lies beyond), and a key not
+identifiable comes with what would pin it (EN-05's design of the experiment). Output
+(default ``data/calibration/<track name>-<hash>/``): ``calibration.nc``, ``.json`` (the
+record `creatio ls` lists), ``.md`` and ``.png`` (creatio.reports.calibration).
 """
 
 from __future__ import annotations
@@ -30,7 +35,8 @@ import numpy as np
 from creatio.errors import ConfigError
 from creatio.pipeline.config import CONF_DIR, Resolved, resolve
 
-__all__ = ["EXAMPLE_TRACK", "calibrate", "main", "read_track", "write_example_track"]
+__all__ = ["EXAMPLE_TRACK", "bounded_fit", "calibrate", "check_annulus", "design_pointer", "main",
+           "read_track", "unit_of", "write_example_track"]
 
 log = logging.getLogger("creatio")
 
@@ -40,6 +46,14 @@ EXAMPLE_TRACK = Path(__file__).resolve().parents[3] / "examples" / "tracks" / "e
 EXAMPLE_OVERRIDES = ("phases.T=10.0",)
 #: Column names and their units: time in seconds, coordinates in metres.
 UNITS = {"t": "s", "x": "m", "y": "m", "z": "m"}
+#: Units of the keys a calibration may fit, as its tables print them (1: dimensionless).
+KEY_UNITS = {"sphere.mu": "1", "sphere.eps": "m/s", "sphere.b": "m", "sphere.m": "kg",
+             "sphere.g": "m/s^2", "phases.T": "s", "study.duration": "s", "geometry.A": "m",
+             "geometry.R0": "m", "geometry.dR": "m"}
+#: Scales a track in another unit needs to be in metres, by the unit's name.
+SCALES = (("millimetres", 1e-3), ("centimetres", 1e-2), ("kilometres", 1e3))
+#: EN-05's report (its design of the experiment says which cycle lengths pin mu).
+EN05_REPORT = Path("data") / "reports" / "en05.json"
 
 
 class TrackError(ConfigError):
@@ -134,6 +148,142 @@ def read_track(path: Path | str, study: str, duration: float) -> Any:
     return Track(t, data[:, 1:], coords, noise, meta.get("study", ""), meta.get("source", ""))
 
 
+def unit_of(key: str) -> str:
+    """The unit of a fitted config key as tables print it (so no number goes without one)."""
+    return KEY_UNITS.get(key, "config units")
+
+
+def _unit_suffix(key: str) -> str:
+    """" m/s" after a number of the key, nothing after a dimensionless one."""
+    unit = unit_of(key)
+    return "" if unit == "1" else f" {unit}"
+
+
+def check_annulus(cfg: Any, track: Any, path: Path | str) -> None:
+    """Refuse a track whose points lie outside the membrane's annulus R0 .. R0 + dR by more
+    than the sphere's radius (a track in other units), saying which unit they look like."""
+    cols = list(track.coordinates)
+    if "x" not in cols or "y" not in cols:
+        return
+    r = np.hypot(track.xyz[:, cols.index("x")], track.xyz[:, cols.index("y")])
+    g, b = cfg.geometry, float(cfg.sphere.b)
+    inner, outer = float(g.R0), float(g.R0 + g.dR)
+    off = (r < inner - b) | (r > outer + b)
+    if not off.any():
+        return
+    typical = float(np.median(r[off]))
+    hint = "they do not look like metres of this geometry, nor mm, cm or km"
+    for name, scale in SCALES:
+        if inner - b <= typical * scale <= outer + b:
+            hint = (f"they look like {name} (x 1e{round(math.log10(scale))} puts them in "
+                    "the annulus)")
+            break
+    raise TrackError(path, f"{int(off.sum())} of {r.size} points lie outside the membrane's "
+                     f"annulus [{inner:g}, {outer:g}] m (R0 .. R0 + dR, +- the sphere's radius "
+                     f"{b:g} m): the points lie ~{typical:.3g} m from the centre; {hint}")
+
+
+def bounded_fit(cfg: Any, track: Any, keys: Sequence[str], start: Sequence[float] | None,
+                ranges: dict[str, tuple[float, float]]
+                ) -> tuple[Any, dict[str, tuple[float, float]]]:
+    """EN-05's least-squares fit kept within each key's physical range (an active set): a
+    key whose best fit lies beyond its range is held at the bound it crosses and the others
+    refitted, so no estimate outside the range is reported. A held key keeps the part of its
+    unconstrained interval inside the range (the track agrees with the bound); when none
+    is, it is not identifiable within its range. Returns the fit of all keys and each held
+    key's unconstrained (estimate, stderr): what the track pointed to, not an estimate."""
+    from creatio.studies.en05 import Fit, fit_track, model_centre
+    from creatio.studies.schema import vary
+
+    keys = list(keys)
+    first = fit_track(cfg, track, keys, start, ranges)
+    fit: Any = first
+    held: dict[str, float] = {}
+    beyond: dict[str, tuple[float, float]] = {}
+    kept: dict[str, tuple[np.ndarray, str | None]] = {}
+    evaluations = first.evaluations
+    while True:
+        out = [j for j, (k, x) in enumerate(zip(fit.keys, fit.estimate, strict=True))
+               if k in ranges and not ranges[k][0] <= x <= ranges[k][1]]
+        if not out:
+            break
+        for j in out:
+            k, x = fit.keys[j], float(fit.estimate[j])
+            held[k] = ranges[k][0] if x < ranges[k][0] else ranges[k][1]
+            beyond[k] = (x, float(fit.stderr[j]))
+            kept[k] = (fit.interval[j].copy(), fit.flags.get(k))
+        changes: dict[str, Any] = {**held, "solver.allow_unstable": True}
+        if "phases.T" in held:  # study.duration follows phases.T (studies.en05._link)
+            changes["study.duration"] = held["phases.T"]
+        fixed = vary(cfg, changes)
+        free = [k for k in keys if k not in held]
+        if not free:
+            fit = None
+            break
+        guess = [min(max(float(x), ranges[k][0]), ranges[k][1]) if k in ranges else float(x)
+                 for k, x in zip(fit.keys, fit.estimate, strict=True) if k in free]
+        fit = fit_track(fixed, track, free, guess, ranges)
+        evaluations += fit.evaluations
+    if not held:
+        return first, {}
+    p = len(keys)
+    estimate = np.array([held.get(k, math.nan) for k in keys])
+    stderr, ival = np.full(p, math.nan), np.full((p, 2), math.nan)
+    corr = np.full((p, p), math.nan)
+    flags = {}
+    for k, (x, se) in beyond.items():
+        (a, b), why = kept[k]
+        lo, hi = ranges[k]
+        j = keys.index(k)
+        if why:
+            flags[k] = why
+        elif max(a, lo) <= min(b, hi):
+            ival[j] = (max(a, lo), min(b, hi))
+        else:
+            flags[k] = (f"not identifiable within its physical range [{lo:g}, {hi:g}]"
+                        f"{_unit_suffix(k)}: the track's best fit lies "
+                        f"{'below' if x < lo else 'above'} it (unconstrained {x:.3g} +- "
+                        f"{se:.2g}, its 95 % interval outside the range); held at the bound "
+                        f"{held[k]:g}")
+    if fit is not None:
+        idx = [keys.index(k) for k in fit.keys]
+        estimate[idx], stderr[idx], ival[idx] = fit.estimate, fit.stderr, fit.interval
+        corr[np.ix_(idx, idx)] = fit.correlation
+        flags.update(fit.flags)
+        M, r, status, carried = fit.model, fit.residuals, fit.status, fit.carried
+        s2, dof, condition, message = fit.s2, fit.dof, fit.condition, fit.optimizer
+    else:
+        interval, frames = track.grid()
+        cols = ["xyz".index(c) for c in track.coordinates]
+        X, status, carried = model_centre(fixed, interval, frames)
+        M = X[:, cols]
+        r = M - track.xyz
+        dof = r.size
+        s2, condition, message = float(np.sum(r * r) / dof), math.nan, "every key held"
+    return Fit(keys, first.start, estimate, stderr, ival, corr, r, M,
+               float(np.sqrt(np.mean(r * r))), s2, dof, condition, status, carried,
+               evaluations, message, {k: flags[k] for k in keys if k in flags}), beyond
+
+
+def design_pointer(report: Path = EN05_REPORT) -> str:
+    """What would pin mu: the cycle lengths EN-05's design of the experiment found (from its
+    report when built, else the command that computes them)."""
+    import json
+
+    what = "EN-05's design of the experiment (Cramer-Rao sigma_mu against the cycle length T)"
+    try:
+        des = json.loads(report.read_text())["design"]
+        pins = des["pins_mu_to_0_01"]
+        noise, rate, target = des["camera_noise_m"], des["camera_hz"], des["target"]
+    except (OSError, ValueError, KeyError, TypeError):
+        return (f"what would pin it: {what}, which cycle lengths pin mu; not built here: "
+                f"`snakemake en05 -c 2` computes it ({report}, design.pins_mu_to_0_01)")
+    cycles = "; ".join(f"mu = {mu}: T = {', '.join(f'{t:g}' for t in Ts)} s" if Ts
+                       else f"mu = {mu}: no cycle" for mu, Ts in pins.items())
+    return (f"what would pin it: a track of the cycle lengths that pin mu to +-{target:g} "
+            f"with a {noise * 1e3:g} mm, {rate:g} Hz camera, {cycles} ({what}, {report})")
+
+
 def _ranges(study: str) -> dict[str, tuple[float, float]]:
     """The physical ranges of a study's uncertain inputs (conf/uncertainty/<study>.yaml)."""
     from omegaconf import OmegaConf
@@ -184,7 +334,8 @@ def _float(key: str, text: str) -> float:
 
 def calibrate(args: Sequence[str]) -> dict[str, Path]:
     """Run `creatio calibrate` with its arguments; return the files written."""
-    from creatio.studies.en05 import fit_track
+    from creatio.reports.calibration import write_calibration_report
+    from creatio.store.netcdf import write_dataset
 
     own = _parse(args)
     resolved: Resolved = resolve(own["study"], own["overrides"])
@@ -206,16 +357,24 @@ def calibrate(args: Sequence[str]) -> dict[str, Path]:
         if len(own["start"]) != len(keys):
             raise ConfigError("start", own["start"], f"needs one value per key of fit {keys}")
         start = [_float("start", v) for v in own["start"]]
+    check_annulus(cfg, track, own["track"])
     interval, frames = track.grid()
     sampled = _sampled(cfg, interval)
-    fit = fit_track(sampled, track, keys, start, _ranges(own["study"]))
+    ranges = _ranges(own["study"])
+    fit, beyond = bounded_fit(sampled, track, keys, start, ranges)
     digest = hashlib.sha256("\0".join([resolved.sha256, Path(own["track"]).read_text(),
                                        *keys, str(noise), str(start)]).encode()).hexdigest()
     out = Path(own["out"]) if own["out"] else (
         Path("data") / "calibration" / f"{Path(own['track']).stem}-{digest[:12]}")
-    ds = _dataset(resolved, track, fit, noise, own["track"])
-    from creatio.reports.en05 import write_calibration_report
-    from creatio.store.netcdf import write_dataset
+    ds = _dataset(resolved, track, fit, noise, own["track"], ranges, beyond)
+    for j, k in enumerate(fit.keys):
+        held = " (held at the bound of its physical range)" if k in beyond else ""
+        log.info("%s = %.4g%s%s", k, fit.estimate[j], _unit_suffix(k), held)
+    for k, why in fit.flags.items():
+        log.warning("%s: %s", k, why)
+    if fit.flags:
+        ds.attrs["next_step"] = design_pointer()
+        log.warning("%s", ds.attrs["next_step"])
 
     paths = {"nc": write_dataset(ds, out / "calibration.nc")}
     paths.update(write_calibration_report(ds, out))
@@ -231,8 +390,11 @@ def _sampled(cfg: Any, interval: float) -> Any:
                       "solver.allow_unstable": True})
 
 
-def _dataset(resolved: Resolved, track: Any, fit: Any, noise: float, source: str) -> Any:
-    """The calibration dataset: track, model, residuals, estimates and their statistics."""
+def _dataset(resolved: Resolved, track: Any, fit: Any, noise: float, source: str,
+             ranges: dict[str, tuple[float, float]],
+             beyond: dict[str, tuple[float, float]]) -> Any:
+    """The calibration dataset: track, model, residuals, estimates and their statistics,
+    each key's unit and physical range, the keys held at a bound."""
     import xarray as xr
 
     from creatio.pipeline.io import provenance
@@ -242,15 +404,33 @@ def _dataset(resolved: Resolved, track: Any, fit: Any, noise: float, source: str
         "track": (dims, track.xyz, {"long_name": "measured centre", "units": "m"}),
         "model": (dims, fit.model, {"long_name": "model centre at the estimate", "units": "m"}),
         "residual": (dims, fit.residuals, {"long_name": "model - track", "units": "m"}),
-        "start": (("parameter",), fit.start, {"long_name": "first guess"}),
-        "estimate": (("parameter",), fit.estimate),
+        "start": (("parameter",), fit.start, {"long_name": "first guess (in the unit of "
+                                              "each parameter)"}),
+        "estimate": (("parameter",), fit.estimate, {"long_name": "estimate (in the unit of "
+                                                    "each parameter)"}),
         "stderr": (("parameter",), fit.stderr,
                    {"long_name": "standard error from s^2 (J^T J)^-1"}),
         "interval_95": (("parameter", "bound"), fit.interval, {"long_name": "95 % interval"}),
         "correlation": (("parameter", "parameter2"), fit.correlation, {"units": "1"}),
+        "physical_range": (("parameter", "bound"),
+                           np.array([ranges.get(k, (math.nan, math.nan)) for k in fit.keys],
+                                    float).reshape(-1, 2),
+                           {"long_name": "physical range (conf/uncertainty), NaN: none"}),
+        "at_bound": (("parameter",), np.array([k in beyond for k in fit.keys], np.int8),
+                     {"long_name": "1 where the best fit lies beyond the range: held at "
+                      "the bound", "units": "1"}),
+        "unconstrained": (("parameter",),
+                          np.array([beyond.get(k, (math.nan, math.nan))[0] for k in fit.keys]),
+                          {"long_name": "where the fit of a held key went beyond its range "
+                           "(NaN: not held), not an estimate"}),
+        "unconstrained_stderr": (("parameter",),
+                                 np.array([beyond.get(k, (math.nan, math.nan))[1]
+                                           for k in fit.keys]),
+                                 {"long_name": "its standard error (NaN: not held)"}),
     }, coords={"time": ("frame", track.t, {"units": "s"}),
                "coordinate": ("coordinate", list(track.coordinates)),
                "parameter": ("parameter", list(fit.keys)),
+               "unit": ("parameter", [unit_of(k) for k in fit.keys]),
                "parameter2": ("parameter2", list(fit.keys)), "bound": ("bound", ["low", "high"])})
     title = f"calibration of {resolved.id} to {Path(source).name}"
     ds.attrs = {**provenance(resolved.id, resolved.yaml, resolved.sha256, title),

@@ -41,7 +41,7 @@ INDEX = "index.html"
 #: Kinds of result, in the order the index lists them.
 KINDS = ("study", "run", "sweep", "scene", "calibration", "benchmark")
 #: Where `creatio calibrate` writes by default (one folder per track and fit), and the files
-#: of a calibration folder by link name (creatio.pipeline.calibrate, creatio.reports.en05).
+#: of a calibration folder by link name (creatio.pipeline.calibrate, creatio.reports.calibration).
 CALIBRATION_DIR = "calibration"
 CALIBRATION_FILES = (("report", "calibration.md"), ("figure", "calibration.png"),
                      ("summary", "calibration.json"), ("dataset", "calibration.nc"))
