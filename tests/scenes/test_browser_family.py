@@ -42,6 +42,16 @@ def _slide(browser: Browser, key: str, index: int) -> dict:
         f"return {STATE}; }})()")
 
 
+def _member(axes: list[dict], key: str, i: int) -> tuple[int, dict]:
+    """The member with axis `key` at index i and every other axis at the page's own value
+    (row-major), and its values as the page publishes them."""
+    idx = [i if a["key"] == key else a["base"] for a in axes]
+    m = 0
+    for a, j in zip(axes, idx, strict=True):
+        m = m * len(a["labels"]) + j
+    return m, {a["key"]: a["labels"][j] for a, j in zip(axes, idx, strict=True)}
+
+
 def _dataset(scenes, scene):
     from creatio.store.netcdf import read_dataset
 
@@ -52,14 +62,15 @@ def _dataset(scenes, scene):
 def test_the_mu_slider_draws_that_members_sphere_at_the_pages_time(browser, scenes, scene):
     ds = _dataset(scenes, scene)
     axes = json.loads(ds.attrs["family_axes"])
-    assert [a["key"] for a in axes] == ["sphere.mu"]
+    assert [a["key"] for a in axes] == (["sphere.mu", "phases.T"] if scene == "en02"
+                                        else ["sphere.mu"])
     state = _open(browser, scenes[scene] / "index.html", "#t=60")
     k = int(np.argmin(np.abs(ds.time.values - 60.0)))
     assert state["member"] == ds.attrs["family_base_member"] and state["frame"] == k
     for mu in ("0.05", "0.25", "0.0"):
-        m = axes[0]["labels"].index(mu)
-        state = _slide(browser, "sphere.mu", m)
-        assert state["member"] == m and state["values"] == {"sphere.mu": mu}
+        m, values = _member(axes, "sphere.mu", axes[0]["labels"].index(mu))
+        state = _slide(browser, "sphere.mu", axes[0]["labels"].index(mu))
+        assert state["member"] == m and state["values"] == values
         assert float(ds.family_sphere__mu.values[m]) == float(mu)
         for r, run in enumerate(ds.run.values):
             drawn = state["runs"][str(run)]["drawn"]
@@ -94,22 +105,27 @@ def _assert_members_surface(probe: list[dict], ds, m: int, r: int, k: int) -> No
 
 def test_a_refused_value_shows_its_reason_not_a_number(browser, scenes):
     ds = _dataset(scenes, "en02")
-    labels = json.loads(ds.attrs["family_axes"])[0]["labels"]
-    m = labels.index("0.35")
+    axes = json.loads(ds.attrs["family_axes"])
+    i = axes[0]["labels"].index("0.35")
+    m, _ = _member(axes, "sphere.mu", i)
     reason = str(ds.family_message.values[m])
     assert reason.startswith("bases.en02.solver.dt=0.002: beyond the RK4 stability limit")
     _open(browser, scenes["en02"] / "index.html", "#t=30")
-    state = _slide(browser, "sphere.mu", m)
+    state = _slide(browser, "sphere.mu", i)
     assert state["refused"] == reason and "drawn" not in state["runs"]["en02"]
     shown = browser.evaluate("(() => { const e = document.querySelector('.view .refused');"
                              "return e.hidden ? '' : e.textContent; })()")
-    assert shown == f"sphere.mu = 0.35: refused by the validation, not computed. {reason}"
+    assert shown == (f"sphere.mu = 0.35, phases.T = 120: refused by the validation, not "
+                     f"computed. {reason}")
     cells = browser.evaluate("[...document.querySelectorAll('#readouts tr[data-readout]')]"
                              ".filter(tr => tr.dataset.readout !== 'time')"
                              ".map(tr => tr.children[1].textContent)")
     assert cells and set(cells) == {"refused"}
     marks = browser.evaluate("document.querySelectorAll('svg.chart .refused-mark').length")
-    refused = int(np.sum(np.all(ds.family_status.values == "refused", axis=1)))
+    # the charts run along mu at the page's T: the refused members of that row
+    row = [_member(axes, "sphere.mu", j)[0] for j in range(len(axes[0]["labels"]))]
+    refused = int(np.sum(np.all(ds.family_status.values[row] == "refused", axis=1)))
+    assert refused == 4  # mu = 0.325 ... 0.4: beyond the RK4 friction stability limit
     assert marks == 4 * refused  # one cross per refused member in each of the four charts
     _no_errors(browser)
 
@@ -117,23 +133,27 @@ def test_a_refused_value_shows_its_reason_not_a_number(browser, scenes):
 def test_a_new_member_is_drawn_by_the_next_frame(browser, scenes):
     """The switch happens inside the input event: the frame after it draws the member."""
     _open(browser, scenes["en02"] / "index.html", "#t=60")
+    axes = json.loads(_dataset(scenes, "en02").attrs["family_axes"])
+    n, T = len(axes[0]["labels"]), len(axes[1]["labels"])
+    assert axes[1]["base"] == T - 1  # the member of mu index i is i * T + T - 1
     result = browser.evaluate("""new Promise((done) => {
         const s = document.querySelector('input[data-key="sphere.mu"]');
         const out = [];
         let k = 0;
         const step = () => requestAnimationFrame((t0) => {
-          const target = (k * 7) % 33;
+          const target = (k * 7) % N;
           const h0 = performance.now();
           s.value = String(target); s.dispatchEvent(new Event('input'));
           const h1 = performance.now();
           requestAnimationFrame((t1) => {
             const st = JSON.parse(document.getElementById('scene-state').textContent);
-            out.push({ ok: st.member === target, handler: h1 - h0, frame: t1 - t0 });
+            out.push({ ok: st.member === target * T + T - 1, handler: h1 - h0,
+                       frame: t1 - t0 });
             if (++k < 12) step(); else done(out);
           });
         });
         step();
-      })""")
+      })""".replace("% N", f"% {n}").replace("* T + T", f"* {T} + {T}"))
     assert all(r["ok"] for r in result), result
 
 

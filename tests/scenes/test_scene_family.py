@@ -17,29 +17,42 @@ from creatio.scenes.config import resolve, route
 from creatio.scenes.family import compute_family, family_of, member
 from creatio.scenes.run import scene_dataset
 
-#: A 12 s cycle (6,000 RK4 steps a member) and a three-value axis around the default mu.
-SHORT = ["bases.en02.phases.T=12"]
+#: A 12 s cycle (6,000 RK4 steps a member) and a three-value axis around the default mu; the
+#: scene's own cycle-length axis removed (a mu-only family).
+SHORT = ["bases.en02.phases.T=12", "scene.axes.phases.T=null"]
 
 
 def _resolve(scene: str, overrides: list[str]):
     return resolve(scene, route(scene, overrides)[0])
 
 
-def test_the_default_family_is_the_notebooks_mu_control():
-    """range(0, 0.41, 0.01): 41 values written as meant (no 0.15000000000000002), the page
-    opening on the study's mu = 0.15, and the members beyond the RK4 friction stability limit
-    refused: exactly those of the closed form dt <= 2.785 m eps / (3.5 mu 1.25 m g)."""
+def test_the_default_family_is_the_notebooks_mu_control_on_a_long_and_short_cycles():
+    """mu over range(0, 0.41, 0.025): 17 values written as meant (no 0.15000000000000002),
+    times the cycle lengths 8, 10 and 120 s (EN-02's own, and the short cycles in which the
+    sphere slides and mu moves it, as EN-05's design finds); the page opens on the study's
+    mu = 0.15, T = 120 s, and the members beyond the RK4 friction stability limit are refused
+    at every T: exactly those of the closed form dt <= 2.785 m eps / (3.5 mu 1.25 m g)."""
+    from creatio.scenes.family import MAX_BYTES, PAGE_OVERHEAD, member_bytes
+
     r = resolve("en02")
     fam = family_of(r)
-    (axis,) = fam.axes
-    assert axis.key == "sphere.mu" and fam.size == 41 and not axis.inserted
-    assert axis.labels[:4] == ("0.0", "0.01", "0.02", "0.03") and axis.labels[15] == "0.15"
-    assert fam.base_member == 15 and axis.values[fam.base_member] == r.obj.bases["en02"].sphere.mu
+    axis, cycle = fam.axes
+    assert axis.key == "sphere.mu" and len(axis.values) == 17 and not axis.inserted
+    assert cycle.key == "phases.T" and cycle.labels == ("8", "10", "120") and not cycle.inserted
+    assert fam.size == 51 and fam.links == (("en02", "phases.T", "study.duration"),)
+    assert axis.labels[:4] == ("0.0", "0.025", "0.05", "0.075") and axis.labels[6] == "0.15"
+    assert fam.base_member == fam.ravel((6, 2))
+    assert axis.values[6] == r.obj.bases["en02"].sphere.mu
+    assert cycle.values[2] == r.obj.bases["en02"].phases.T
+    # the page stays under its limit: every member padded to the 120 s run's 301 frames
+    assert member_bytes(r.obj, fam) == math.ceil(301 * 18 * 8 * 4 / 3)
+    assert PAGE_OVERHEAD + (fam.size + 1) * member_bytes(r.obj, fam) <= MAX_BYTES
     sp, dt = r.obj.bases["en02"].sphere, r.obj.bases["en02"].solver.dt
     refused = [m.index for m in (member(r, fam, i) for i in range(fam.size)) if m.refused]
-    limit = [i for i, mu in enumerate(axis.values)
+    limit = [fam.ravel((i, j)) for i, mu in enumerate(axis.values) for j in range(3)
              if mu > 0 and 2.785 * sp.m * sp.eps / (3.5 * mu * 1.25 * sp.m * sp.g) < dt]
-    assert refused == limit and axis.labels[refused[0]] == "0.33" and len(refused) == 8
+    assert refused == limit and len(refused) == 4 * 3
+    assert axis.labels[fam.unravel(refused[0])[0]] == "0.325"
     reason = member(r, fam, refused[0]).refused
     assert reason.startswith("bases.en02.solver.dt=0.002: beyond the RK4 stability limit")
     for scene in ("en02r", "compare"):
@@ -48,21 +61,24 @@ def test_the_default_family_is_the_notebooks_mu_control():
 
 def test_overrides_change_add_and_remove_axes():
     fam = family_of(_resolve("en02", ["scene.axes.sphere.mu=range(0,0.31,0.05)",
-                                      "+scene.axes.phases.T=60,120,240"]))
+                                      "scene.axes.phases.T=60,120,240"]))
     assert [a.key for a in fam.axes] == ["sphere.mu", "phases.T"] and fam.shape == (7, 3)
     # the study's duration follows phases.T (an interpolation): the family varies it too
     assert fam.links == (("en02", "phases.T", "study.duration"),)
     assert fam.base_member == fam.ravel((3, 1))  # mu = 0.15, T = 120
-    assert family_of(_resolve("en02", ["scene.axes.sphere.mu=null"])) is None
-    assert family_of(_resolve("en02", ["~scene.axes.sphere"])) is None
+    assert [a.key for a in family_of(_resolve("en02", ["scene.axes.sphere.mu=null"])).axes] \
+        == ["phases.T"]
+    assert family_of(_resolve("en02", ["scene.axes.sphere.mu=null",
+                                       "scene.axes.phases.T=null"])) is None
+    assert family_of(_resolve("en02", ["~scene.axes.sphere", "~scene.axes.phases"])) is None
     assert family_of(_resolve("en02", ["scene.axes={}"])) is None
     # a whole mapping replaces the declared axes (Hydra alone would merge it into them)
     fam = family_of(_resolve("compare", ["scene.axes={phases.T:'60,120'}"]))
     assert [(a.key, a.labels, a.studies) for a in fam.axes] == [
         ("phases.T", ("60", "120"), ("en02", "en02r"))]
     # a value the axis does not list is inserted: the page opens on the scene's own config
-    (axis,) = family_of(_resolve("en02", ["sphere.mu=0.155"])).axes
-    assert axis.inserted and axis.labels[axis.base] == "0.155" and len(axis.values) == 42
+    axis, _ = family_of(_resolve("en02", ["sphere.mu=0.155"])).axes
+    assert axis.inserted and axis.labels[axis.base] == "0.155" and len(axis.values) == 18
 
 
 @pytest.mark.parametrize(("override", "message"), [
@@ -77,16 +93,17 @@ def test_an_axis_the_scene_cannot_have_is_refused(override, message):
 
 
 def test_a_family_whose_page_would_not_fit_is_refused_before_computing():
-    """410 values of mu: each member adds 301 frames (120 s every 0.4 s) x 18 numbers
-    (centre 3, orientation 4, phases 3, 8 readouts) as base64 float64 = 57.8 kB."""
+    """410 values of mu times the 3 cycle lengths: each member adds 301 frames (120 s every
+    0.4 s) x 18 numbers (centre 3, orientation 4, phases 3, 8 readouts) as base64 float64 =
+    57.8 kB."""
     from creatio.scenes.family import PAGE_OVERHEAD
 
     per = 301 * (3 + 4 + 3 + 8) * 8 * 4 / 3
-    size = (PAGE_OVERHEAD + 411 * per) / 2**20
+    size = (PAGE_OVERHEAD + 1231 * per) / 2**20
     with pytest.raises(ConfigError) as e:
         _resolve("en02", ["scene.axes.sphere.mu=range(0,0.41,0.001)"])
     assert str(e.value) == (
-        f"invalid config: scene.axes='410 members': the page would be about {size:.1f} MB, "
+        f"invalid config: scene.axes='1230 members': the page would be about {size:.1f} MB, "
         f"above its 5 MB limit ({per / 1e3:.0f} kB a member): use fewer values (about "
         f"{int((5 * 2**20 - PAGE_OVERHEAD) // math.ceil(per)) - 1} members fit), fewer "
         "readouts, or fewer frames (a lower scene.playback.fps)")
@@ -192,10 +209,39 @@ def test_the_family_batch_step_refuses_a_scene_without_axes_in_one_line(tmp_path
     out = tmp_path / "b.nc"
     proc = subprocess.run(
         [sys.executable, "-m", "creatio.cli", "task", "scene", "family-batch", "en02", str(out),
-         "--batch", "0", "--override", "scene.axes.sphere.mu=null"],
+         "--batch", "0", "--override", "scene.axes.sphere.mu=null", "--override",
+         "scene.axes.phases.T=null"],
         capture_output=True, text=True, timeout=300)
     assert proc.returncode == 2
     assert proc.stderr.strip().splitlines() == [
         "creatio task scene: invalid config: scene.axes={}: scene en02 declares no axis: it "
         "has no family to compute"]
     assert not out.exists()
+
+
+def _friction_use(T: float, mu: float) -> tuple[float, float]:
+    """EN-02 at cycle length T and friction mu: the largest |friction| / N over the run's
+    outputs and the centre's final radius (m)."""
+    from creatio.pipeline.config import resolve as resolve_study
+    from creatio.pipeline.run import run_study
+
+    cfg = resolve_study("en02", [f"phases.T={T}", f"sphere.mu={mu}"])
+    ds = run_study(cfg, cfg.entry.parts(cfg.obj)[0].name)
+    assert ds.attrs["status"] == "ok"
+    ratio = np.linalg.norm(ds.friction.values, axis=-1) / ds.normal_reaction.values
+    return float(np.max(ratio)), float(ds.centre_radius.values[-1])
+
+
+def test_mu_barely_moves_the_sphere_on_the_slow_cycle_and_matters_on_the_short_one():
+    """What the EN-02 page says, and why its family has an 8 s cycle: over 120 s the sphere
+    needs a friction force of 4.4e-4 N per N whatever mu (rolling without slipping), far
+    below mu N, and ends on the same radius; over 8 s the contact saturates at mu = 0.05
+    (|f| = mu N: the sphere slides) and mu changes where it ends by centimetres."""
+    slow = {mu: _friction_use(120.0, mu) for mu in (0.05, 0.15)}
+    assert slow[0.05][0] == pytest.approx(slow[0.15][0], rel=1e-4)
+    assert slow[0.05][0] < 0.01 * 0.05
+    assert abs(slow[0.05][1] - slow[0.15][1]) < 1e-8
+    fast = {mu: _friction_use(8.0, mu) for mu in (0.05, 0.15)}
+    assert fast[0.05][0] == pytest.approx(0.05, rel=1e-3)
+    assert fast[0.15][0] > 100 * slow[0.15][0]
+    assert abs(fast[0.05][1] - fast[0.15][1]) > 0.01

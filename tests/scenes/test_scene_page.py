@@ -65,7 +65,7 @@ def test_text_from_the_data_never_becomes_markup(tmp_path, library, need_chromiu
     from chromium import Browser
 
     value = "<img src=x onerror=window.hit=1>"
-    r = resolve("en02", route("en02", ["bases.en02.phases.T=12",
+    r = resolve("en02", route("en02", ["bases.en02.phases.T=12", "scene.axes.phases.T=null",
                                        f'scene.axes.sphere.mu=["{value}",0.1]'])[0])
     write_scene_dataset(r, tmp_path / "scene.nc", store=tmp_path / "members")
     page = write_page(tmp_path / "scene.nc", tmp_path / "index.html", library)

@@ -20,7 +20,7 @@ def snakemake(workdir: Path, *args: str) -> subprocess.CompletedProcess:
 
 
 def _build(workdir: Path, axis: str) -> tuple[Path, subprocess.CompletedProcess]:
-    overrides = [SHORT, f"scene.axes.sphere.mu={axis}"]
+    overrides = [SHORT, f"scene.axes.sphere.mu={axis}", "scene.axes.phases.T=null"]
     plan = SceneRuns(overrides, ["en02"]).plans["en02"]
     target = f"{plan.root}/scenes/en02/scene.nc"
     config = ["--config", f"overrides={overrides!r}".replace("'", '"'), 'scenes=["en02"]']

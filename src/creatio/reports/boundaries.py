@@ -13,6 +13,7 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
+from creatio.reports.answer import answer_lines
 from creatio.reports.common import fmt, plt, save_figure, strict_json, table, write_text
 
 __all__ = ["figure", "summary", "write_report"]
@@ -86,12 +87,31 @@ def summary(datasets: Sequence[xr.Dataset]) -> dict[str, Any]:
     }
 
 
+def _answer(datasets: Sequence[xr.Dataset]) -> list[str]:
+    """The boundaries' plain-word answer: per axis where EN-02 stops working and why, beside
+    the analytic expectation."""
+    found = []
+    for ds in datasets:
+        u = _units(ds)
+        found.append(f"{ds.attrs['axis']} at {_num(float(ds['boundary']))}{u} "
+                     f"({ds['boundary_status'].item()}; analytic "
+                     f"{_num(float(ds['analytic_boundary']))}{u})")
+    anomalies = sum(1 for ds in datasets for a in str(ds.attrs["anomalies"]).split("; ") if a)
+    return answer_lines(
+        "how far each of " + ", ".join(f"`{ds.attrs['config_key']}`" for ds in datasets)
+        + " can move from EN-02's default before the cycle fails.",
+        "the boundaries: " + "; ".join(found) + ".",
+        "a bisected bracket [last ok, first failure] per axis (its midpoint is the boundary), "
+        f"each run a full EN-02 cycle; {anomalies} anomalies flagged (listed per axis below).")
+
+
 def _markdown(datasets: Sequence[xr.Dataset], title: str, figure_name: str) -> str:
     """One table of the located boundaries, then per-axis transitions, checks, anomalies."""
     first = datasets[0].attrs
     lines = [
         f"# {title}",
         "",
+        *_answer(datasets),
         "Each axis moves one EN-02 parameter outward from its default; the boundary is the "
         "midpoint of the bisected bracket [last ok, first failure]. "
         f"Config sha256 `{first.get('config_sha256', '')[:12]}`, creatio "

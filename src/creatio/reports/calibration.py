@@ -18,7 +18,7 @@ import numpy as np
 import xarray as xr
 
 from creatio.reports.common import fmt, plt, save_figure, strict_json, table, write_text
-from creatio.reports.en05 import _residual_axes
+from creatio.reports.en05 import residual_axes
 
 __all__ = ["calibration_summary", "write_calibration_report"]
 
@@ -124,7 +124,7 @@ def write_calibration_report(ds: xr.Dataset, outdir: Path) -> dict[str, Path]:
     paths = {"json": write_text(outdir / "calibration.json", strict_json(s)),
              "md": write_text(outdir / "calibration.md", "\n".join(_markdown(s)) + "\n")}
     fig, axes = plt.subplots(1, 3, figsize=(15, 4.5))
-    _residual_axes(axes[:2], ds, s["noise_m"])
+    residual_axes(axes[:2], ds, s["noise_m"])
     coords = [str(c) for c in ds.coordinate.values]
     if "x" in coords and "y" in coords:
         ix, iy = coords.index("x"), coords.index("y")

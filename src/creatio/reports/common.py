@@ -12,7 +12,8 @@ import html
 import json
 import math
 import re
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -27,10 +28,12 @@ from matplotlib.ticker import ScalarFormatter  # noqa: E402
 from creatio.store.atomic import atomic_save, atomic_write  # noqa: E402
 from creatio.studies.published import Published  # noqa: E402
 
-__all__ = ["FAILURES", "PUBLISHED_HEADER", "as_list", "cell", "finish_figure", "finite_max",
+__all__ = ["FAILURES", "PUBLISHED_HEADER", "RECORD", "RunCase", "as_list", "cell",
+           "config_label", "config_paragraph", "config_title", "finish_figure", "finite_max",
            "fmt", "h_key", "markdown_html", "nested", "paths_figure", "plt", "published_row",
-           "readable_y", "run_difference", "run_header", "start_report", "status_counts",
-           "strict_json", "study_status", "table", "value_key", "write_csv", "write_markdown"]
+           "readable_y", "run_case", "run_difference", "run_header", "start_report",
+           "status_counts", "strict_json", "study_status", "table", "value_key", "write_csv",
+           "write_markdown"]
 
 
 def strict_json(data: Any) -> str:
@@ -156,7 +159,8 @@ _CSS = ("body{font:14px/1.45 system-ui,sans-serif;margin:1.2em;color:#222;max-wi
         "table{border-collapse:collapse;margin:.6em 0}th,td{border:1px solid #ccc;"
         "padding:.2em .55em;text-align:right}th{background:#f3f3f3}td:first-child,"
         "th:first-child{text-align:left}code{background:#f3f3f3;padding:0 .2em}"
-        "p.figures{color:#666;font-size:12px}")
+        "p.figures{color:#666;font-size:12px}figure{margin:.8em 0}figure img{max-width:100%}"
+        "figcaption{color:#555;font-size:12px}")
 _CELL = re.compile(r"(?<!\\)\|")
 
 
@@ -172,12 +176,12 @@ def _cells(line: str) -> list[str]:
 
 
 def markdown_html(text: str) -> str:
-    """A report's markdown (headings, paragraphs, bullet lists, the tables of :func:`table`)
-    as a standalone HTML page, so that Snakemake's report shows the tables instead of
-    offering the markdown as a download. Images are named, not embedded (they are shown
-    beside it)."""
+    """A report's markdown (headings, paragraphs, bullet lists, the tables of :func:`table`,
+    images) as a standalone HTML page, so that Snakemake's report shows the tables instead
+    of offering the markdown as a download. Every ``![alt](file)`` becomes an ``<img>`` with
+    that alt text and a caption, its source relative as in the markdown (the figures sit
+    beside the page)."""
     body: list[str] = []
-    figures: list[str] = []
     lines = text.splitlines()
     i = 0
     title = "report"
@@ -200,16 +204,15 @@ def markdown_html(text: str) -> str:
             if level == 1:
                 title = m.group(2)
             body.append(f"<h{level}>{_inline(m.group(2))}</h{level}>")
-        elif (img := re.match(r"^!\[[^]]*\]\(([^)]+)\)", line)):
-            figures.append(img.group(1))
+        elif (img := re.match(r"^!\[([^]]*)\]\(([^)]+)\)", line)):
+            alt, src = html.escape(img.group(1)), html.escape(img.group(2), quote=True)
+            body.append(f'<figure><img src="{src}" alt="{alt}"><figcaption>{alt}'
+                        "</figcaption></figure>")
         elif line.startswith(("* ", "- ")):
             body.append(f"<ul><li>{_inline(line[2:])}</li></ul>")
         elif line.strip():
             body.append(f"<p>{_inline(line.strip())}</p>")
         i += 1
-    if figures:
-        body.append(f"<p class=figures>Figures of this report: {html.escape(', '.join(figures))}"
-                    "</p>")
     return ("<!DOCTYPE html><html lang=en><head><meta charset=utf-8>"
             f"<title>{html.escape(title)}</title><style>{_CSS}</style></head><body>"
             + "\n".join(body).replace("</ul>\n<ul>", "\n") + "</body></html>\n")
@@ -353,3 +356,139 @@ def paths_figure(named: Sequence[tuple[str, xr.Dataset]], path: Path, title: str
         ax.legend(fontsize=7)
     fig.suptitle(title, fontsize=10)
     finish_figure(fig, path)
+
+
+# ---------------------------------------------- the config a report speaks about (issue 34)
+#: The record the pipeline writes beside a run folder's files (creatio.pipeline.index):
+#: the overrides as given and {key: [default, this run]} for every key the config changes.
+RECORD = "overrides.json"
+
+
+@dataclass
+class RunCase:
+    """Which config a report speaks about: the study, the overrides (as given), the keys
+    its config changes from the default, and whether the notebook's figures apply."""
+
+    study: str
+    sha256: str
+    overrides: list[str] = field(default_factory=list)
+    changes: dict[str, list[Any]] = field(default_factory=dict)
+    differs: dict[str, list[Any]] = field(default_factory=dict)
+    has_published: bool = False
+
+    @property
+    def published_case(self) -> bool:
+        """Whether the report compares with the notebook: it publishes figures of this study
+        and the run changes none of the keys they depend on."""
+        return self.has_published and not self.differs
+
+    def differs_text(self) -> str:
+        """The differing keys as `key: default -> this run`, a group switched on as one."""
+        def switched_on(head: str) -> bool:
+            under = [v for k, v in self.differs.items() if k.startswith(head + ".")]
+            return len(under) > 1 and all(v[0] is None for v in under)
+
+        parts: list[str] = []
+        for key, (old, new) in self.differs.items():
+            head = key.split(".")[0]
+            text = (f"`{head}`: none -> set" if "." in key and switched_on(head)
+                    else f"`{key}`: {old} -> {new}")
+            if text not in parts:
+                parts.append(text)
+        return ", ".join(parts)
+
+    def json(self) -> dict[str, Any]:
+        """The contract keys: published_case, overrides, differs (key: [default, run])."""
+        return {"published_case": self.published_case, "overrides": list(self.overrides),
+                "differs": {k: list(v) for k, v in self.differs.items()}}
+
+
+def _record(datasets: Sequence[Path]) -> dict[str, Any] | None:
+    """The run folder's record (overrides.json at the datasets' output root), None for a
+    default run (the data directory has none)."""
+    from creatio.studies.registry import KINDS
+
+    if not datasets:
+        return None
+    folder = Path(datasets[0]).resolve().parent.parent  # <root>/<dataset_dir>/<study>/x.nc
+    if folder.name not in {k.dataset_dir for k in KINDS.values()}:
+        return None
+    path = folder.parent / RECORD
+    if not path.is_file():
+        return None
+    try:
+        data = json.loads(path.read_text())
+    except (OSError, ValueError):
+        return None
+    return data if isinstance(data, dict) else None
+
+
+def given_overrides(ds: xr.Dataset) -> list[str] | None:
+    """The overrides as the user typed them, from the dataset's history when `creatio run`
+    made it (``... created by creatio X: creatio run study=en02 control=pd``); None else."""
+    history = str(ds.attrs.get("history", ""))
+    _, sep, command = history.rpartition(": ")
+    words = command.split()
+    if not sep or words[:2] != ["creatio", "run"]:
+        return None
+    return [w for w in words[2:] if "=" in w and not w.startswith("-")
+            and w.split("=", 1)[0] not in ("study", "analysis", "+study", "++study")]
+
+
+def run_case(datasets: Sequence[Path], ds: xr.Dataset) -> RunCase:
+    """The config a report's datasets come from: study and hash from the dataset, overrides
+    and changed keys from the run folder's record (none: the default, published case), the
+    keys that matter to the published figures from the study registry."""
+    from creatio.studies import registry
+
+    study = str(ds.attrs.get("study", ""))
+    sha = str(ds.attrs.get("config_sha256", ""))
+    record = _record(datasets) or {}
+    changes: Mapping[str, Any] = record.get("changes") or {}
+    try:
+        entry = registry.get(study)
+    except KeyError:
+        entry = None
+    differs = ({k: list(changes[k]) for k in entry.published_keys(changes)} if entry
+               else {k: list(v) for k, v in changes.items()})
+    given = given_overrides(ds) if record else None
+    overrides = given if given else [str(o) for o in record.get("overrides") or []]
+    return RunCase(study, sha, overrides,
+                   {k: list(v) for k, v in changes.items()}, differs,
+                   bool(entry and entry.published))
+
+
+def config_title(ds: xr.Dataset, case: RunCase) -> str:
+    """A report's title line: the study's title, and the overrides as given when any (a
+    run of a changed config never carries the default run's title alone)."""
+    title = str(ds.attrs.get("title", case.study))
+    return f"# {title}" + (f", with {' '.join(case.overrides)}" if case.overrides else "")
+
+
+def config_label(case: RunCase) -> str:
+    """The config in a few words for an answer line: study, overrides, config hash."""
+    ovs = " ".join(case.overrides)
+    return (f"study {case.study}, " + (f"overrides {ovs}" if ovs else "default config")
+            + f", config {case.sha256[:12]}")
+
+
+def config_paragraph(ds: xr.Dataset, case: RunCase) -> list[str]:
+    """The paragraph naming a report's config (study, overrides as given, config hash,
+    code), then one line on whether the notebook's figures apply: compared below, none for
+    this study, or none for this config, naming the keys that differ (default -> this run)."""
+    ovs = " ".join(case.overrides)
+    lines = [f"Study `{case.study}`, "
+             + (f"overrides `{ovs}`" if ovs else "default config (no overrides)")
+             + f", config sha256 `{case.sha256[:12]}`; creatio {ds.attrs.get('creatio_version')},"
+             f" commit {str(ds.attrs.get('git_commit', ''))[:10]}.", ""]
+    if not case.has_published:
+        lines += ["The notebook publishes no figure of this study: the figures below are "
+                  "computed alone.", ""]
+    elif case.differs:
+        lines += [f"**No published figure for this config**: the notebook's figures are for "
+                  f"the default {case.study} config, and this run changes "
+                  f"{case.differs_text()}. The figures below are computed alone.", ""]
+    else:
+        lines += ["The notebook publishes figures of this config: they are compared below.",
+                  ""]
+    return lines

@@ -20,8 +20,10 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
+from creatio.reports.answer import answer_lines, num
 from creatio.reports.common import (
     FAILURES,
+    finite_max,
     fmt,
     plt,
     run_difference,
@@ -199,6 +201,46 @@ def _convergence(sweeps: Sequence[xr.Dataset], drop: xr.Dataset | None, path: Pa
     plt.close(fig)
 
 
+def _answer(s: dict, sweeps: Sequence[xr.Dataset]) -> list[str]:
+    """EN-02F's plain-word answer, from its summary."""
+    what, answers, basis = [], [], []
+    cases = list(s.get("cases", {}).values())
+    if cases:
+        Ts = sorted({c["cycle_s"] for c in cases})
+        es = sorted({c["restitution"] for c in cases})
+        what.append(f"one cycle of each length T = {', '.join(f'{t:g}' for t in Ts)} s at "
+                    f"restitution e = {', '.join(f'{e:g}' for e in es)}, the sphere free to "
+                    "leave the surface, fly and land")
+        kept = sum(c["ends_in_cavity"] for c in cases)
+        flew = [c for c in cases if c["flights"] > 0]
+        highest = max((c["max_flight_height_m"] for c in flew), default=math.nan)
+        bounds = "; ".join(f"e = {e}: fails at T = {num(a, 's')}, carried again from "
+                           f"{num(b, 's')}" for e, (a, b) in s["boundary"]["with_flight"].items())
+        nf = s["boundary"]["without_flight"]
+        answers.append(f"{kept} of {len(cases)} cases end the cycle in their starting cavity; "
+                       f"{len(flew)} leave the surface at least once"
+                       + (f" (highest flight {num(highest, 'm')})" if flew else "") + ".")
+        answers.append(f"boundary along T with flight: {bounds}; without flight contact is "
+                       f"lost at T = {num(nf[0], 's')} and kept from {num(nf[1], 's')}.")
+        diff = finite_max([c["timestep_difference_m"] for c in cases])
+        residual = finite_max([c["energy_residual_J"] for c in cases])
+        basis.append(f"{s['method'].upper()} at dt = {num(s['dt'], 's')}"
+                     + (f" against dt = {num(float(sweeps[1].attrs['dt']), 's')} (centres "
+                        f"differ by at most {num(diff, 'm', 3)})" if len(sweeps) > 1 else "")
+                     + f", energy residual at most {num(residual, 'J', 3)}")
+    if "drop_test" in s:
+        d = s["drop_test"]
+        what.append("a drop on a flat still surface")
+        answers.append(f"the drop test lands within {num(d['first_impact_time_error_s'], 's', 3)}"
+                       f" of free fall and bounces to e^2 of its height within "
+                       f"{num(d['apex_ratio_error'], digits=3)} over {d['apex_ratios_checked']} "
+                       "bounces.")
+        basis.append("the drop test's closed forms sqrt(2h/g) and e^2")
+    if not answers:
+        return []
+    return answer_lines("; ".join(what) + ".", answers[:3], "; ".join(basis) + ".")
+
+
 def write_en02f(datasets: Sequence[Path], outdir: str | Path) -> dict[str, Path]:
     """Write en02f.json/.md/.png, _history.csv (per-case figures), _trajectory.png,
     _convergence.png."""
@@ -217,7 +259,8 @@ def write_en02f(datasets: Sequence[Path], outdir: str | Path) -> dict[str, Path]
         _trajectory(sweeps[0], paths["trajectory"])
     _convergence(sweeps, drop, paths["convergence"])
     ds = sweeps[0] if sweeps else drop
-    lines = [f"# {ds.attrs.get('title', 'EN-02F separation, flight and impact')}", ""]
+    lines = [f"# {ds.attrs.get('title', 'EN-02F separation, flight and impact')}", "",
+             *_answer(s, sweeps)]
     if sweeps:
         lines += [f"{s['method'].upper()} at dt = {s['dt']:g} s"
                   + (f", compared with dt = {sweeps[1].attrs['dt']:g} s" if len(sweeps) > 1

@@ -15,6 +15,7 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
+from creatio.reports.answer import answer_lines, num
 from creatio.reports.common import (
     as_list,
     finish_figure,
@@ -211,6 +212,31 @@ def _en02g_convergence(runs: Sequence[xr.Dataset], path: Path) -> None:
     finish_figure(fig, path)
 
 
+def _answer(s: dict, method: str) -> list[str]:
+    """EN-02G's plain-word answer, from its summary."""
+    per = s["per_inclination"]
+    osc = s["oscillating"]["per_gamma0"]
+    gammas = ", ".join(per)
+    carried = len(s["carried_inclinations_deg"])
+    what = (f"one EN-02 cycle on the inclined surface at each constant inclination gamma = "
+            f"{gammas} deg, started at its equilibrium"
+            + (f", and with gamma oscillating by {num(s['oscillating']['amplitude_deg'], 'deg')}"
+               f" around gamma0 = {', '.join(osc)} deg" if osc else "") + ".")
+    answer = [f"the sphere is carried through the whole cycle from 0 deg up to "
+              f"{num(s['max_carried_inclination_deg'], 'deg')} ({carried} of {len(per)} "
+              f"inclinations); an equilibrium exists up to "
+              f"{num(s['equilibrium_limit_deg'], 'deg')}."]
+    if osc:
+        kept = sum(1 for r in osc.values() if r["carried"] and r["status"] == "ok")
+        answer.append(f"with the oscillating inclination {kept} of {len(osc)} runs carry it.")
+    dts = ", ".join(f"{d:g}" for d in s["dt_s"])
+    basis = (f"{method.upper()} at dt = {dts} s (centres differ by at "
+             f"most {num(s['timestep_difference_m'], 'm', 3)}, energy residual at most "
+             f"{num(s['energy_residual_J'], 'J', 3)}); runs by status: "
+             + ", ".join(f"{k} {v}" for k, v in s["status_counts"].items()) + ".")
+    return answer_lines(what, answer, basis)
+
+
 def write_en02g(datasets: Sequence[Path], outdir: str | Path) -> dict[str, Path]:
     """Write en02g.json/.md/.png, _history.csv (per-run figures), _trajectory.png,
     _convergence.png."""
@@ -228,6 +254,7 @@ def write_en02g(datasets: Sequence[Path], outdir: str | Path) -> dict[str, Path]
              for g, r in s["oscillating"]["per_gamma0"].items()]
     write_csv(paths["csv"], ["law", "gamma_or_gamma0_deg", *keys], rows)
     lines = run_header(ds, runs, s["study"])
+    lines[2:2] = _answer(s, str(ds.attrs.get("method", "rk4")))
     lines += ["## Summary figures", "",
               *table(["figure", "value"], [
                   ("largest inclination carried (from 0 deg up)",

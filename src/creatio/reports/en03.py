@@ -14,6 +14,7 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
+from creatio.reports.answer import answer_lines, num
 from creatio.reports.common import (
     as_list,
     finish_figure,
@@ -196,6 +197,31 @@ def _en03_convergence(singles: Sequence[xr.Dataset], path: Path) -> None:
     finish_figure(fig, path)
 
 
+def _answer(s: dict, method: str) -> list[str]:
+    """EN-03's plain-word answer, from its summary."""
+    what = (f"the EN-02 cycle on a structure free to turn about its axis (inertia I_s = "
+            f"{num(s['structure_inertia_kg_m2'], 'kg m^2')}), the sphere's reaction turning it"
+            + (f", and over {len(s['inertia_sweep'])} inertias" if "inertia_sweep" in s else "")
+            + ".")
+    fate = ("the sphere is carried" if s["carried"] else
+            f"the sphere is lost (it leaves its cavity at {num(s['left_cavity_time_s'], 's')})")
+    answer = [f"the structure turns {num(s['structure_rotation_deg'], 'deg')} (point-mass "
+              f"estimate {num(s['structure_rotation_point_mass_deg'], 'deg')}); {fate}, "
+              f"{num(s['angular_displacement_deg'], 'deg')} around the structure and "
+              f"{num(s['world_angular_displacement_deg'], 'deg')} in the world."]
+    if "inertia_sweep" in s:
+        answer.append("over the inertia sweep the structure turns " + ", ".join(
+            f"{num(v['structure_rotation_deg'], 'deg')} at I_s = {k} kg m^2"
+            for k, v in s["inertia_sweep"].items()) + ".")
+    dts = ", ".join(f"{d:g}" for d in s["dt_s"])
+    basis = (f"{method.upper()} at dt = {dts} s (centres differ by "
+             f"{num(s['timestep_difference_m'], 'm', 3)}); angular momentum H_z kept to "
+             f"{num(s['angular_momentum_drift'], 'kg m^2/s', 3)} of "
+             f"{num(s['angular_momentum_scale'], 'kg m^2/s', 3)}; energy residual "
+             f"{num(s['energy_residual_J'], 'J', 3)}.")
+    return answer_lines(what, answer, basis)
+
+
 def write_en03(datasets: Sequence[Path], outdir: str | Path) -> dict[str, Path]:
     """Write en03.json/.md/.png, _history.csv (the single run), _trajectory.png,
     _convergence.png."""
@@ -224,7 +250,9 @@ def write_en03(datasets: Sequence[Path], outdir: str | Path) -> dict[str, Path]:
         ("carried (left cavity at, s)", f"{s['carried']} ({fmt(s['left_cavity_time_s'])})"),
         ("status", s["status"]),
     ]
-    lines = run_header(ds, singles, s["study"]) + ["## Summary figures", ""]
+    lines = run_header(ds, singles, s["study"])
+    lines[2:2] = _answer(s, str(ds.attrs.get("method", "rk4")))
+    lines += ["## Summary figures", ""]
     lines += table(["figure", "value"], rows)
     if "inertia_sweep" in s:
         lines += ["", "## Inertia sweep", "",

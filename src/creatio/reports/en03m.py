@@ -14,6 +14,7 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
+from creatio.reports.answer import answer_lines, num
 from creatio.reports.common import (
     as_list,
     finish_figure,
@@ -210,6 +211,32 @@ def _or(value: Any, text: str) -> Any:
         else fmt(value)
 
 
+def _answer(s: dict, kinds: Sequence[str], method: str) -> list[str]:
+    """EN-03M's plain-word answer, from its summary: the smallest confining force that
+    carries the sphere, per confinement and structure inertia."""
+    parts = []
+    for kind in kinds:
+        cells = s[kind]["by_structure_inertia"]
+        found = ", ".join(
+            f"I_s = {key} kg m^2: "
+            + (f"none up to {num(s['max_force_N'], 'N')}"
+               if c["min_confining_force_N"] is None or not math.isfinite(
+                   c["min_confining_force_N"]) else num(c["min_confining_force_N"], "N"))
+            for key, c in cells.items())
+        parts.append(f"{kind} confinement: {found}")
+    what = ("the smallest confining force P that keeps the sphere carried through the cycle, "
+            f"for each confinement ({', '.join(kinds)}) and structure inertia I_s, by a "
+            f"search from {num(s['reference_force_N'], 'N')} x 10^k up to "
+            f"{num(s['max_force_N'], 'N')}.")
+    answer = "smallest carrying P: " + "; ".join(parts) + "."
+    dts = ", ".join(f"{d:g}" for d in s["dt_s"])
+    basis = (f"{method.upper()} at dt = {dts} s (figure runs' centres "
+             f"differ by at most {num(s['timestep_difference_m'], 'm', 3)}); energy residual "
+             f"at most {num(s['energy_residual_J'], 'J', 3)}; g = "
+             f"{num(s['gravity_m_s2'], 'm/s^2')}.")
+    return answer_lines(what, answer, basis)
+
+
 def write_en03m(datasets: Sequence[Path], outdir: str | Path) -> dict[str, Path]:
     """Write en03m.json/.md/.png, _history.csv (every run of the search), _trajectory.png,
     _convergence.png."""
@@ -238,6 +265,8 @@ def write_en03m(datasets: Sequence[Path], outdir: str | Path) -> dict[str, Path]
                               "dt_s", "status", "carried", "left_cavity_time_s", "angle_deg",
                               "lag_deg"], rows)
     lines = run_header(ds, runs, s["study"])
+    lines[2:2] = _answer(s, [str(k) for k in ds.confinement.values],
+                         str(ds.attrs.get("method", "rk4")))
     lines += [f"g = {fmt(s['gravity_m_s2'])} m/s^2; forces searched from "
               f"{fmt(s['reference_force_N'])} x 10^k N up to {fmt(s['max_force_N'])} N.", "",
               "## Per confinement and structure", ""]

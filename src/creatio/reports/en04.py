@@ -23,6 +23,7 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
+from creatio.reports.answer import answer_lines, num
 from creatio.reports.common import (
     finish_figure,
     plt,
@@ -323,7 +324,7 @@ def write_report(datasets: Sequence[Path], outdir: str | Path) -> dict[str, Path
     if osc is not None:
         _oscillations(osc, paths["trajectory"])
     _convergence(act, paths["convergence"])
-    lines = [f"# {runs[0].attrs.get('title', 'EN-04')}", "",
+    lines = [f"# {runs[0].attrs.get('title', 'EN-04')}", "", *_answer(s, runs[0]),
              f"config sha256 `{str(runs[0].attrs.get('config_sha256', ''))[:12]}`, creatio "
              f"{runs[0].attrs.get('creatio_version')}, commit "
              f"{str(runs[0].attrs.get('git_commit', ''))[:10]} (docs/model.md s.12, "
@@ -404,6 +405,80 @@ def write_report(datasets: Sequence[Path], outdir: str | Path) -> dict[str, Path
     return paths
 
 
+def _answer(s: dict, ds: xr.Dataset) -> list[str]:
+    """EN-04's plain-word answer, from its summary: what each part computed and found."""
+    what, answers, basis = [], [], []
+    if "actuation" in s:
+        what.append("the power and energy the actuators must deliver to drive the membrane "
+                    "through " + " and ".join(_LABELS.get(c, c) for c in s["actuation"])
+                    + "'s prescribed cycles")
+        parts = []
+        for case, a in s["actuation"].items():
+            d = s["actuation_damped"][case]
+            parts.append(f"{_LABELS.get(case, case)} peaks at {num(a['P_actuator_peak_W'], 'W')}"
+                         f" and takes {num(a['E_actuator_J'], 'J')} over the cycle "
+                         f"({num(d['P_actuator_peak_W'], 'W')} and {num(d['E_actuator_J'], 'J')}"
+                         f" with damping c_d = {num(d['c_d_N_s_m3'], 'N s/m^3')}), stroke "
+                         f"{num(a['stroke_m'], 'm')}, bandwidth {num(a['bandwidth_hz'], 'Hz')}")
+        answers.append("; ".join(parts) + ".")
+        first = next(iter(s["actuation"].values()))
+        change = max(a["quadrature_rel_change"] for a in s["actuation"].values())
+        basis.append(f"a membrane of {num(first['sigma_kg_m2'], 'kg/m^2')} by a quadrature "
+                     f"converged to {num(change, digits=2)} relative")
+    if "oscillation" in s:
+        what.append("the sphere's oscillation frequencies in the still cavity")
+        worst = max(abs(c[f"{m}_rel_difference"]) for c in s["oscillation_checks"].values()
+                    for m in ("slide", "roll"))
+        ok = all(c["within_tolerance"] for c in s["oscillation_checks"].values())
+        answers.append(f"the still-cavity frequencies match their closed forms to "
+                       f"{num(worst, digits=2)} relative ("
+                       + ("within" if ok else "NOT within") + " the second-order tolerance).")
+    c = s.get("control")
+    if c:
+        k = s["control_checks"]
+        trap = c["trapezoid_best"]
+        answers.append(f"{k['cases_carried']} of {k['cases']} closed-loop controllers carry the "
+                       "sphere through -360 deg; the fastest arrives in "
+                       f"{num(c['fastest_arrival_s'], 's')}, against "
+                       f"{num(k['quintic_boundary_arrival_s'], 's')} for the fastest open-loop "
+                       "quintic cycle that still carries it"
+                       + ("" if trap is None else
+                          f" and {num(trap['arrival_s'], 's')} for the best trapezoid") + ".")
+        what.append(f"{k['cases']} closed-loop controllers")
+        basis.append(f"RK4 at dt = {num(k['dt_s'], 's')} checked at {num(k['fine_dt_s'], 's')} "
+                     f"(carried runs differ by at most "
+                     f"{num(k['max_timestep_difference_carried_m'], 'm', 3)})")
+    if not answers:
+        return []
+    basis.append(f"config sha256 `{str(ds.attrs.get('config_sha256', ''))[:12]}`")
+    return answer_lines("; ".join(what) + ".", answers, "; ".join(basis) + ".")
+
+
+def _mass_law(rows: Sequence[dict], keys: Sequence[str]) -> str | None:
+    """Whether the robustness rows that differ only by the sphere's mass agree on `keys`:
+    the sentence saying so and why (None when the rows do not vary m)."""
+    by_mu: dict[float, list[dict]] = {}
+    for r in rows:
+        by_mu.setdefault(r["mu"], []).append(r)
+    groups = [g for g in by_mu.values() if len({r["mass_factor"] for r in g}) > 1]
+    if not groups:
+        return None
+    same = all(all(r[key] == g[0][key] for r in g for key in keys) for g in groups)
+    factors = ", ".join(f"{f:g}" for f in sorted({r["mass_factor"] for g in groups for r in g}))
+    if same:
+        return (f"The rows for m factors {factors} at one mu are equal by a law of the model, "
+                "not by chance: every force on the sphere (gravity, the normal reaction, "
+                "friction mu N, its inertia) scales with m, so its motion, and whether and "
+                "when it arrives, do not depend on m.")
+    return (f"The rows for m factors {factors} at one mu differ, though every force on the "
+            "sphere scales with m: the runs are not mass-invariant, which the model says they "
+            "should be.")
+
+
+#: The times of a controlled case a lost sphere does not have (shown as "lost").
+_ARRIVAL_KEYS = ("arrival_s", "settling_s")
+
+
 def _control_lines(c: dict, k: dict, figures: dict[str, Path]) -> list[str]:
     """The closed-loop section of the markdown report."""
     def f(v: Any, fmt: str = ".3f") -> str:
@@ -451,18 +526,27 @@ def _control_lines(c: dict, k: dict, figures: dict[str, Path]) -> list[str]:
              *table(["mu", "m factor", "closed loop carried", "arrival (s)",
                      "open loop carried", "arrival (s)"],
                     [(r["mu"], r["mass_factor"], r["closed_loop_carried"],
-                      f(r["closed_loop_arrival_s"]), r["open_loop_carried"],
-                      f(r["open_loop_arrival_s"])) for r in c["robustness"]]), "",
+                      f(r["closed_loop_arrival_s"]) if r["closed_loop_carried"] else "lost",
+                      r["open_loop_carried"],
+                      f(r["open_loop_arrival_s"]) if r["open_loop_carried"] else "lost")
+                     for r in c["robustness"]]), "",
+             *([law, ""] if (law := _mass_law(c["robustness"], [
+                 "closed_loop_carried", "closed_loop_arrival_s", "open_loop_carried",
+                 "open_loop_arrival_s"])) else []),
+             "An arrival time is shown only for a sphere that was carried: a lost one has "
+             "none.", "",
              "### Every controller", "",
              f"Energy residual of the carried cases at most "
              f"{f(k['max_energy_residual_carried_J'], '.3g')} J, dt - dt/2 centre difference "
              f"at most {f(k['max_timestep_difference_carried_m'], '.3g')} m.", "",
              *table([key for key, _ in CONTROL_CASE_KEYS],
-                    [tuple("-" if case[key] is None else f(case[key], ".4g")
+                    [tuple("lost" if key in _ARRIVAL_KEYS and not case["carried"]
+                           else "-" if case[key] is None else f(case[key], ".4g")
                            if isinstance(case[key], float) or case[key] is None else case[key]
                            for key, _ in CONTROL_CASE_KEYS) for case in c["cases"]]), "",
              "`-`: the run has no such time (it never arrived, or did not stay within the band "
-             "to its end); a run that ends `contact_lost` or `edge_crossed` stopped there."]
+             "to its end); `lost`: the sphere left its cavity (not carried), so it has no "
+             "arrival; a run that ends `contact_lost` or `edge_crossed` stopped there."]
     if "demand" in k:
         lines += _demand_lines(c, k["demand"], figures)
     return lines

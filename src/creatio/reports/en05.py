@@ -1,12 +1,12 @@
-"""Reports of EN-05 (docs/studies.md) and of `creatio calibrate`.
+"""Reports of EN-05 (docs/studies.md); `creatio calibrate` has its own (reports.calibration).
 
 From EN-05's datasets (``en05_ishigami``, ``en05_calibration``, ``en05_experiment``,
 ``en05_sobol``): ``en05.json`` (the contract: sobol, ishigami, carried_fraction,
 calibration, design), ``en05.md``, ``en05.png`` (indices with their intervals per output at
 each base size), ``en05_sobol.csv`` (the index table), ``en05_calibration.png`` (the round
 trip's residuals, estimates over seeds, the spread beside Cramer-Rao) and
-``en05_design.png`` (sigma_mu against the cycle length per mu, lost runs marked). From a
-calibration dataset: ``calibration.json``, ``.md`` and ``.png``. Nothing here recomputes.
+``en05_design.png`` (sigma_mu against the cycle length per mu, lost runs marked). Nothing
+here recomputes.
 """
 
 from __future__ import annotations
@@ -20,10 +20,11 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
+from creatio.reports.answer import answer_lines, num
 from creatio.reports.common import fmt, plt, save_figure, strict_json, table, write_text
 from creatio.store.atomic import atomic_write
 
-__all__ = ["calibration_summary", "en05_summary", "write_calibration_report", "write_report"]
+__all__ = ["en05_summary", "residual_axes", "write_report"]
 
 _INDICES = ("S1", "ST", "S1_conf", "ST_conf")
 
@@ -234,7 +235,7 @@ def _design_figure(ds: xr.Dataset, path: Path) -> None:
     plt.close(fig)
 
 
-def _residual_axes(axes: Any, ds: xr.Dataset, noise: float) -> None:
+def residual_axes(axes: Any, ds: xr.Dataset, noise: float) -> None:
     """Residuals against time per coordinate, and their histogram in units of the noise."""
     t = ds.time.values
     for c, name in enumerate(ds.coordinate.values):
@@ -260,7 +261,7 @@ def _calibration_figure(ds: xr.Dataset, path: Path) -> None:
     fitted alone beside its Cramer-Rao bound."""
     fig, axes = plt.subplots(2, 2, figsize=(12, 8))
     noise = float(ds.attrs["noise_m"])
-    _residual_axes(axes[0], ds, noise)
+    residual_axes(axes[0], ds, noise)
     axes[0, 0].set_title(f"example seed: residuals (rms {ds.attrs['residual_rms_m'] * 1e3:.3g} "
                          f"mm, noise {noise * 1e3:g} mm)", fontsize=10)
     keys = [str(p) for p in ds.parameter.values]
@@ -304,10 +305,50 @@ def _calibration_figure(ds: xr.Dataset, path: Path) -> None:
 
 
 # ------------------------------------------------------------------------------ markdown
+def _answer(summary: dict[str, Any]) -> list[str]:
+    """EN-05's plain-word answer, from its summary: what matters, what the fit returns,
+    which cycle pins mu."""
+    N = max(summary["sobol"], key=int)
+    per = summary["sobol"][N]
+    drivers = []
+    for out, e in per.items():
+        if e["computed"]:
+            finite = {n: v for n, v in e["ST"].items() if v is not None and math.isfinite(v)}
+            if finite:
+                name, st = max(finite.items(), key=lambda kv: kv[1])
+                drivers.append(f"{out}: {name} (ST {st:.2f})")
+    runs = next(iter(per.values()))["runs"]
+    cal = summary["calibration"]
+    fit = ", ".join(f"{k} = {num(cal['estimate'][k])} +- {num(cal['stderr'][k], digits=2)} "
+                    f"(truth {num(cal['truth'][k])})" for k in cal["truth"])
+    cover = ", ".join(f"{k} {100 * v:.1f} %" for k, v in cal["coverage_95"].items())
+    des = summary["design"]
+    pins = "; ".join(f"mu = {mu}: T = {', '.join(f'{t:g}' for t in Ts)} s" if Ts
+                     else f"mu = {mu}: no cycle" for mu, Ts in des["pins_mu_to_0_01"].items())
+    what = ("which of EN-02's inputs move its outcomes (Sobol' total indices ST over "
+            f"{runs} runs at N = {N}), a fit of {', '.join(cal['truth'])} back from a "
+            f"synthetic {num(cal['cycle_s'], 's')} camera track, and which cycle length T "
+            f"lets a {des['camera_noise_m'] * 1e3:g} mm, {des['camera_hz']:g} Hz camera pin "
+            f"mu to +-{des['target']:g}.")
+    answer = ["the input that moves each output most: " + (", ".join(drivers) or "none "
+              "computed") + ".",
+              f"the round trip returns {fit}; the 95 % intervals cover the truth for {cover} "
+              f"of {cal['seeds']} noise seeds.",
+              f"the cycles that pin mu to +-{des['target']:g}: {pins}."]
+    ish = summary["ishigami"]
+    worst = max(abs(ish[k][n] - ish[f"{k}_closed_form"][n]) for k in ("S1", "ST")
+                for n in ish["S1"])
+    basis = (f"{100 * summary['carried_fraction']:.1f} % of the sample runs carried; the same "
+             f"estimators on the Ishigami function within {worst:.3f} of its closed forms; "
+             f"central differences at two steps agree to "
+             f"{num(des['max_step_disagreement'], digits=2)} (relative).")
+    return answer_lines(what, answer, basis)
+
+
 def _markdown(summary: dict[str, Any], sob: xr.Dataset) -> str:
     names = [str(n) for n in sob.input.values]
     keys = [str(k) for k in sob.input_key.values]
-    lines = ["# EN-05 uncertainty, sensitivity and calibration", "",
+    lines = ["# EN-05 uncertainty, sensitivity and calibration", "", *_answer(summary),
              "Inputs: " + ", ".join(f"{n} ({k})" for n, k in zip(names, keys, strict=True)) +
              f"; sample runs with `{sob.attrs['sample_base_overrides']}` over EN-02.", "",
              f"Carried fraction (status ok and never out of its cavity): "
@@ -400,73 +441,4 @@ def write_report(datasets: Sequence[Path], outdir: Path) -> dict[str, Path]:
     paths.update({"png": outdir / "en05.png", "csv": outdir / "en05_sobol.csv",
                   "calibration": outdir / "en05_calibration.png",
                   "design": outdir / "en05_design.png"})
-    return paths
-
-
-# --------------------------------------------------------------------------- calibrate
-def calibration_summary(ds: xr.Dataset) -> dict[str, Any]:
-    """The JSON report of one `creatio calibrate` run."""
-    keys = [str(p) for p in ds.parameter.values]
-    flags = dict(line.split(": ", 1) for line in str(ds.attrs.get("flags", "")).splitlines()
-                 if ": " in line)
-    return {
-        "study": str(ds.attrs["study"]),
-        "track": str(ds.attrs["track_file"]),
-        "estimate": _mapping(keys, ds.estimate.values),
-        "stderr": _mapping(keys, ds.stderr.values),
-        "interval_95": {k: [float(v) for v in ds.interval_95.values[i]]
-                        for i, k in enumerate(keys)},
-        "correlation": [[float(v) for v in row] for row in ds.correlation.values],
-        "residual_rms_m": float(ds.attrs["residual_rms_m"]),
-        "noise_m": float(ds.attrs["noise_m"]),
-        "frames": int(ds.sizes["frame"]),
-        "condition": float(ds.attrs["condition"]),
-        "identifiable": {k: k not in flags for k in keys},
-        "flags": flags,
-        "status": str(ds.attrs["status"]),
-        "evaluations": int(ds.attrs["evaluations"]),
-        "config_sha256": str(ds.attrs.get("config_sha256", "")),
-    }
-
-
-def write_calibration_report(ds: xr.Dataset, outdir: Path) -> dict[str, Path]:
-    """calibration.json, .md and .png (residuals against time, their histogram, the path)."""
-    s = calibration_summary(ds)
-    outdir = Path(outdir)
-    noise = s["noise_m"]
-    lines = [f"# Calibration of {s['study']} to {Path(s['track']).name}", "",
-             f"{s['frames']} frames; residual rms {fmt(s['residual_rms_m'])} m against the "
-             f"stated noise {fmt(noise)} m; run at the estimate: {s['status']}; "
-             f"{s['evaluations']} model runs; condition of J^T J (scaled) "
-             f"{fmt(s['condition'])}.", ""]
-    lines += table(["key", "estimate", "stderr", "95 % interval", "identifiable"],
-                   [[k, s["estimate"][k], s["stderr"][k],
-                     f"[{fmt(s['interval_95'][k][0])}, {fmt(s['interval_95'][k][1])}]",
-                     "yes" if s["identifiable"][k] else "no"] for k in s["estimate"]]) + [""]
-    lines += ["Correlation:", ""]
-    lines += table(["", *s["estimate"]], [[k, *row] for k, row in zip(s["estimate"],
-                                                                     s["correlation"],
-                                                                     strict=True)]) + [""]
-    for k, why in s["flags"].items():
-        lines.append(f"* {k}: {why}")
-    paths = {"json": write_text(outdir / "calibration.json", strict_json(s)),
-             "md": write_text(outdir / "calibration.md", "\n".join(lines) + "\n")}
-    fig, axes = plt.subplots(1, 3, figsize=(15, 4.5))
-    _residual_axes(axes[:2], ds, noise)
-    coords = [str(c) for c in ds.coordinate.values]
-    if "x" in coords and "y" in coords:
-        ix, iy = coords.index("x"), coords.index("y")
-        axes[2].plot(ds.track.values[:, ix], ds.track.values[:, iy], ".", ms=2, label="track")
-        axes[2].plot(ds.model.values[:, ix], ds.model.values[:, iy], "-", lw=1,
-                     label="model at the estimate")
-        axes[2].set_aspect("equal", adjustable="datalim")
-        axes[2].set_xlabel("x (m)")
-        axes[2].set_ylabel("y (m)")
-        axes[2].legend(fontsize=8)
-    est = ", ".join(f"{k} = {fmt(v)} +- {fmt(s['stderr'][k])}" for k, v in s["estimate"].items())
-    fig.suptitle(f"{s['study']} fitted to {Path(s['track']).name}: {est}", fontsize=10)
-    fig.tight_layout()
-    save_figure(fig, outdir / "calibration.png", dpi=110)
-    plt.close(fig)
-    paths["png"] = outdir / "calibration.png"
     return paths

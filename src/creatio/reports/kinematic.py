@@ -17,6 +17,7 @@ import numpy as np
 import xarray as xr
 
 from creatio.model.numerics import observed_order
+from creatio.reports.answer import answer_lines, num
 from creatio.reports.common import (
     PUBLISHED_HEADER,
     h_key,
@@ -158,16 +159,92 @@ def write_report(datasets: Sequence[Path], outdir: str | Path) -> dict[str, Path
     return paths
 
 
+#: The unit of each derivative's error and of its step, per study (CT-02 measures lengths
+#: in the model unit u, docs/datasets.md; EN-01 in metres).
+def _units(study: str) -> dict[str, str]:
+    """Units of the kinematic figures: the study's length unit L (u or m) put in place."""
+    L = "u" if study == "ct02" else "m"
+    return {"c_R": "dimensionless", "c_alpha": f"{L}/rad", "c_t": f"{L}/s",
+            "j_identity_error": L, "normal_tangent_dot": "dimensionless",
+            "normal_length_error": "dimensionless", "j_min": L, "j_min_sampled": L,
+            "seam_closure": L, "feature_velocity_error": f"{L}/s",
+            "feature_acceleration_error": f"{L}/s^2", "pitch_error": L, "length": L}
+
+
+def _unit_header(header: Sequence[str], study: str) -> list[str]:
+    """The derivative table's header with a unit on every column."""
+    u = _units(study)
+    L = u["length"]
+    out = []
+    for h in header:
+        name = h.split(" ")[0]
+        if h == "h":
+            out.append(f"h ({L} for c_R, rad for c_alpha, s for c_t)")
+        elif h.endswith(("order", "ratio")):
+            out.append(f"{h} (dimensionless)")
+        else:
+            out.append(f"{h} ({u.get(name, '?')})")
+    return out
+
+
+#: Steps at and above this are truncation-dominated: the observed order of the answer is
+#: taken over them (below it the central difference's rounding error takes over).
+TRUNCATION_H = 1e-4
+
+
+def _geometry(ds: xr.Dataset) -> str:
+    """The geometry the dataset was computed with, from its config (R0, dR, A)."""
+    import yaml
+
+    geo = (yaml.safe_load(str(ds.attrs.get("config_yaml", ""))) or {}).get("geometry", {})
+    L = _units(str(ds.attrs["study"]))["length"]
+    return ", ".join(f"{k} = {geo[k]:g} {L}" for k in ("R0", "dR", "A") if k in geo)
+
+
+def _answer(ds: xr.Dataset, s: dict) -> list[str]:
+    """The plain-word answer of a kinematic report, from its summary."""
+    study = s["study"]
+    u = _units(study)
+    L = u["length"]
+    orders = [o for n in s["observed_order"].values() for k, o in n.items()
+              if float(k) >= TRUNCATION_H]
+    lo, hi = min(orders), max(orders)
+    at = h_key(TRUNCATION_H)
+    errors = ", ".join(f"{n} {num(v.get(at), u[n])}" for n, v in s["fd_error"].items())
+    right = "right" if 1.9 <= lo and hi <= 2.1 else "NOT confirmed"
+    what = ("the analytic derivatives c_R, c_alpha, c_t of the surface map c(R, alpha, t) "
+            f"against central differences at {len(next(iter(s['fd_error'].values())))} steps h, "
+            f"over {ds.attrs.get('n_samples')} sample points"
+            + (", every inclination gamma and a time-varying one" if study == "ct02"
+               else ", over the EN-02 cycle's time laws") + "; the normal and J.")
+    answer = [f"the derivatives are {right}: the error falls as h^2 (observed order "
+              f"{lo:.3f} to {hi:.3f} for h >= {TRUNCATION_H:g}; at h = {at}: {errors}).",
+              f"the normal is a unit vector to {num(s['normal_length_error'], 'dimensionless')} "
+              f"and normal to the surface to {num(s['normal_tangent_dot'], 'dimensionless')}; "
+              f"J stays at least {num(s['j_min_sampled'], L)}, above its bound R0 - A = "
+              f"{num(s['j_min'], L)}."]
+    if study == "en01":
+        answer.append("the pattern turns "
+                      f"{num(s['pattern_travel_deg'], 'deg')} over the cycle, fastest "
+                      f"{num(s['pattern_max_rate_rad_s'], 'rad/s')} at "
+                      f"{num(s['pattern_max_rate_time_s'], 's')}.")
+    basis = (f"the dataset {study}.nc (config sha256 `{s['config_sha256'][:12]}`); "
+             + (f"lengths in the notebook's model length unit u ({_geometry(ds)}), not "
+                "metres." if study == "ct02" else f"lengths in metres ({_geometry(ds)})."))
+    return answer_lines(what, answer, basis)
+
+
 def _kinematic_markdown(ds: xr.Dataset, s: dict, header, rows, paths) -> str:
     study = s["study"]
-    lines = [f"# {ds.attrs.get('title', study)}", "",
+    u = _units(study)
+    lines = [f"# {ds.attrs.get('title', study)}", "", *_answer(ds, s),
              f"Dataset config sha256 `{s['config_sha256'][:12]}`, creatio "
              f"{ds.attrs.get('creatio_version')}, commit {ds.attrs.get('git_commit', '')[:10]}"
              f"{' (dirty)' if int(ds.attrs.get('git_dirty', 0)) else ''}.", "",
              "## Derivative check (max Euclidean error, analytic vs central difference)", "",
              f"Samples: {ds.attrs.get('n_samples')}. Observed order between the previous h "
              "and this one.", ""]
-    lines += table(header, rows)
+    lines += table(_unit_header(header, study), rows)
     if study == "en01":
         lines += ["", "Rows below h = 1e-4 are rounding-dominated. The angular sampling starts "
                   "at alpha = 0; the notebook does not state its own, and c_alpha / c_t come "
@@ -183,6 +260,7 @@ def _kinematic_markdown(ds: xr.Dataset, s: dict, header, rows, paths) -> str:
     ]
     if study == "ct02":
         reg += [("angular seam closure", "seam_closure")]
+    reg = [(f"{label} ({u[key]})", key) for label, key in reg]
     compared = [published_row(label, s[key], reg_pub[key]) for label, key in reg
                 if key in reg_pub]
     if compared:
@@ -194,12 +272,17 @@ def _kinematic_markdown(ds: xr.Dataset, s: dict, header, rows, paths) -> str:
     if study == "ct02":
         lines += ["", "## Cavity trajectories and pitch", ""]
         lines += table(["figure", "computed"], [
-            ("max |C' - central difference|", s["feature_velocity_error"]),
-            ("max |C'' - second difference|", s["feature_acceleration_error"]),
-            ("max |pitch formula - displacement over one turn|", s["pitch_error"]),
+            (f"max |C' - central difference| ({u['feature_velocity_error']})",
+             s["feature_velocity_error"]),
+            (f"max |C'' - second difference| ({u['feature_acceleration_error']})",
+             s["feature_acceleration_error"]),
+            (f"max |pitch formula - displacement over one turn| ({u['pitch_error']})",
+             s["pitch_error"]),
         ])
         lines += ["", "Surface class per inclination: " + ", ".join(
-            f"{k} deg {v}" for k, v in s["surface_class"].items()) + "."]
+            f"{k} deg {v}" for k, v in s["surface_class"].items()) + ".",
+            "", f"u is the notebook's model length unit: the CT-02 geometry is read in it "
+            f"({_geometry(ds)}); it is not tied to metres."]
     else:
         lines += ["", "## Pattern velocity over the EN-02 cycle", ""]
         lines += table(PUBLISHED_HEADER, [

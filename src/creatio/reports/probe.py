@@ -18,14 +18,16 @@ def probe_table(p: ProbeConfig) -> str:
     pr, pa, gm = motion.at(p.t)
     vel = fr.c_t
     rows = [
-        ("point", f"alpha = {p.alpha:g} deg, R = {p.R:g}, t = {p.t:g} s"),
+        ("point", f"alpha = {p.alpha:g} deg, R = {p.R:g} u, t = {p.t:g} s"),
         ("phases", f"phi_r = {float(pr.value):.6g} rad, phi_a = {float(pa.value):.6g} rad, "
                    f"gamma = {np.rad2deg(float(gm.value)):.6g} deg"),
-        ("position c", _vec(fr.position)),
-        ("velocity c_t", _vec(vel)),
-        ("|velocity|", f"{float(np.linalg.norm(vel)):.9g}"),
-        ("unit normal n", _vec(fr.normal)),
-        ("J", f"{float(fr.J):.9g}"),
+        ("position c (u)", _vec(fr.position)),
+        ("velocity c_t (u/s)", _vec(vel)),
+        ("|velocity| (u/s)", f"{float(np.linalg.norm(vel)):.9g}"),
+        ("unit normal n (1)", _vec(fr.normal)),
+        ("J (u)", f"{float(fr.J):.9g}"),
+        ("u", f"the notebook's model length unit (R0 = {surface.R0:g} u, dR = "
+              f"{surface.dR:g} u): lengths here are multiples of it, not metres"),
     ]
     if not 0.0 <= p.R <= surface.dR:
         rows.append(("note", f"R = {p.R:g} lies outside [0, dR = {surface.dR:g}]: "

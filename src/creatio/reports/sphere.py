@@ -7,20 +7,27 @@ from __future__ import annotations
 
 import csv
 import json
-from collections.abc import Sequence
+import math
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import xarray as xr
 
+from creatio.reports.answer import answer_lines, num
 from creatio.reports.common import (
     PUBLISHED_HEADER,
+    RunCase,
+    config_label,
+    config_paragraph,
+    config_title,
     fixed_layout,
     fmt,
     plt,
     published_row,
     readable_y,
+    run_case,
     save_figure,
     strict_json,
     table,
@@ -31,8 +38,8 @@ from creatio.store.atomic import atomic_write
 from creatio.store.forked import run_all
 from creatio.studies import registry
 
-__all__ = ["dynamic_summary", "history_csv", "timestep_difference", "write_comparison",
-           "write_report"]
+__all__ = ["dynamic_summary", "energy_check", "history_csv", "printed_half_unit",
+           "timestep_check", "timestep_difference", "write_comparison", "write_report"]
 
 
 def centre_difference(coarse: xr.Dataset, fine: xr.Dataset) -> tuple[np.ndarray, np.ndarray]:
@@ -315,8 +322,200 @@ SUMMARY_ROWS = [
 ]
 
 
+#: A residual below this many machine epsilons of the run's energy scale (m |g| (R0 + dR))
+#: is rounding: its fall with dt cannot be measured.
+ROUNDING_EPS = 100.0
+#: The energy residual's observed order q is consistent with the scheme's order p when
+#: q >= p - ORDER_SLACK.
+ORDER_SLACK = 0.5
+
+
+def _method_order(method: str) -> int | None:
+    """The order of an integration method from the method registry (None if unknown)."""
+    from creatio.dynamics.solvers import METHODS
+
+    m = METHODS.get(method)
+    return None if m is None else int(m.order)
+
+
+def _scales(config: Mapping[str, Any], runs: Sequence[xr.Dataset]) -> tuple[float, float]:
+    """(L = R0 + dR in m, the energy scale in J: m |g| L, or the largest |E| without gravity)."""
+    g = config.get("geometry") or {}
+    sph = config.get("sphere") or {}
+    L = float(g.get("R0", math.nan)) + float(g.get("dR", math.nan))
+    E = float(sph.get("m", math.nan)) * abs(float(sph.get("g", math.nan))) * L
+    if not (math.isfinite(E) and E > 0):
+        E = max((float(np.nanmax(np.abs(r.energy.values))) for r in runs if "energy" in r),
+                default=math.nan)
+    return L, E
+
+
+def printed_half_unit(x: float) -> float:
+    """Half a unit of the last digit :func:`fmt` prints of x (4 significant digits)."""
+    if not (math.isfinite(x) and x != 0):
+        return math.nan
+    return 0.5 * 10.0 ** (math.floor(math.log10(abs(x))) - 3)
+
+
+def _check(made: bool, passed: bool | None, measured: dict[str, float], bound: float,
+           rule: str, verdict: str) -> dict[str, Any]:
+    return {"made": made, "passed": passed if made else None, **measured, "bound": bound,
+            "rule": rule, "verdict": verdict}
+
+
+def timestep_check(runs: Sequence[xr.Dataset], config: Mapping[str, Any],
+                   s: Mapping[str, Any]) -> dict[str, Any]:
+    """Is the dt run's step fine enough for what the report prints? Fixed step: the
+    Richardson estimate of its position error, e = d r^p / (r^p - 1) from the difference d
+    to the dt / r run (p the scheme's order), against half a unit of the last printed digit
+    of the positions. Adaptive: d against the requested rtol times the size R0 + dR."""
+    d = float(s["timestep_difference_m"])
+    a = runs[0].attrs
+    method = str(a.get("method", "rk4"))
+    p = _method_order(method)
+    if len(runs) < 2 or not math.isfinite(d) or p is None:
+        why = ("only one run" if len(runs) < 2 else "no common output time" if
+               not math.isfinite(d) else f"the order of {method} is unknown")
+        return _check(False, None, {"difference_m": d}, math.nan,
+                      "needs the dt run and the dt / refine run",
+                      f"not made: {why}")
+    if "rtol" in a:
+        L, _ = _scales(config, runs)
+        bound = float(a["rtol"]) * L
+        ok = d <= bound
+        return _check(True, ok, {"difference_m": d, "adaptive": True}, bound,
+                      f"adaptive {method}: the difference to the run at tolerances divided by "
+                      f"refine^{p} must stay within rtol x (R0 + dR) = {fmt(float(a['rtol']))}"
+                      f" x {fmt(L)} m",
+                      "passes: the positions agree within the requested tolerance" if ok else
+                      "FAILS: the positions move by more than the requested tolerance; "
+                      "tighten solver.rtol")
+    r = float(runs[0].attrs["dt"]) / float(runs[1].attrs["dt"])
+    error = d * r ** p / (r ** p - 1.0)
+    position = max(abs(float(s["initial_radius_m"])), abs(float(s["final_radius_m"])))
+    bound = printed_half_unit(position)
+    ok = error <= bound
+    return _check(True, ok, {"difference_m": d, "richardson_error_m": error, "order": p,
+                             "refine": r}, bound,
+                  f"Richardson estimate of the dt run's position error, d x {fmt(r)}^{p} / "
+                  f"({fmt(r)}^{p} - 1) (order {p} of {method}), within half a unit of the "
+                  f"last digit of the positions printed to 4 significant digits ({position:#.4g} "
+                  f"m: {fmt(bound)} m)",
+                  "passes: the printed positions do not depend on the step" if ok else
+                  "FAILS: the step moves the printed positions; reduce solver.dt")
+
+
+def energy_check(runs: Sequence[xr.Dataset], config: Mapping[str, Any]) -> dict[str, Any]:
+    """Does the energy residual fall with the step as the scheme says? Its observed order
+    q = log(R(dt) / R(dt / r)) / log r against the scheme's order p (an adaptive run's
+    tolerances are divided by r^p, so q should again reach p); not made when the residual
+    is at rounding level (below ROUNDING_EPS machine epsilons of m |g| (R0 + dR))."""
+    res = [float(r.attrs.get("max_energy_residual", math.nan)) for r in runs]
+    method = str(runs[0].attrs.get("method", "rk4"))
+    p = _method_order(method)
+    _, scale = _scales(config, runs)
+    floor = ROUNDING_EPS * float(np.finfo(float).eps) * scale
+    measured = {"residual_J": res[0], "residual_fine_J": res[-1] if len(res) > 1 else math.nan,
+                "rounding_level_J": floor}
+    rule = (f"observed order q = log(R(dt) / R(dt / refine)) / log(refine) >= p - "
+            f"{ORDER_SLACK:g} (p = {p} for {method}); not measurable below "
+            f"{ROUNDING_EPS:g} eps x m |g| (R0 + dR) = {fmt(floor)} J")
+    if len(res) < 2 or not all(math.isfinite(x) for x in res) or p is None:
+        return _check(False, None, measured, math.nan, rule,
+                      "not made: the energy was not integrated at both steps"
+                      if len(res) > 1 else "not made: only one run")
+    if min(res) <= floor:
+        measured["rounding"] = True
+        return _check(False, None, measured, floor, rule,
+                      "not made: the residual is at rounding level (the books balance to "
+                      "rounding), so its order cannot be measured")
+    r = float(runs[0].attrs["dt"]) / float(runs[1].attrs["dt"])
+    q = math.log(res[0] / res[1]) / math.log(r)
+    ok = q >= p - ORDER_SLACK
+    measured["observed_order"] = q
+    measured["order"] = p
+    return _check(True, ok, measured, p - ORDER_SLACK, rule,
+                  f"passes: the residual falls at order {q:.2f} (scheme order {p})" if ok else
+                  f"FAILS: the residual falls at order {q:.2f}, below the scheme's {p}: "
+                  "the step is not in the asymptotic range, or the books leak")
+
+
+#: What each check means, as the report says it.
+CHECK_MEANING = {
+    "timestep": "Timestep difference: the largest distance between the centres of the dt "
+                "run and the dt / refine run at common output times. It estimates the dt "
+                "run's own error; the check asks whether the printed positions can be "
+                "trusted to their last digit.",
+    "energy": "Energy residual: the largest |E - E(0) - W_surface + D_friction| over the "
+              "run, the integrator's bookkeeping error. A correct scheme makes it fall with "
+              "the step at (at least) its order; the check measures that fall.",
+}
+
+
+def _rests_on(t: Mapping[str, Any], e: Mapping[str, Any]) -> str:
+    """The answer's last line: what the step and the energy checks showed, in words."""
+    refine = t.get("refine", 2.0)
+    how = "halving dt" if refine == 2.0 else f"dividing dt by {fmt(refine)}"
+    if t.get("adaptive"):
+        how = "tightening the tolerances"
+    d = num(t["difference_m"], "m")
+    step = (f"{how} moves the centre by at most {d}, so the printed positions do not "
+            "depend on the step" if t["passed"] else
+            f"{how} moves the centre by {d}, more than the printed digits allow (the step "
+            "check FAILS)" if t["made"] else f"the step was not checked ({t['verdict']})")
+    R = num(e["residual_J"], "J")
+    if e["made"]:
+        q, p = e["observed_order"], e["order"]
+        energy = (f"the energy residual ({R}) falls with dt at order {q:.1f} (scheme order "
+                  f"{p})" if e["passed"] else f"the energy residual ({R}) falls with dt at "
+                  f"order {q:.1f} only, below the scheme's {p} (the energy check FAILS)")
+    elif e.get("rounding"):
+        energy = (f"the energy books balance to {R} ({num(e['residual_fine_J'], 'J')} at the "
+                  "finer step): rounding level, where their fall with dt cannot be measured")
+    else:
+        energy = f"the energy residual was not checked ({e['verdict']})"
+    return f"{step}; {energy}"
+
+
+def _answer(ds: xr.Dataset, runs: Sequence[xr.Dataset], s: Mapping[str, Any],
+            checks: Mapping[str, Any], case: RunCase, compared: Sequence[Sequence[str]],
+            extra: Sequence[str]) -> list[str]:
+    """The opening lines (creatio.reports.answer): what was computed for which config, the
+    answer (the motion, then each used feature's), what it rests on (the run's own checks,
+    and the notebook's figures for the published case)."""
+    a = ds.attrs
+    method = str(a.get("method", "rk4"))
+    if "rtol" in a:
+        how = (f"{method} (adaptive, rtol {num(float(a['rtol']))}), again with tolerances "
+               f"divided by {num(float(a['dt']) / float(runs[-1].attrs['dt']))}^"
+               f"{_method_order(method)}")
+    else:
+        how = f"{method.upper()} at dt = {s['dt_s'][0]:g} s, again at dt = {s['dt_s'][-1]:g} s"
+    computed = (f"{num(s['stop_time_s'], 's')} of the sphere's motion ({config_label(case)}) "
+                f"with {how} to check the step.")
+    ok = s["status"] == "ok"
+    contact = (f"it stayed in contact (minimum normal reaction "
+               f"{num(s['min_normal_reaction_N'], 'N')})" if ok else
+               f"the run stopped at t = {num(s['stop_time_s'], 's')} with status {s['status']}")
+    motion = (f"the sphere travelled {s['angular_displacement_deg']:+.1f} deg around the annulus"
+              f" and ended at radius {s['final_radius_m']:#.4g} m (from "
+              f"{s['initial_radius_m']:#.4g} m); {contact}.")
+    rests = f"{_rests_on(checks['timestep'], checks['energy'])}."
+    if case.published_case and compared:
+        good = sum(1 for row in compared if row[4] in ("agrees to the printed digits",
+                                                       "below the bound", "same order"))
+        rests += (f" Beside the notebook: {good} of {len(compared)} published figures agree "
+                  "to their printed digits or stay below their bounds.")
+    elif case.has_published:
+        rests += " No published figure applies to this config."
+    return answer_lines(computed, [motion, *extra][:3], rests)
+
+
 def write_report(datasets: Sequence[Path], outdir: str | Path) -> dict[str, Path]:
-    """Write <study>.json/.md/.html/.png, _history.csv, _trajectory.png, _convergence.png."""
+    """Write <study>.json/.md/.html/.png, _history.csv, _trajectory.png, _convergence.png
+    (and each used feature's figures): the config named first, then the answer, the checks
+    derived from the run itself, the published comparison only for the published case."""
+    from creatio.reports.sections import feature_sections
     from creatio.store.netcdf import read_dataset
 
     loaded = [read_dataset(p) for p in datasets]
@@ -327,6 +526,8 @@ def write_report(datasets: Sequence[Path], outdir: str | Path) -> dict[str, Path
     outdir = Path(outdir)
     outdir.mkdir(parents=True, exist_ok=True)
     s = dynamic_summary(runs)
+    case = run_case(datasets, ds)
+    checks = {"timestep": timestep_check(runs, config, s), "energy": energy_check(runs, config)}
     paths = {
         "json": outdir / f"{study}.json",
         "md": outdir / f"{study}.md",
@@ -336,7 +537,6 @@ def write_report(datasets: Sequence[Path], outdir: str | Path) -> dict[str, Path
         "trajectory": outdir / f"{study}_trajectory.png",
         "convergence": outdir / f"{study}_convergence.png",
     }
-    write_text(paths["json"], strict_json(s))
     # the figures are independent: drawn at once where a core is free (creatio.store.forked),
     # one each (0.36, 0.23 + the CSV, 0.32 s of CPU): on 2 idle cores the report took 0.71 s
     # (0.65-0.75) against 0.78 s (0.68-0.85) in two halves, 10 pairs
@@ -344,7 +544,8 @@ def write_report(datasets: Sequence[Path], outdir: str | Path) -> dict[str, Path
              lambda: (_trajectory_figure([(study, ds)], config, paths["trajectory"]),
                       history_csv(ds, paths["csv"])),
              lambda: _convergence_figure_dynamic(runs, paths["convergence"])])
-    pub = dict(registry.get(study).published)
+    sections = feature_sections(runs, config, outdir, study)
+    pub = dict(registry.get(study).published) if case.published_case else {}
     compared = [published_row(label, s[key], pub[key]) for label, key in SUMMARY_ROWS
                 if key in pub]
     rows = [(label, s[key]) for label, key in SUMMARY_ROWS if key not in pub]
@@ -352,15 +553,14 @@ def write_report(datasets: Sequence[Path], outdir: str | Path) -> dict[str, Path
     if "rtol" in ds.attrs:
         pair = (f"{method} (adaptive) at rtol = {ds.attrs['rtol']:g} compared with rtol = "
                 f"{runs[-1].attrs['rtol']:g} (datasets named dt = {s['dt_s'][0]:g}, "
-                f"{s['dt_s'][-1]:g} s); ")
+                f"{s['dt_s'][-1]:g} s).")
     else:
         pair = (f"{method.upper()} at dt = {s['dt_s'][0]:g} s compared with dt = "
-                f"{s['dt_s'][-1]:g} s; ")
-    lines = [f"# {ds.attrs.get('title', study)}", "",
-             pair +
-             f"config sha256 `{s['config_sha256'][:12]}`, creatio "
-             f"{ds.attrs.get('creatio_version')}, commit {ds.attrs.get('git_commit', '')[:10]}.",
-             "", "## Summary figures", ""]
+                f"{s['dt_s'][-1]:g} s.")
+    answer = _answer(ds, runs, s, checks, case, compared,
+                     [a for sec in sections for a in sec.answer])
+    lines = [config_title(ds, case), "", *answer, *config_paragraph(ds, case),
+             "## Summary figures", "", pair, ""]
     if compared:
         lines += ["Computed beside the figures the notebook publishes, with the digits it "
                   "prints; a value agrees when it is within half a unit of the last printed "
@@ -375,11 +575,32 @@ def write_report(datasets: Sequence[Path], outdir: str | Path) -> dict[str, Path
               + f". {method.upper()} stability limit of the friction: "
               f"{fmt(s['stability_limit_dt_s'])} s; "
               f"max b kappa on the path: {fmt(s['max_b_kappa'])}.", ""]
+    lines += ["## Checks of this run", "",
+              "Judged by what this run shows about itself (its dt and dt / refine runs), "
+              "against bounds computed for this run. A check that cannot be made is said so, "
+              "not passed.", ""]
+    lines += table(["check", "measured", "rule", "verdict"], [
+        ("timestep difference", f"{fmt(checks['timestep']['difference_m'])} m",
+         checks["timestep"]["rule"], checks["timestep"]["verdict"]),
+        ("energy residual", f"{fmt(checks['energy']['residual_J'])} J at dt, "
+         f"{fmt(checks['energy']['residual_fine_J'])} J at dt / refine",
+         checks["energy"]["rule"], checks["energy"]["verdict"])])
+    lines += ["", *[f"* {text}" for text in CHECK_MEANING.values()], ""]
+    for sec in sections:
+        lines += sec.lines
+        for fig in sec.figures:
+            paths[f"{sec.name}_{fig.stem.removeprefix(study + '_')}"] = fig
     if s["warnings"]:
         lines += ["## Warnings", "", *[f"* {w}" for w in s["warnings"]], ""]
     lines += [f"![time histories]({paths['png'].name})", "",
               f"![trajectory]({paths['trajectory'].name})", "",
               f"![convergence]({paths['convergence'].name})", ""]
+    s.update(case.json())
+    s["checks"] = checks
+    s["answer"] = [line for line in answer if line]
+    for sec in sections:
+        s.update(sec.summary)
+    write_text(paths["json"], strict_json(s))
     write_markdown(paths["md"], "\n".join(lines))
     return paths
 

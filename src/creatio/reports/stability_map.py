@@ -16,6 +16,7 @@ import numpy as np
 import xarray as xr
 
 from creatio.model.sphere import STABILITY_MARGIN
+from creatio.reports.answer import answer_lines, num
 from creatio.reports.common import fmt, plt, save_figure, strict_json, table, write_text
 
 __all__ = ["figure", "method_colors", "summary", "write_report"]
@@ -193,6 +194,41 @@ def figure(sets: xr.Dataset | Sequence[xr.Dataset], path: str | Path) -> Path:
     return path
 
 
+def _answer(s: dict[str, Any]) -> list[str]:
+    """The stability map's plain-word answer, from its summary: per scheme how the largest
+    good step compares with the estimate, and whether the validation refuses exactly the
+    steps beyond it."""
+    ratios: dict[str, list[float]] = {}
+    for ax in s["axes"].values():
+        for m, per in ax["methods"].items():
+            ratios.setdefault(m, []).extend(p["ratio"] for p in per["points"]
+                                            if math.isfinite(p["ratio"]))
+    axes = ", ".join(f"{name} = {', '.join(f'{v:g}' for v in ax['values'])}"
+                     for name, ax in s["axes"].items())
+    def span(r: list[float]) -> str:
+        lo, hi = num(min(r), digits=3), num(max(r), digits=3)
+        return f"{lo} times the estimate" if lo == hi else f"{lo} to {hi} times the estimate"
+
+    per_method = "; ".join(f"{m}: {span(r)}" if r else f"{m}: no good step found"
+                           for m, r in ratios.items())
+    answer = [f"the largest step that stays good is, per scheme, {per_method}."]
+    checked = [ax["validation"] for ax in s["axes"].values() if ax["validation"]]
+    if checked:
+        broken = sum(v["accepted_broken"] for v in checked)
+        answer.append(f"the config validation ({checked[0]['method'].upper()}) "
+                      + ("refuses exactly the steps above its limit" if s["validation_agrees"]
+                         else "does NOT refuse exactly the steps above its limit")
+                      + f"; it accepts {broken} step(s) that break.")
+    agree = max((ax["reference_agreement_m"] for ax in s["axes"].values()), default=math.nan)
+    return answer_lines(
+        f"the largest fixed step dt at which each explicit scheme follows the reference "
+        f"within {num(s['tolerance_m'], 'm')} over {num(s['duration_s'], 's')} of "
+        f"{s['base'].upper()}, along {axes}.", answer,
+        f"the reference {s['reference']} (its cross-check {s['cross_check']} agrees to "
+        f"{num(agree, 'm', 3)}); a run is good when its status is ok and its centre stays "
+        "within the tolerance at every output.")
+
+
 def markdown(sets: Sequence[xr.Dataset], title: str = "") -> str:
     """The markdown report: the method, per axis the map and the validation check, the
     duration check."""
@@ -203,6 +239,7 @@ def markdown(sets: Sequence[xr.Dataset], title: str = "") -> str:
     lines = [
         f"# {title or 'Stability map of the fixed-step explicit schemes (EN-02)'}",
         "",
+        *_answer(summary(sets)),
         f"dt = {interval} s / n; a run is good when its status is ok and its centre stays "
         f"within {fmt(float(a['tolerance_m']))} m of the reference ({a['reference']}) on "
         f"every {interval} s output, over {fmt(float(a['duration_s']))} s. Estimate: "

@@ -8,6 +8,7 @@ from pathlib import Path
 import numpy as np
 import xarray as xr
 
+from creatio.reports.answer import answer_lines, num
 from creatio.reports.common import plt, readable_y, save_figure, table, write_text
 
 __all__ = ["axis_label", "figure_label", "log_scale", "report_paths", "status_cells",
@@ -124,6 +125,46 @@ def report_paths(outdir: str | Path) -> dict[str, Path]:
     return {"md": Path(outdir) / "sweep.md", "png": Path(outdir) / "sweep.png"}
 
 
+def _answer(flat: xr.Dataset, dims: list[str], names: list[str],
+            statuses: list[str]) -> list[str]:
+    """A sweep's plain-word answer: the axes, the range of its first figures over the points
+    that ran ok (and where), how many points ended how."""
+    def at(i: int) -> str:
+        p = flat.isel(point=i)
+        values = [p[d].item() for d in dims] if len(dims) > 1 else [p["point"].item()]
+        return ", ".join(f"{d.replace('__', '.')} = {v:g}" if isinstance(v, float)
+                         else f"{d.replace('__', '.')} = {v}"
+                         for d, v in zip(dims, values, strict=True))
+
+    def span(d: str) -> str:
+        values = list(dict.fromkeys((flat[d] if len(dims) > 1 else flat["point"]).values
+                                    .tolist()))
+        shown = [f"{v:g}" if isinstance(v, float) else str(v) for v in values]
+        return (f"{d.replace('__', '.')} = {shown[0]} to {shown[-1]} ({len(shown)} values)"
+                if len(shown) > 1 else f"{d.replace('__', '.')} = {shown[0]}")
+
+    axes = "; ".join(span(d) for d in dims)
+    ok = np.array([s == "ok" for s in statuses])
+    counts: dict[str, int] = {}
+    for st in statuses:
+        counts[st] = counts.get(st, 0) + 1
+    ranges = []
+    for name in names[:3]:
+        y = np.where(ok, flat[name].values.astype(float), np.nan)
+        if not np.isfinite(y).any():
+            continue
+        lo, hi = int(np.nanargmin(y)), int(np.nanargmax(y))
+        ranges.append(f"{figure_label(name)} from {num(float(y[lo]))} ({at(lo)}) to "
+                      f"{num(float(y[hi]))} ({at(hi)})")
+    answer = (("over the points that ran ok: " + "; ".join(ranges) + ".") if ranges
+              else "no point ran ok: there is no figure to compare.")
+    return answer_lines(
+        f"{len(statuses)} points of the base config over {axes}; each point one full run.",
+        answer,
+        "points by status: " + ", ".join(f"{k} {v}" for k, v in counts.items())
+        + f"; base overrides {flat.attrs.get('base_overrides')}.")
+
+
 def write_sweep_report(ds: xr.Dataset, outdir: str | Path) -> dict[str, Path]:
     """sweep.md (one row per point) and sweep.png (a line or heat map per figure)."""
     outdir = Path(outdir)
@@ -144,6 +185,7 @@ def write_sweep_report(ds: xr.Dataset, outdir: str | Path) -> dict[str, Path]:
             row.append(_value(float(p.stability_limit_dt_s)))
         rows.append(row)
     lines = [f"# {ds.attrs.get('title', 'sweep')}", "",
+             *_answer(flat, dims, names, statuses),
              f"{ds.attrs.get('points_run')} of {ds.attrs.get('points')} points ran; base "
              f"overrides {ds.attrs.get('base_overrides')}. Refused points (invalid) were not "
              f"run and have no figures ({NO_VALUE}); stopped runs keep their status. The "

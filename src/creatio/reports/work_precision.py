@@ -19,6 +19,7 @@ from typing import Any
 
 import numpy as np
 
+from creatio.reports.answer import answer_lines
 from creatio.reports.common import fmt, plt, save_figure, strict_json, table, write_text
 
 __all__ = ["fastest", "overlap", "summary", "verdict", "write_report"]
@@ -196,9 +197,39 @@ def _cvode_frontier(rows: Sequence[dict[str, Any]]) -> list[str]:
     return table(CVODE_TABLE, out)
 
 
+def _answer(studies: dict[str, dict], runs: Sequence[dict]) -> list[str]:
+    """The benchmark's plain-word answer: per study, at its tightest resolved error level,
+    the fastest native run against the fastest peer."""
+    found = []
+    for study, s in studies.items():
+        done = [r for r in s["fastest"] if r["resolved"] and r["native"]]
+        if not done:
+            found.append(f"{study}: no error level is resolved and reached")
+            continue
+        r = min(done, key=lambda x: x["level_m"])
+        b, p = r["native"], r["peer"]
+        text = (f"{study} at {r['level_m']:g} m: {b['method']} {b['setting']} in "
+                f"{_ms(b['time_s'])} ms")
+        if p is not None:
+            text += (f" against {p['method']} {p['setting']} in {_ms(p['time_s'])} ms "
+                     f"({fmt(r['speed_up'])}x, {r['verdict']})")
+        else:
+            text += ", no peer reaches it"
+        found.append(text)
+    methods = sorted({e["method"] for e in runs if e["group"] != "peer"})
+    return answer_lines(
+        f"the time each integrator ({', '.join(methods)}) takes to reach each error level on "
+        f"{', '.join(studies)}, beside scipy's and SUNDIALS' peers.",
+        "the fastest native run at the tightest resolved level: " + "; ".join(found) + ".",
+        "the centre's largest error against each study's reference on the 0.1 s grid; the "
+        "minimum time over interleaved repeats, JIT excluded; speed-ups within the noise "
+        "are flagged.")
+
+
 def _markdown(studies: dict[str, dict], runs: Sequence[dict], machine: dict, jit: dict,
               levels: Sequence[float], factor: float, missing: Sequence[str] = ()) -> str:
     lines = ["# Work-precision benchmark (EN-02, EN-02R)", "",
+             *_answer(studies, runs),
              "Error: max over the 0.1 s output grid of the centre-position error against the "
              "reference. Time: core call, single thread, JIT excluded; a warm-up run, then "
              "repeats interleaved round-robin across all settings (each round starting one "

@@ -102,3 +102,10 @@ EN02 = {
     **published_digits({"timestep_difference_m": "6.04e-11", "energy_residual_J": "1.48e-7"},
                        "bound"),
 }
+
+# The config keys EN-02's figures depend on (dotted prefixes): the published case is EN-02's
+# default (mu 0.15, T 120 s, open loop, RK4 at dt 2 ms against dt / 2). Not among them: the
+# title, the step budget, dense output and the stability override, which change no figure.
+EN02_CASE = ("study.duration", "study.initial", "study.outputs", "geometry", "phases", "sphere",
+             "control", "structure", "flight", "solver.method", "solver.dt", "solver.refine",
+             "solver.output_interval", "solver.rtol", "solver.atol", "solver.fixed_step")

@@ -101,9 +101,23 @@ class Study:
     parts_ref: Callable[[Any], list[Part]] | str
     group: str = "study"
     published: Mapping[str, Any] = field(default_factory=dict)
+    #: The config keys (dotted prefixes) the published figures depend on: a run that changes
+    #: one of them from the default is not the published case, and its report compares
+    #: nothing with the notebook. Empty: every key (a study that declares none).
+    published_case: tuple[str, ...] = ()
     in_all: bool = True
     summary: str = ""
     extra: str = ""
+
+    def published_keys(self, changed: Mapping[str, Any]) -> list[str]:
+        """The changed keys (dotted) that take a run off the published case: those under a
+        declared prefix, and any whose default is null (a feature switched on)."""
+        def under(key: str) -> bool:
+            return not self.published_case or any(
+                key == p or key.startswith(p + ".") for p in self.published_case)
+
+        return [k for k, v in changed.items()
+                if under(k) or (isinstance(v, list | tuple) and v and v[0] is None)]
 
     def extra_function(self) -> Callable[..., Any] | None:
         """The pipeline's function (resolved config, output root) -> [dataset paths] that
@@ -174,7 +188,7 @@ STUDIES: dict[str, Study] = {
                          "pattern": published.EN01_PATTERN}),
         Study("en02", SPHERE, DynamicConfig, "creatio.studies.sphere:run",
               "creatio.reports.sphere:write_report", _timestep_parts("en02"),
-              published=published.EN02),
+              published=published.EN02, published_case=published.EN02_CASE),
         Study("en02r", SPHERE, DynamicConfig, "creatio.studies.sphere:run",
               "creatio.reports.sphere:write_report", _timestep_parts("en02r")),
         Study("en02v", SPHERE, DynamicConfig, "creatio.studies.sphere:run",

@@ -394,6 +394,17 @@
     }
     return v;
   }
+  // A scene follows its URL's hash: each part of it registers what it reads there, applied
+  // again whenever the hash changes (#t=30, #sphere.mu=0.1 typed or linked: no reload).
+  const HASH_READERS = [];
+  function onHash(reader) { HASH_READERS.push(reader); }
+  window.addEventListener("hashchange", () => {
+    const box = document.getElementById("notice");
+    box.replaceChildren();
+    box.hidden = true;
+    const h = hashParams();
+    HASH_READERS.forEach((f) => f(h));
+  });
   function publish(obj) {
     document.getElementById("scene-state").textContent = JSON.stringify(obj);
   }
@@ -495,13 +506,19 @@
       state.last = now;
       requestAnimationFrame(tick);
     }
-    const h = hashParams();
-    let t0 = hashNumber(h, "t", "seconds");
-    if (t0 !== undefined && (t0 < 0 || t0 > tEnd)) {
-      notice(`#t=${h.t}: the run spans 0 to ${tEnd.toFixed(0)} s; showing the nearest end`);
-    }
-    set(t0 !== undefined ? t0 : 0);
-    setPlaying(h.t === undefined || h.play !== undefined);
+    // at load: #t stops the clock there (#play plays from it), no #t plays from 0; a later
+    // hash moves the clock only if it names a time (or #play)
+    const fromHash = (h, first) => {
+      const t0 = hashNumber(h, "t", "seconds");
+      if (t0 !== undefined && (t0 < 0 || t0 > tEnd)) {
+        notice(`#t=${h.t}: the run spans 0 to ${tEnd.toFixed(0)} s; showing the nearest end`);
+      }
+      if (first || t0 !== undefined) set(t0 !== undefined ? t0 : state.t);
+      if (first) setPlaying(h.t === undefined || h.play !== undefined);
+      else if (t0 !== undefined || h.play !== undefined) setPlaying(h.play !== undefined);
+    };
+    fromHash(hashParams(), true);
+    onHash((h) => fromHash(h, false));
     return set;
   }
 
@@ -615,9 +632,58 @@
     let src = own;
     let following = false;
 
+    // Why mu matters in this run or not, in words, from the drawn run's own frames: the
+    // largest friction over the normal reaction beside mu (the friction cone's edge).
+    const frictionNote = readouts.includes("friction_magnitude")
+      && readouts.includes("normal_reaction")
+      ? document.getElementById("notes").appendChild(el("p", { id: "friction-note" })) : null;
+    function explainFriction(s) {
+      if (!frictionNote) return;
+      if (s.refused) { frictionNote.textContent = ""; return; }
+      const values = F ? F.values(s.member) : {};
+      const mu = values["sphere.mu"] !== undefined ? Number(values["sphere.mu"]) : NaN;
+      const T = values["phases.T"] !== undefined ? ` (cycle T = ${values["phases.T"]} s)` : "";
+      frictionNote.textContent = runs.map((name, r) => {
+        let ratio = -1, tMax = 0, slip = -1;
+        const last = s.scalar("frames_run", r) - 1;
+        for (let i = 0; i <= last; i++) {
+          const f = s.frame("friction_magnitude", r, i)[0], N = s.frame("normal_reaction", r, i)[0];
+          if (Number.isFinite(f) && Number.isFinite(N) && N > 0 && f / N > ratio) { ratio = f / N; tMax = time[i]; }
+          if (readouts.includes("slip_speed")) {
+            const v = s.frame("slip_speed", r, i)[0];
+            if (Number.isFinite(v)) slip = Math.max(slip, v);
+          }
+        }
+        if (ratio < 0) return "";
+        const head = `${runs.length > 1 ? name.toUpperCase() + ": " : ""}the friction the `
+          + `sphere needs is at most ${fmt(ratio)} of the normal reaction N (|f|/N at `
+          + `t = ${fmt(tMax)} s over the drawn frames)`;
+        const slipText = slip >= 0 ? ` (slip speed at most ${fmt(slip)} m/s)` : "";
+        if (!Number.isFinite(mu) || mu <= 0) {
+          return `${head}${T}.` + (Number.isFinite(mu) ? " With mu = 0 the contact cannot "
+            + "carry any tangential force: the sphere slides." : "");
+        }
+        const used = ratio / mu;
+        let why;
+        if (used < 0.1) {
+          why = `Far from that limit the sphere rolls with the pattern almost without slipping${slipText}: `
+            + "the force it needs is set by the motion, not by mu, so mu barely moves it. "
+            + "A shorter cycle needs more force and brings mu into play.";
+        } else if (used < 0.9) {
+          why = `The sphere still rolls${slipText}, but the contact gives a good part of what it `
+            + "can: a lower mu would make it slip.";
+        } else {
+          why = `At that limit the sphere slips${slipText}: the contact gives all it can, so mu `
+            + "sets how far the pattern drags it.";
+        }
+        return `${head}: ${fmt(100 * used, 3)} % of the limit mu N at mu = ${values["sphere.mu"]}${T}. ${why}`;
+      }).filter((x) => x).join(" ");
+    }
+
     // Draw another source: its geometry, sphere size, trace and labels; or its refusal.
     function setSource(s) {
       src = s;
+      explainFriction(s);
       objs.forEach((o, r) => {
         o.view.sub.textContent = s.direction[r] || "";
         o.view.refusal.hidden = !s.refused;
@@ -730,12 +796,15 @@
     if (F) chart.fromHash(h);
     else setSource(own);
     clockControls(time[n - 1], dt, [1, 2, 4, 8, 16, 32], setTime);
-    if (h.camera !== undefined) {
-      if (h.camera === "follow" || h.camera === "overview") {
-        camera.value = h.camera;
+    const cameraFromHash = (hh) => {
+      if (hh.camera === undefined) return;
+      if (hh.camera === "follow" || hh.camera === "overview") {
+        camera.value = hh.camera;
         camera.dispatchEvent(new Event("change"));
-      } else notice(`#camera=${h.camera}: use follow or overview; ignored`);
-    }
+      } else notice(`#camera=${hh.camera}: use follow or overview; ignored`);
+    };
+    cameraFromHash(h);
+    onHash((hh) => { if (F) chart.fromHash(hh); cameraFromHash(hh); });
     sphereLegend(draw, time[n - 1], b0[0]);
     const notes = document.getElementById("notes");
     runs.forEach((r, k) => notes.appendChild(el("p", {},
@@ -1017,27 +1086,41 @@
                 camera: view.state() });
     };
     slider.addEventListener("input", () => set(Number(slider.value)));
-    const h = hashParams();
-    let k0 = 0;
-    const want = hashNumber(h, "gamma", "degrees");
-    if (want !== undefined) {
-      let best = Infinity;
-      incl.forEach((v, k) => { if (Math.abs(v - want) < best) { best = Math.abs(v - want); k0 = k; } });
-      if (best > 1e-9) notice(`#gamma=${h.gamma}: the nearest stop is ${incl[k0]}°`);
-    }
-    slider.value = String(k0);
-    set(k0);
+    const gammaFromHash = (h, first) => {
+      let k0 = first ? 0 : Number(slider.value);
+      const want = hashNumber(h, "gamma", "degrees");
+      if (want !== undefined) {
+        let best = Infinity;
+        incl.forEach((v, k) => { if (Math.abs(v - want) < best) { best = Math.abs(v - want); k0 = k; } });
+        if (best > 1e-9) notice(`#gamma=${h.gamma}: the nearest stop is ${incl[k0]}°`);
+      }
+      slider.value = String(k0);
+      set(k0);
+    };
+    gammaFromHash(hashParams(), true);
+    onHash((h) => gammaFromHash(h, false));
     const box = section("Legend");
     const r = el("div", { class: "item" });
     r.append(el("span", { class: "swatch", style:
       `background: linear-gradient(to right, ${css(COLD)}, ${css(MID)}, ${css(WARM)})` }),
       el("span", {}, "corrugation W along the normal: blue cavity, brown crest"));
     box.append(r);
+    unitLegend(box);
     document.getElementById("notes").appendChild(el("p", {}, "γ = 0: corrugated flat "
       + "annulus; 0 < γ < 90°: corrugated cone; γ = 90°: corrugated cylinder (docs/model.md "
       + `s.1.1). Phases φr = ${fmt(A.phase_r[0] * 180 / Math.PI)}°, φa = `
       + `${fmt(A.phase_a[0] * 180 / Math.PI)}°. The camera frames the surface at each γ until `
       + "you move it (Reset view frames it again). Drag to orbit, scroll to zoom."));
+  }
+
+  // What "u" means where a scene measures lengths in it (a legend entry and a note).
+  function unitLegend(box) {
+    const r = el("div", { class: "item", id: "unit-u" });
+    r.append(el("span", { class: "swatch unit-key" }, "u"),
+             el("span", {}, "u: the notebook's model length unit, not metres: the surface is "
+               + `R0 = ${D.attrs.R0} u, dR = ${D.attrs.dR} u, A = ${D.attrs.A} u; every length `
+               + "shown here (and the axes triad's bar) is a multiple of u, a velocity is in u/s"));
+    box.append(r);
   }
 
   // -------------------------------------------------------------------- velocity/normal
@@ -1070,15 +1153,17 @@
     c.append(r0, r0b);
     viewControls([view], null);
     const table = readoutTable([""]);
-    const h = hashParams();
     let mode = 0;
-    if (h.mode !== undefined) {
-      mode = modes.indexOf(String(h.mode));
-      if (mode < 0) { notice(`#mode=${h.mode}: one of ${modes.join(", ")}; showing ${modes[0]}`); mode = 0; }
-    }
-    modeSel.value = String(mode);
-    const m0 = hashNumber(h, "magnification", "");
-    if (m0 !== undefined) mag.value = String(m0);
+    const modeFromHash = (h) => {
+      if (h.mode !== undefined) {
+        mode = modes.indexOf(String(h.mode));
+        if (mode < 0) { notice(`#mode=${h.mode}: one of ${modes.join(", ")}; showing ${modes[0]}`); mode = 0; }
+      }
+      modeSel.value = String(mode);
+      const m0 = hashNumber(h, "magnification", "");
+      if (m0 !== undefined) mag.value = String(m0);
+    };
+    modeFromHash(hashParams());
     const dt = time[1] - time[0];
     const vec = (a, m, i) => row(a, m, i);
     const setTime = (t) => {
@@ -1116,6 +1201,7 @@
                 phases: ph, surface: membrane.probe() });
     };
     const set = clockControls(time[n - 1], dt, [0.25, 0.5, 1, 2, 4], setTime);
+    onHash((h) => { modeFromHash(h); set(state.t); });
     modeSel.addEventListener("change", () => { mode = Number(modeSel.value); set(state.t); });
     mag.addEventListener("input", () => set(state.t));
     const box = section("Legend");
@@ -1127,6 +1213,7 @@
       r.append(el("span", { class: "swatch", style: `background: ${colour}` }), el("span", {}, text));
       box.append(r);
     }
+    unitLegend(box);
     document.getElementById("notes").appendChild(el("p", {}, `Point α = ${D.attrs.alpha_deg}°, `
       + `R = ${D.attrs.R} u. Modes: ${modes.join(", ")} (one period each). The velocity is `
       + "c_t, the velocity of the surface point that keeps its coordinates (docs/model.md "
