@@ -1,18 +1,29 @@
 """Every run is bounded and says how it goes (creatio.dynamics.progress, the evaluation budget
 of the driver and the flight loop): a run that spends solver.max_rhs_evals stops with status
-budget_exceeded and one line, having taken exactly the steps the unbounded run takes, and a
-long run prints progress lines to stderr."""
+budget_exceeded and one line, having taken exactly the steps the unbounded run takes; a run
+whose step size collapses stops with step_size_collapse in seconds and one line naming the
+likely cause; a long run prints progress lines to stderr."""
 
 from __future__ import annotations
 
 import math
+import re
 
 import numpy as np
 import pytest
 
 from creatio.dynamics import SphereProblem, simulate
+from creatio.dynamics import status as st
+from creatio.dynamics.simulation import collapse_cause
 from creatio.errors import ConfigError
 from creatio.pipeline.config import resolve
+
+
+def _stderr(capfd) -> list[str]:
+    """The lines a run wrote to stderr, without the notice of a compile (printed only on a
+    cold cache: creatio.dynamics.jit.ensure_compiled)."""
+    return [ln for ln in capfd.readouterr().err.strip().splitlines()
+            if not ln.startswith("creatio: compiling ")]
 
 
 def _prefix_equal(short, full) -> None:
@@ -39,31 +50,48 @@ def test_budget_stops_a_run_without_changing_its_steps(en02_problem: SphereProbl
     # the check comes before each step try: at most one try (and the stop row) beyond it
     assert budget <= short.rhs_evals <= budget + beyond
     _prefix_equal(short, full)
-    err = capfd.readouterr().err.strip().splitlines()
+    err = _stderr(capfd)
     assert len(err) == 1 and err[0].startswith("creatio: stopped at t = ")
     assert f"budget of {budget:,} right-hand-side evaluations" in err[0]
     assert err[0].removeprefix("creatio: ") in short.warnings
 
 
 def test_budget_bounds_the_flight_loop(capfd) -> None:
-    """The hybrid loop (flight, docs/model.md s.11) has the same budget."""
-    cfg = resolve("en02f", ["solver.max_rhs_evals=3000"]).obj
-    res = simulate(cfg.drop_problem())
+    """The hybrid loop (flight, docs/model.md s.11) has the same budget (set on the problem:
+    the config refuses a fixed-step study whose steps alone exceed it)."""
+    res = simulate(resolve("en02f").obj.drop_problem().replace(max_rhs_evals=3000))
     assert res.status == "budget_exceeded" and res.flight
     assert 3000 <= res.rhs_evals <= 3000 + 20 and np.unique(res.t).size == res.t.size
-    assert capfd.readouterr().err.count("\n") == 1
+    assert len(_stderr(capfd)) == 1
 
 
-def test_a_stiff_regularisation_ends_with_its_status_not_hours_later(capfd) -> None:
+def _collapse_line(capfd, res) -> str:
+    """The one stderr line of a collapsed run, also among its warnings."""
+    (line,) = _stderr(capfd)
+    assert line.startswith("creatio: stopped at t = ") and "the step size collapsed" in line
+    assert line.removeprefix("creatio: ") in res.warnings
+    return line
+
+
+def test_a_stiff_regularisation_collapses_in_seconds_not_a_budget_later(capfd) -> None:
     """The example of issue 28: sphere.eps = 1e-9 with radau5 makes the friction so stiff
-    that the run would take hours; with a budget it ends with budget_exceeded and one line
-    (here a budget of 2e5 evaluations; the default, 5e7, stops it in about a minute of one
-    core)."""
-    cfg = resolve("en02", ["sphere.eps=1e-9", "solver=radau5", "solver.max_rhs_evals=200000"]).obj
+    that its steps (~8e-10 s) would take hours to cross 120 s, and the default budget (5e7
+    evaluations) a minute of one core to spend. Steps below t_end / max_rhs_evals = 2.4e-6 s
+    for COLLAPSE_TRIES tries in a row stop it first: step_size_collapse after ~1e4
+    evaluations, one line naming sphere.eps and its slip relaxation time."""
+    cfg = resolve("en02", ["sphere.eps=1e-9", "solver=radau5"]).obj
     res = simulate(cfg.sphere_problem())
-    assert res.status == "budget_exceeded" and res.stop_time < 120.0
-    assert res.rhs_evals < 200_000 + 100
-    assert "stopped at t = " in capfd.readouterr().err
+    assert res.status == "step_size_collapse"
+    # the sustained floor needs that many tries in a row; each costs evaluations
+    assert res.steps + res.rejected_steps > st.COLLAPSE_TRIES
+    assert res.rhs_evals < 50_000 and res.stop_time < 1e-3
+    assert np.unique(res.t).size == res.t.size and res.t[-1] == res.stop_time
+    line = _collapse_line(capfd, res)
+    assert "t_end / solver.max_rhs_evals = 2.4e-06 s for 1,000 tries in a row" in line
+    assert "likely cause: sphere.eps = 1e-09 m/s" in line
+    # the slip relaxation time m eps / (3.5 mu N) at the a-priori N = 1.25 m g
+    relax = float(re.search(r"\(3\.5 mu N\) = ([0-9.e+-]+) s", line).group(1))
+    assert relax == pytest.approx(1e-9 / (3.5 * 0.15 * 1.25 * 9.81), rel=0.05)
 
 
 def test_a_long_run_prints_progress_lines(en02_problem: SphereProblem, capfd) -> None:
@@ -71,7 +99,7 @@ def test_a_long_run_prints_progress_lines(en02_problem: SphereProblem, capfd) ->
     prints a line to stderr (file descriptor 2, from compiled code): simulated time against
     the end, steps, evaluations against the budget, the rate."""
     res = simulate(en02_problem.replace(t_end=60.0, progress_interval=1e-9))
-    lines = capfd.readouterr().err.strip().splitlines()
+    lines = _stderr(capfd)
     # one look every 4096 step tries: 30,000 steps give 7 looks, the first starts the clock
     assert res.status == "ok" and len(lines) == math.ceil(res.steps / 4096) - 1
     first = lines[0]
@@ -87,10 +115,27 @@ def test_the_budget_is_validated(value: int) -> None:
         resolve("en02", [f"solver.max_rhs_evals={value}"])
 
 
-def test_a_run_failing_at_its_first_step_has_one_row() -> None:
-    """A step that fails at once (radau5 at eps = 1e-30: Newton cannot converge at any step)
+def test_a_run_failing_at_its_first_step_has_one_row(capfd) -> None:
+    """A step that fails at once (radau5 at eps = 1e-30: Newton cannot converge at any step,
+    so the step size shrinks below 1e-12 x t_end within a few dozen tries) ends
+    step_size_collapse at t = 0, in a few hundred evaluations, with one line naming eps; it
     records its start once, not once as a sample and again as the stop (issue 28 class 8)."""
     cfg = resolve("en02", ["sphere.eps=1e-30", "solver=radau5"]).obj
     res = simulate(cfg.sphere_problem())
-    assert res.status in ("step_failed", "budget_exceeded")
-    assert np.unique(res.t).size == res.t.size
+    assert res.status == "step_size_collapse" and res.stop_time == 0.0 and res.steps == 0
+    assert res.rhs_evals < 1000
+    assert np.unique(res.t).size == res.t.size == 1
+    line = _collapse_line(capfd, res)
+    assert line.startswith("creatio: stopped at t = 0 of 120 s after 0 steps: ")
+    assert "likely cause: sphere.eps = 1e-30 m/s" in line and "(raise sphere.eps)" in line
+
+
+def test_the_likely_cause_of_a_collapse_names_eps_only_when_it_is_too_small(
+        en02_problem: SphereProblem) -> None:
+    """At the default eps = 0.01 m/s the slip relaxation time (~1.6e-3 s) is far above the
+    sustained floor (2.4e-6 s): the cause named is not eps; without friction neither."""
+    cause = collapse_cause(en02_problem)
+    assert "not sphere.eps" in cause and "= 0.0016 s" in cause
+    assert "mu = 0" in collapse_cause(en02_problem.replace(mu=0.0))
+    tiny = collapse_cause(en02_problem.replace(eps=1e-12))
+    assert tiny.startswith("sphere.eps = 1e-12 m/s: ")

@@ -11,6 +11,11 @@ loaded (truncated, garbled) is removed with one warning naming it and the functi
 compiled anew, which rebuilds the entry; a cache that cannot be written (a full or read-only
 filesystem) leaves the run uncached, with one warning.
 
+A run that must compile says so first (:func:`ensure_compiled`): one line to stderr naming
+the specialisation and about how long its compile takes, from the time its last compile took
+on this machine (recorded in ``compile_times.json`` at the cache's root, so it outlives a
+source edit) or else from :data:`COMPILE_SECONDS`.
+
 Importing this module also lets compiled code call the scalar formulas of creatio.model
 (their SCALAR_KERNELS) as they are: numba compiles them where they are called.
 """
@@ -21,7 +26,8 @@ import hashlib
 import os
 from pathlib import Path
 
-__all__ = ["INLINED", "cache_dir", "inlined", "njit", "source_hash"]
+__all__ = ["COMPILE_SECONDS", "INLINED", "cache_dir", "compile_estimate", "ensure_compiled",
+           "inlined", "njit", "source_hash"]
 
 _PACKAGE = Path(__file__).resolve().parents[1]
 
@@ -44,6 +50,103 @@ def cache_dir() -> Path:
     root = os.environ.get("CREATIO_NUMBA_CACHE") or Path(
         os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "creatio" / "numba"
     return Path(root) / source_hash()
+
+
+def _times_path() -> Path:
+    """The file of measured compile times: at the cache's root, beside the per-source
+    directories (in the directory itself when NUMBA_CACHE_DIR names it)."""
+    here = cache_dir()
+    return (here if here.name != source_hash() else here.parent) / "compile_times.json"
+
+
+def _recorded() -> dict[str, float]:
+    """The compile times recorded on this machine, by specialisation ({} when none or
+    unreadable)."""
+    import json
+
+    try:
+        data = json.loads(_times_path().read_text())
+    except (OSError, ValueError):
+        return {}
+    return {str(k): float(v) for k, v in data.items()} if isinstance(data, dict) else {}
+
+
+def _record(name: str, seconds: float) -> None:
+    """Record how long the compile of `name` took (written atomically; a cache that cannot
+    be written keeps no record, silently: _guard_cache warns about it already)."""
+    import json
+    import tempfile
+
+    path = _times_path()
+    times = {**_recorded(), name: round(seconds, 1)}
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=".compile_times.")
+        with os.fdopen(fd, "w") as f:
+            json.dump(times, f, indent=1, sort_keys=True)
+        os.replace(tmp, path)
+    except OSError:
+        pass
+
+
+#: Compile times (s) of the driver's entry points by stepper kind, and of the hybrid loop, for
+#: a machine that has recorded none: measured on the development machine (2 cores shared with
+#: other jobs, load average 6.5) through creatio.dynamics.simulate of EN-02's specialisation
+#: (rotation and energy: rk4, radau5, rodas4, radau9) and EN-02F's drop (hybrid), as
+#: ensure_compiled records them (Dispatcher.compile), rounded up. explicit, radau and
+#: rosenbrock with an empty cache (CREATIO_NUMBA_CACHE=$(mktemp -d)): 42.8, 54.4, 54.3 s;
+#: radau_sphere and hybrid with the shared formulas already cached by the others: 94.8, 74.2 s.
+COMPILE_SECONDS = {"explicit": 45.0, "radau": 55.0, "rosenbrock": 55.0, "radau_sphere": 95.0,
+                   "hybrid": 75.0}
+
+
+def compile_estimate(name: str) -> tuple[float, str]:
+    """(seconds, where the figure comes from) of compiling the entry point `name` (its
+    dispatcher's name: _radau_rot_en): its last compile here, else COMPILE_SECONDS for its
+    kind (the longest kind whose name starts the entry's)."""
+    recorded = _recorded().get(name)
+    if recorded is not None:
+        return recorded, "its last compile here"
+    kinds = [k for k in COMPILE_SECONDS if name.lstrip("_").startswith(k)]
+    kind = max(kinds, key=len) if kinds else max(COMPILE_SECONDS, key=COMPILE_SECONDS.get)
+    return COMPILE_SECONDS[kind], f"measured for the {kind} kind, creatio.dynamics.jit"
+
+
+def _duration(seconds: float) -> str:
+    """A rough duration: 40 s, 3 min."""
+    return f"{seconds:.0f} s" if seconds < 90 else f"{seconds / 60:.0f} min"
+
+
+def ensure_compiled(disp, args: tuple, what: str) -> None:  # type: ignore[no-untyped-def]
+    """Make the specialisation of dispatcher disp for args ready before it is called: loaded
+    from memory or numba's on-disk cache as a call would, else compiled here after one line
+    on stderr naming it (`what`: the run it serves) and about how long that takes; the time
+    it took is recorded for the next estimate. A call then finds it and compiles nothing."""
+    import sys
+    import time
+
+    from numba.core.compiler_lock import global_compiler_lock
+
+    sig = tuple(disp.typeof_pyval(a) for a in args)
+    if sig in disp.overloads:
+        return
+    with global_compiler_lock:
+        cres = disp._cache.load_overload(sig, disp.targetctx)
+        if cres is not None:  # a cache hit, as Dispatcher.compile takes one
+            disp._cache_hits[sig] += 1
+            if not cres.objectmode:
+                disp.targetctx.insert_user_function(cres.entry_point, cres.fndesc,
+                                                    [cres.library])
+            disp.add_overload(cres)
+            return
+    name = disp.py_func.__name__
+    seconds, source = compile_estimate(name)
+    sys.stderr.write(f"creatio: compiling {what} ({name}, not in the cache {cache_dir()}): "
+                     f"about {_duration(seconds)} ({source})\n")
+    sys.stderr.flush()
+    t0 = time.perf_counter()
+    disp.compile(sig)
+    _record(name, time.perf_counter() - t0)
 
 
 def _configure() -> None:

@@ -264,8 +264,9 @@ class Solver:
     each step's interpolant instead of cutting steps to land on it (a fixed dt need not then
     divide the interval; the last step lands on t_end). A run stops with status
     budget_exceeded after ``max_rhs_evals`` right-hand-side evaluations (the budget never
-    changes a step), and prints a line of progress to stderr every ``progress_interval``
-    seconds while it runs (inf: never)."""
+    changes a step), an adaptive run with step_size_collapse when its step size falls below
+    the floors of creatio.dynamics.status (UNDERFLOW, COLLAPSE_TRIES), and it prints a line of
+    progress to stderr every ``progress_interval`` seconds while it runs (inf: never)."""
 
     method: str = "rk4"
     dt: float = 0.002

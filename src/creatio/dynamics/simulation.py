@@ -67,6 +67,7 @@ from creatio.dynamics.problem import (
     SimulationResult,
     SphereProblem,
     check_stable,
+    normal_estimate,
     slip_rate,
     stability_limit,
 )
@@ -76,7 +77,7 @@ from creatio.dynamics.solvers.hybrid import FLIGHT, run_flight
 from creatio.model import sphere as contact
 from creatio.model.numerics import steps_in
 
-__all__ = ["compiled_call", "simulate"]
+__all__ = ["collapse_cause", "compiled_call", "simulate"]
 
 
 def _run_arguments(problem: SphereProblem) -> tuple[tuple, dict]:
@@ -175,6 +176,11 @@ def simulate(problem: SphereProblem) -> SimulationResult:
                                  sv.max_rhs_evals)
         print(f"creatio: {message}", file=sys.stderr, flush=True)
         warnings.append(message)
+    elif status == st.STEP_SIZE_COLLAPSE:
+        message = st.collapse_message(float(stop_time), problem.output.t_end, int(steps),
+                                      sv.max_rhs_evals, collapse_cause(problem))
+        print(f"creatio: {message}", file=sys.stderr, flush=True)
+        warnings.append(message)
     min_n, max_n, max_slip, max_res, max_track, min_clear, max_bk = (
         float(v) for v in ext[:E_E0]
     )
@@ -268,6 +274,25 @@ def simulate(problem: SphereProblem) -> SimulationResult:
         phi_a_rate=h[:, COL_PHI_A_RATE].copy(),
         alphadot=h[:, COL_ALPHADOT].copy(),
     )
+
+
+def collapse_cause(problem: SphereProblem) -> str:
+    """The likely cause of a step-size collapse, naming the key to change: the friction's
+    regularisation when its slip relaxation time m eps / (3.5 mu N), the model's smallest time
+    scale, is below the sustained floor (t_end / max_rhs_evals: steps that resolve it cannot
+    cover the run), else a right-hand side that is not smooth where the run stopped."""
+    sp = problem.model.sphere
+    floor = problem.output.t_end / problem.solver.max_rhs_evals
+    if sp.mu > 0.0:
+        relax = 1.0 / slip_rate(problem, normal_estimate(problem))
+        if relax < floor:
+            return (f"sphere.eps = {sp.eps:g} m/s: the friction's slip relaxation time "
+                    f"m eps / (3.5 mu N) = {relax:.2g} s is below that floor (raise "
+                    "sphere.eps)")
+        return (f"a right-hand side that is not smooth where the run stopped (not sphere.eps: "
+                f"the slip relaxation time m eps / (3.5 mu N) = {relax:.2g} s is above the "
+                "floor)")
+    return "a right-hand side that is not smooth where the run stopped (mu = 0: no friction)"
 
 
 def _no_equilibrium(problem: SphereProblem, reason: str) -> SimulationResult:

@@ -226,7 +226,7 @@ def write_markdown(path: Path, text: str) -> Path:
 
 # ---------------------------------- the sphere kind's reports (EN-02F, EN-02G, EN-03, EN-03M)
 #: Statuses of a numerical failure (the others are physical outcomes, recorded per run).
-FAILURES = ("non_finite", "step_failed")
+FAILURES = ("non_finite", "step_failed", "step_size_collapse")
 
 
 def as_list(datasets: xr.Dataset | Sequence[xr.Dataset]) -> list[xr.Dataset]:

@@ -1,7 +1,9 @@
 """The one output-grid driver of every method, compiled, and its entry points.
 
-The driver owns time, step size, output landing, diagnostics, the evaluation budget and the
-progress lines of a long run (creatio.dynamics.progress); a step is taken by the stepper of
+The driver owns time, step size, output landing, diagnostics, the evaluation budget, the
+step-size floors (creatio.dynamics.status.UNDERFLOW, COLLAPSE_TRIES) and the progress lines of
+a long run (creatio.dynamics.progress); a specialisation a run must compile is announced first
+(creatio.dynamics.jit.ensure_compiled); a step is taken by the stepper of
 the method's kind (creatio.dynamics.solvers.STEPPERS). The explicit Runge-Kutta stepper
 (creatio.dynamics.solvers.explicit) reads any tableau of the registry; the implicit kinds,
 Radau IIA (3 stages; 5, 7 and variable order) and RODAS4, are modules under one contract:
@@ -46,7 +48,7 @@ from numba.core import types
 from numba.extending import overload
 
 from creatio.dynamics import status as st
-from creatio.dynamics.jit import njit
+from creatio.dynamics.jit import ensure_compiled, njit
 from creatio.dynamics.layout import NDIAG
 from creatio.dynamics.progress import CLOCK_MASK, tick
 from creatio.dynamics.solvers import (
@@ -149,10 +151,11 @@ def _drive(stepper, p, lawc, y, arrays, iws, t_end, interval, h0, n_steps, strid
     fixed step need not divide the interval), only the last step lands on t_end, and the rows
     on the grid are the step's dense output (with one more right-hand-side evaluation each
     for their diagnostics). Returns (status, steps, rows, rhs_evals, rejected, jacobians,
-    lu_factorisations, newton_iterations, stop_time), the extrema in the arrays; STEP_FAILED
-    when the step
-    underflows or Newton fails at a fixed step, BUDGET_EXCEEDED when max_evals right-hand-side
-    evaluations did not reach t_end (the budget never changes a step). A line of progress
+    lu_factorisations, newton_iterations, stop_time), the extrema in the arrays;
+    STEP_SIZE_COLLAPSE when the adaptive step size falls below its floors (creatio.dynamics
+    .status.UNDERFLOW, COLLAPSE_TRIES), STEP_FAILED when the step size is not finite or Newton
+    fails at a fixed step, BUDGET_EXCEEDED when max_evals right-hand-side evaluations did not
+    reach t_end (neither the budget nor the floors ever change a step). A line of progress
     goes to stderr every `progress` seconds (inf: never). ctl: the controlled path (docs/model.md
     s.12.2), whose parameter vector carries the controller's row after its parameters.
     """
@@ -175,6 +178,8 @@ def _drive(stepper, p, lawc, y, arrays, iws, t_end, interval, h0, n_steps, strid
     rows = np.int64(0)
     steps = np.int64(0)
     tries = np.int64(0)
+    small = np.int64(0)  # step tries in a row whose proposal is below the sustained floor
+    h_small = t_end / max_evals
     top_wrote = np.int64(0)
     yes = np.bool_(True)
     no = not yes
@@ -225,8 +230,12 @@ def _drive(stepper, p, lawc, y, arrays, iws, t_end, interval, h0, n_steps, strid
             if tries & CLOCK_MASK == 1 and progress < math.inf:
                 tick(clock, t, t_end, steps, evals, max_evals, progress)
             if not fixed:
-                if h < 1e-12 * max(1.0, t_end) or not math.isfinite(h):
+                if not math.isfinite(h):
                     status = st.STEP_FAILED
+                    break
+                small = small + 1 if h < h_small else 0
+                if h < st.UNDERFLOW * max(1.0, t_end) or small > st.COLLAPSE_TRIES:
+                    status = st.STEP_SIZE_COLLAPSE
                     break
                 if dense:
                     # free steps; the one that reaches t_end lands on it
@@ -317,7 +326,8 @@ def _drive(stepper, p, lawc, y, arrays, iws, t_end, interval, h0, n_steps, strid
                 jn += 1
             final = hit and t_target >= t_end
             sample = hit
-    if (status == st.STEP_FAILED or status == st.BUDGET_EXCEEDED) and top_wrote == 0:
+    if (status == st.STEP_FAILED or status == st.BUDGET_EXCEEDED
+            or status == st.STEP_SIZE_COLLAPSE) and top_wrote == 0:
         # record the state where the run gave up, so the stop is visible in the histories
         # (unless that state's row was just written)
         d = rhs_of(free, t, y, f, pp, lc, rot, en, True)
@@ -398,8 +408,9 @@ def run(
     arrays = _arrays(n, tab.dense.shape[0], bool(energy))
     module = _IMPLICIT.get(method.stepper)
     iws = module.workspace(n, tab.c) if module is not None else np.empty(0)
-    status, steps, rows, evals, n_rej, n_jac, n_lu, n_newton, t = fn(
-        p, lawc, y0.copy(), arrays, iws, float(t_end), float(interval), float(h0), int(n_steps),
-        int(stride), float(rtol), float(atol), bool(fixed), int(max_evals), float(progress), tab,
-        out, bool(dense))
+    call = (p, lawc, y0.copy(), arrays, iws, float(t_end), float(interval), float(h0),
+            int(n_steps), int(stride), float(rtol), float(atol), bool(fixed), int(max_evals),
+            float(progress), tab, out, bool(dense))
+    ensure_compiled(fn, call, f"the {method.name} loop")
+    status, steps, rows, evals, n_rej, n_jac, n_lu, n_newton, t = fn(*call)
     return status, steps, rows, evals, arrays[_EXT], n_rej, n_jac, n_lu, t, n_newton

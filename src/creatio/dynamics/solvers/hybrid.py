@@ -32,7 +32,7 @@ import numpy as np
 from numba.extending import overload
 
 from creatio.dynamics import status as st
-from creatio.dynamics.jit import njit
+from creatio.dynamics.jit import ensure_compiled, njit
 from creatio.dynamics.layout import (
     C_ALPHA0,
     C_DELTA_MAX,
@@ -669,6 +669,8 @@ def _drive_flight(p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, atol,
     rows = np.int64(0)
     steps = np.int64(0)
     stalled = 0
+    small = 0  # step tries in a row whose proposal is below the sustained floor
+    h_small = t_end / max_evals
     status = st.OK
     t = 0.0
     phase = CONTACT
@@ -770,8 +772,12 @@ def _drive_flight(p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, atol,
                 evals += s
                 accepted = True
             else:
-                if h < 1e-12 * max(1.0, t_end) or not math.isfinite(h):
+                if not math.isfinite(h):
                     status = st.STEP_FAILED
+                    break
+                small = small + 1 if h < h_small else 0
+                if h < st.UNDERFLOW * max(1.0, t_end) or small > st.COLLAPSE_TRIES:
+                    status = st.STEP_SIZE_COLLAPSE
                     break
                 remaining = t_target - t
                 m_split = math.ceil(remaining / h * (1.0 - 1e-9))
@@ -855,7 +861,7 @@ def _drive_flight(p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, atol,
             final = hit and t_target >= t_end
             sample = hit
     gave_up = (status == st.STEP_FAILED or status == st.FOOT_POINT_FAILED
-               or status == st.BUDGET_EXCEEDED)
+               or status == st.BUDGET_EXCEEDED or status == st.STEP_SIZE_COLLAPSE)
     if gave_up and top_wrote == 0:
         # record the state where the run gave up, so the stop is visible in the histories
         # (unless that state's row was just written)
@@ -892,7 +898,9 @@ def run_flight(method, p: np.ndarray, lawc: np.ndarray, y0: np.ndarray, out: np.
                max_evals: int, progress: float, control: bool = False) -> tuple:
     """Run an explicit `method` through the hybrid loop (control: the controlled phase of
     docs/model.md s.12.2); see _drive_flight for the result."""
-    return ENTRIES[bool(control)](
-        p, lawc, y0, float(t_end), float(interval), float(h0), int(n_steps), int(stride),
-        float(rtol), float(atol), bool(fixed), int(max_evals), float(progress),
-        method.driver_tableau, out, fl, ev)
+    fn = ENTRIES[bool(control)]
+    call = (p, lawc, y0, float(t_end), float(interval), float(h0), int(n_steps), int(stride),
+            float(rtol), float(atol), bool(fixed), int(max_evals), float(progress),
+            method.driver_tableau, out, fl, ev)
+    ensure_compiled(fn, call, f"the {method.name} flight loop")
+    return fn(*call)
