@@ -21,6 +21,7 @@ from creatio.model.cavity import cavity_cell_offsets, in_cavity_cell
 from creatio.model.equilibrium import equilibrium_limit, height_derivatives, static_equilibrium
 from creatio.model.laws import Law
 from creatio.pipeline.config import resolve
+from creatio.reports.registry import writer
 
 K = 2.0 * math.pi / 1.72  # notebook geometry: Kr = 1, dR = 1.72
 
@@ -158,7 +159,7 @@ def test_en02g_study_dataset_and_report(tmp_path) -> None:
     assert list(ds.status.values) == ["ok", "ok", "no_equilibrium"]
     assert np.isnan(ds.centre.values[2]).all()  # no run, no history
     assert ds.start_R.values[0] == 0.43 and ds.start_R.values[1] < 0.43
-    files = cfg.entry.report_function()(paths, tmp_path)
+    files = writer(cfg.entry.id)(paths, tmp_path)
     report = json.loads(files["json"].read_text())
     for key in ("status", "timestep_difference_m", "energy_residual_J",
                 "max_carried_inclination_deg", "per_inclination"):

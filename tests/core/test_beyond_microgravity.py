@@ -17,6 +17,7 @@ import pytest
 from creatio.dynamics import SphereProblem, simulate, stability_limit
 from creatio.model.laws import Law
 from creatio.pipeline.config import resolve
+from creatio.reports.registry import writer
 from creatio.studies.en03m import probe, round_up, search
 from creatio.studies.schema import Confinement
 
@@ -111,7 +112,7 @@ def test_en03m_study_dataset_and_report(tmp_path) -> None:
                             "study.max_force_factor=1.0", "study.bisection.rtol=0.05"])
     paths = [write_dataset(run_study(cfg, q.name), tmp_path / f"{q.name}.nc")
              for q in cfg.entry.parts(cfg.obj)]
-    files = cfg.entry.report_function()(paths, tmp_path)
+    files = writer(cfg.entry.id)(paths, tmp_path)
     report = json.loads(files["json"].read_text())
     for key in ("status", "timestep_difference_m", "energy_residual_J"):
         assert key in report

@@ -22,6 +22,7 @@ from creatio.dynamics.solvers.tableaus import RK4_REAL_STABILITY
 from creatio.model.laws import Law
 from creatio.model.structure import free_structure_solve, point_mass_rotation
 from creatio.pipeline.config import resolve
+from creatio.reports.registry import writer
 
 G = np.array([0.0, 0.0, -9.81])
 
@@ -226,7 +227,7 @@ def test_en03_study_dataset_and_report(tmp_path) -> None:
     assert [q.name for q in parts] == ["en03_dt0.002", "en03_dt0.001", "en03_inertia_dt0.002",
                                        "en03_inertia_dt0.001"]
     paths = [write_dataset(run_study(cfg, q.name), tmp_path / f"{q.name}.nc") for q in parts]
-    files = cfg.entry.report_function()(paths, tmp_path)
+    files = writer(cfg.entry.id)(paths, tmp_path)
     report = json.loads(files["json"].read_text())
     for key in ("status", "timestep_difference_m", "energy_residual_J", "structure_rotation_deg",
                 "structure_rotation_point_mass_deg", "angular_momentum_drift",

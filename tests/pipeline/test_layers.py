@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import ast
 import os
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -68,6 +69,44 @@ def test_imports_go_one_way_and_no_private_names_cross_packages():
                 bad += [f"{rel}: imports private {module}.{n}" for n in names
                         if n.startswith("_") and n != "__version__"]
     assert not bad, "\n".join(bad)
+
+
+def _upward_strings(path: Path, layer: str) -> list[str]:
+    """Every string constant of a file that starts with ``creatio.<layer>`` for a layer this
+    file's layer may not import: an import path by name (importlib, a registry entry) is as
+    much an arrow up as an import statement, and the import test cannot see it."""
+    allowed = ALLOWED[layer] | SHARED
+    bad = []
+    for node in ast.walk(ast.parse(path.read_text())):
+        if isinstance(node, ast.Constant) and isinstance(node.value, str):
+            m = re.match(r"creatio\.(\w+)", node.value)
+            if m and m.group(1) in ALLOWED and m.group(1) not in allowed:
+                bad.append(f"line {node.lineno}: {node.value!r}")
+    return bad
+
+
+def test_no_lower_layer_names_a_higher_one_in_a_string():
+    bad = []
+    for path in sorted(PACKAGE.rglob("*.py")):
+        rel = path.relative_to(PACKAGE)
+        layer = rel.parts[0] if len(rel.parts) > 1 else rel.stem
+        if layer in ALLOWED:
+            bad += [f"{rel}: {b}" for b in _upward_strings(path, layer)]
+    assert not bad, "\n".join(bad)
+
+
+def test_the_string_check_catches_a_planted_name(tmp_path):
+    """The check itself: a registry entry naming a report writer planted in the studies'
+    layer is caught, in a plain string and in an f-string; the same text in a docstring's
+    prose, or naming the studies' own layer, is not."""
+    planted = tmp_path / "planted.py"
+    planted.write_text('"""Writers live in creatio.reports.registry."""\n'
+                       'W = "creatio.reports.sphere:write_report"\n'
+                       'name = "x"\nF = f"creatio.pipeline.{name}:run"\n'
+                       'OK = "creatio.studies.sphere:run"\n')
+    assert [b.split(":")[0] for b in _upward_strings(planted, "studies")] == ["line 2",
+                                                                               "line 4"]
+    assert _upward_strings(planted, "pipeline") == []
 
 
 def _import_graph() -> dict[str, set[str]]:

@@ -16,6 +16,7 @@ import pytest
 import xarray as xr
 
 from creatio.reports.answer import answer_lines, num
+from creatio.reports.registry import writer
 
 REPO = Path(__file__).resolve().parents[2]
 
@@ -194,7 +195,7 @@ def test_the_sphere_studies_beyond_en02_open_with_their_answer(study, overrides,
     cfg = resolve(study, overrides)
     paths = [write_dataset(run_study(cfg, q.name), tmp_path / f"{q.name}.nc")
              for q in cfg.entry.parts(cfg.obj)]
-    files = cfg.entry.report_function()(paths, tmp_path)
+    files = writer(cfg.entry.id)(paths, tmp_path)
     s = json.loads(files["json"].read_text())
     text = "\n".join(_answer(files["md"].read_text()))
     assert f"{s['timestep_difference_m']:.3g} m" in text

@@ -79,7 +79,9 @@ def write_report(study: str, outdir: Path, datasets: Sequence[Path]) -> dict[str
         if problems:
             raise ChecksFailed(f"{study}: the run's own checks are absurd, no report written: "
                                f"{'; '.join(problems)} (bounds: creatio.pipeline.checks)")
-    paths = entry.report_function()([Path(p) for p in datasets], outdir)
+    from creatio.reports.registry import writer
+
+    paths = writer(study)([Path(p) for p in datasets], outdir)
     log.info("%s: report %s", study, ", ".join(str(p) for p in paths.values()))
     return paths
 
@@ -125,9 +127,10 @@ def run_resolved(resolved: Resolved, data_dir: Path = Path("data")) -> Path:
     entry = resolved.entry
     outs = compute_parts(resolved, Path(entry.dataset_dir(str(root))),
                          [p.name for p in entry.parts(resolved.obj)])
-    extra = entry.extra_function()
-    if extra is not None:  # datasets the workflow makes in batch jobs, here in this process
-        outs += extra(resolved, root)
+    if entry.sampled:  # datasets the workflow makes in batch jobs, here in this process
+        from creatio.pipeline.points import run_study_sample
+
+        outs += run_study_sample(resolved, root)
     write_report(resolved.id, root / entry.kind.report_dir, outs)
     page = refresh_index(data_dir)
     if page is not None:

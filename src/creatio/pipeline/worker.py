@@ -404,27 +404,28 @@ WARM_MODULES = (
     "hydra", "omegaconf", "yaml", "creatio.pipeline.config",
     "creatio.pipeline.run", "creatio.pipeline.io", "creatio.pipeline.sweep",
     "creatio.pipeline.points", "creatio.pipeline.checks", "creatio.pipeline.index",
-    "creatio.scenes.cli",
 )
 
 
-def _warm() -> None:
-    """Import what the jobs use and fill the caches libraries build on first use (xarray's
-    backends, matplotlib's fonts, Hydra's plugins and first composition): every forked job
-    inherits them."""
+def _warm(extra: Sequence[str] = ()) -> None:
+    """Import what the jobs use (WARM_MODULES, and the caller's extra modules: the layers
+    above this one, which it names) and fill the caches libraries build on first use
+    (xarray's backends, matplotlib's fonts, Hydra's plugins and first composition): every
+    forked job inherits them."""
     import importlib
 
     import matplotlib
 
     matplotlib.use("Agg")
-    for module in WARM_MODULES:
+    for module in (*WARM_MODULES, *extra):
         importlib.import_module(module)
+    from creatio.reports.registry import writer
     from creatio.studies import registry
 
     for entry in registry.STUDIES.values():
         with contextlib.suppress(Exception):  # a study whose module cannot load fails alone
             entry.run_function()
-            entry.report_function()
+            writer(entry.id)
     import matplotlib.font_manager
     import xarray as xr
     from hydra.core.plugins import Plugins
@@ -446,12 +447,14 @@ class Server:
     """The worker: warm, then fork a child per request until stopped, orphaned or idle."""
 
     def __init__(self, path: Path, entry: Callable[[list[str]], int], idle: float | None = None,
-                 owner: int | None = None, deadline: float = REQUEST_DEADLINE) -> None:
+                 owner: int | None = None, deadline: float = REQUEST_DEADLINE,
+                 warm: Sequence[str] = ()) -> None:
         self.path, self.entry, self.idle, self.owner = Path(path), entry, idle, owner
         self.env = dict(os.environ)  # as started: what import-time reads saw
         self.limits = limits()  # what a forked job inherits
         self.imported: dict[str, str] = {}  # what its imports set (see env_mismatch)
         self.deadline = deadline
+        self.warm = tuple(warm)
         self.jobs: dict[int, dict[str, Any]] = {}  # child pid -> its client and report pipe
         #: connections whose request is still arriving: what came so far, and by when
         self.pending: dict[socket.socket, dict[str, Any]] = {}
@@ -465,7 +468,7 @@ class Server:
         starting = self.path.with_name(self.path.name + ".starting")
         try:
             self.version = package_version()
-            _warm()
+            _warm(self.warm)
             self.imported = {k: v for k, v in os.environ.items() if k not in self.env}
             _freeze()
             self.known = {d: set(disp.signatures) for d, disp in _dispatchers()}
@@ -1054,9 +1057,11 @@ def stop(proc: subprocess.Popen | None, timeout: float = 10.0) -> None:
         proc.wait()
 
 
-def main(argv: Sequence[str], entry: Callable[[list[str]], int] | None = None) -> int:
+def main(argv: Sequence[str], entry: Callable[[list[str]], int] | None = None,
+         warm: Sequence[str] = ()) -> int:
     """`creatio worker start|stop|status`, and the worker process itself (`serve`), which
-    runs each request's arguments through entry (creatio.cli.main)."""
+    runs each request's arguments through entry (creatio.cli.main), having imported warm
+    (the modules of layers above this one that entry's jobs use)."""
     from creatio.errors import Parser
 
     ap = Parser(prog="creatio worker",
@@ -1078,7 +1083,7 @@ def main(argv: Sequence[str], entry: Callable[[list[str]], int] | None = None) -
     if args.what == "serve":
         if entry is None:
             raise ValueError("a worker needs the command it runs (creatio worker serve)")
-        Server(args.socket, entry, args.idle, args.owner, args.deadline).serve()
+        Server(args.socket, entry, args.idle, args.owner, args.deadline, warm).serve()
         return 0
     path = daemon_socket()
     state = control(path, "status")

@@ -1,13 +1,15 @@
 """The study registry: one entry per study, read by validation, dispatch, planning and reports.
 
-A study is a config (``conf/<group>/<id>.yaml`` on its schema), a function ``config ->
-xarray.Dataset`` per dataset part, and a report writer ``datasets -> files``. Its *kind*
-says where its datasets and reports live and which files a report writes. Everything
-here is plain data: the run and report functions are named by import path and loaded on
-first use, so planning a workflow imports neither xarray nor the compiler.
+A study is a config (``conf/<group>/<id>.yaml`` on its schema) and a function ``config ->
+xarray.Dataset`` per dataset part. Its *kind* says where its datasets and reports live and
+which files a report writes; the report writer is the reports' own business
+(creatio.reports.registry), and a sampled study's batch jobs the pipeline's. Everything
+here is plain data: the run functions are named by import path and loaded on first use, so
+planning a workflow imports neither xarray nor the compiler, and no name here points to a
+layer above this one (tests/pipeline/test_layers.py).
 
 Adding a study of an existing kind is a ``conf/study/<id>.yaml`` (its time laws under
-``conf/phases/`` if new) and one entry of STUDIES below.
+``conf/phases/`` if new), one entry of STUDIES below and one of the reports' registry.
 """
 
 from __future__ import annotations
@@ -90,14 +92,13 @@ class Study:
     """One study: its id, kind, config schema and group, and what it runs and reports.
 
     ``schema`` and ``parts`` may be given as "module:name" paths (an analysis keeps them in
-    its own module), loaded on first use like ``run`` and ``report``.
+    its own module), loaded on first use like ``run``.
     """
 
     id: str
     kind: Kind
     schema_ref: type | str
     run: str
-    report: str
     parts_ref: Callable[[Any], list[Part]] | str
     group: str = "study"
     published: Mapping[str, Any] = field(default_factory=dict)
@@ -106,8 +107,9 @@ class Study:
     #: nothing with the notebook. Empty: every key (a study that declares none).
     published_case: tuple[str, ...] = ()
     in_all: bool = True
-    summary: str = ""
-    extra: str = ""
+    #: Its datasets include a sample the workflow computes in batch jobs (EN-05's Sobol'
+    #: sample): the pipeline runs it in batch jobs, `creatio run` in one process.
+    sampled: bool = False
 
     def published_keys(self, changed: Mapping[str, Any]) -> list[str]:
         """The changed keys (dotted) that take a run off the published case: those under a
@@ -118,12 +120,6 @@ class Study:
 
         return [k for k, v in changed.items()
                 if under(k) or (isinstance(v, list | tuple) and v and v[0] is None)]
-
-    def extra_function(self) -> Callable[..., Any] | None:
-        """The pipeline's function (resolved config, output root) -> [dataset paths] that
-        makes the datasets its batch jobs compute (EN-05's Sobol' sample), run in one
-        process by `creatio run`; None for a study whose parts are all there is."""
-        return _load(self.extra) if self.extra else None
 
     @property
     def schema(self) -> type:
@@ -139,15 +135,6 @@ class Study:
     def run_function(self) -> Callable[..., Any]:
         """The function config -> Dataset (imported on first use)."""
         return _load(self.run)
-
-    def report_function(self) -> Callable[..., Any]:
-        """The function (datasets, outdir) -> {name: path} (imported on first use)."""
-        return _load(self.report)
-
-    def summary_function(self) -> Callable[..., Any] | None:
-        """The function dataset -> JSON summary of this study's own (the scalar figures a
-        sweep aggregates), or None where its kind's summary applies."""
-        return _load(self.summary) if self.summary else None
 
     def dataset_dir(self, root: str) -> str:
         """Where the datasets of this study live under an output root."""
@@ -180,43 +167,38 @@ STUDIES: dict[str, Study] = {
     s.id: s
     for s in (
         Study("ct02", KINEMATIC, Ct02Config, "creatio.studies.ct02:run",
-              "creatio.reports.kinematic:write_report", _one_part("ct02")),
+              _one_part("ct02")),
         Study("en01", KINEMATIC, En01Config, "creatio.studies.en01:run",
-              "creatio.reports.kinematic:write_report", _one_part("en01"),
+              _one_part("en01"),
               published={"fd_error": published.EN01_FD_ERROR,
                          "regularity": published.EN01_REGULARITY,
                          "pattern": published.EN01_PATTERN}),
         Study("en02", SPHERE, DynamicConfig, "creatio.studies.sphere:run",
-              "creatio.reports.sphere:write_report", _timestep_parts("en02"),
+              _timestep_parts("en02"),
               published=published.EN02, published_case=published.EN02_CASE),
         Study("en02r", SPHERE, DynamicConfig, "creatio.studies.sphere:run",
-              "creatio.reports.sphere:write_report", _timestep_parts("en02r")),
+              _timestep_parts("en02r")),
         Study("en02v", SPHERE, DynamicConfig, "creatio.studies.sphere:run",
-              "creatio.reports.sphere:write_report", _timestep_parts("en02v")),
+              _timestep_parts("en02v")),
         # Beyond the notebook (docs/studies.md): outside `all`, built by `snakemake beyond`
         Study("en02g", SPHERE, En02gConfig, "creatio.studies.en02g:run",
-              "creatio.reports.en02g:write_en02g", _timestep_parts("en02g"), in_all=False,
-              summary="creatio.reports.en02g:en02g_summary"),
+              _timestep_parts("en02g"), in_all=False),
         Study("en02f", SPHERE, En02fConfig, "creatio.studies.en02f:run",
-              "creatio.reports.en02f:write_en02f", _en02f_parts, in_all=False,
-              summary="creatio.reports.en02f:en02f_summary"),
+              _en02f_parts, in_all=False),
         Study("en03", SPHERE, En03Config, "creatio.studies.en03:run",
-              "creatio.reports.en03:write_en03", _en03_parts, in_all=False,
-              summary="creatio.reports.en03:en03_summary"),
+              _en03_parts, in_all=False),
         Study("en03m", SPHERE, En03mConfig, "creatio.studies.en03m:run",
-              "creatio.reports.en03m:write_en03m", _timestep_parts("en03m"), in_all=False,
-              summary="creatio.reports.en03m:en03m_summary"),
+              _timestep_parts("en03m"), in_all=False),
         Study("en04", SPHERE, "creatio.studies.en04:En04Config", "creatio.studies.en04:run",
-              "creatio.reports.en04:write_report", "creatio.studies.en04:parts", in_all=False,
-              summary="creatio.reports.en04:en04_summary"),
+              "creatio.studies.en04:parts", in_all=False),
         # EN-05 (docs/studies.md): its own target, `snakemake en05`; its Sobol' sample runs as
-        # batch jobs of the pipeline (creatio.pipeline.points), its other parts as datasets
+        # batch jobs of the pipeline, its other parts as datasets
         Study("en05", UNCERTAINTY, "creatio.studies.en05_schema:En05Config",
-              "creatio.studies.en05:run", "creatio.reports.en05:write_report",
+              "creatio.studies.en05:run",
               "creatio.studies.en05:parts", in_all=False,
-              extra="creatio.pipeline.points:run_study_sample"),
+              sampled=True),
         *(Study(name, ANALYSIS, f"creatio.studies.{name}:{schema}", f"creatio.studies.{name}:run",
-                f"creatio.reports.{name}:write_report", f"creatio.studies.{name}:parts",
+                f"creatio.studies.{name}:parts",
                 group="analysis", in_all=False)
           for name, schema in (("work_precision", "WorkPrecisionConfig"),
                                ("stability_map", "StabilityMapConfig"),
