@@ -364,8 +364,9 @@ def _task(argv: Sequence[str]) -> int:
 def _task_config(args: argparse.Namespace):
     """The resolved config of a task: a config file, or conf/ with overrides."""
     from creatio.pipeline.config import resolve, validate
+    from creatio.store.regular import read_text
 
-    text = args.config_file.read_text() if args.config_file else args.config_yaml
+    text = read_text(args.config_file) if args.config_file else args.config_yaml
     if text is None:
         return resolve(args.study, args.override)
     import yaml
@@ -383,7 +384,7 @@ def _usage() -> str:
     from creatio.pipeline.config import CONF_DIR
     from creatio.studies import registry
 
-    beyond = [s.id for s in registry.STUDIES.values() if not s.in_all and s.kind.name == "sphere"]
+    beyond = [s.id for s in registry.beyond()]
     return USAGE.format(studies=", ".join(s.id for s in registry.select(in_all=True)),
                         beyond=", ".join(beyond),
                         analyses=", ".join(s.id for s in registry.select(kind="analysis"))
@@ -468,7 +469,8 @@ def _dispatch(argv: list[str]) -> int:
     if command == "worker":
         from creatio.pipeline.worker import main as worker_main
 
-        return worker_main(rest, entry=main)
+        # the scene jobs' module, warmed too (the worker, a layer below, names none above it)
+        return worker_main(rest, entry=main, warm=("creatio.scenes.cli",))
     if command in ("ls", "open"):
         from creatio.pipeline.index import main as index_main
 

@@ -247,7 +247,7 @@ def test_the_index_says_what_is_not_built_and_how(data):
     from creatio.studies import registry
 
     todo = {t: (what, command) for t, what, command in unbuilt(scan(data), data)}
-    beyond = [s.id for s in registry.select(kind="sphere", in_all=False)]
+    beyond = [s.id for s in registry.beyond()]
     assert todo["beyond"] == (f"the studies beyond the notebook: {', '.join(beyond)}",
                               "snakemake beyond -c 2")
     assert todo["en05"][1] == "snakemake en05 -c 2"

@@ -193,3 +193,88 @@ def test_a_release_json_report_must_be_a_json_object(tmp_path):
     (release / "MANIFEST.json").write_text(json.dumps(manifest))
     assert verify_release(release) == [f"{entry['path']}: not a readable JSON report (a "
                                        "JSON object)"]
+
+
+# --------------------------------------------- 38.9: config files, batches, cache entries
+def test_a_fifo_config_file_is_refused_at_once_by_every_task(tmp_path):
+    """--config-file naming a FIFO (no writer: a plain read waits for ever) is one line
+    naming the path and what it is, for the dataset, scene and EN-05 steps; nothing
+    written."""
+    fifo = tmp_path / "config.yaml"
+    os.mkfifo(fifo)
+    for args in (["task", "dataset", "ct02", "out.nc", "--config-file", str(fifo)],
+                 ["task", "scene", "dataset", "en02", "out.nc", "--config-file", str(fifo)],
+                 ["task", "en05", "track", "--config-file", str(fifo)]):
+        one_line(creatio(*args, cwd=tmp_path), 1, str(fifo), "named pipe (FIFO)",
+                 "not a regular file")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["config.yaml"]
+
+
+def test_a_fifo_summary_is_refused_by_the_comparison(tmp_path):
+    """`creatio task compare`: a FIFO planted at a study's summary JSON in the output
+    directory is one line naming it."""
+    datasets = [REPO / "data" / "studies" / s / f"{s}_dt0.002.nc" for s in ("en02", "en02r")]
+    if not all(p.is_file() for p in datasets):
+        pytest.skip("needs the EN-02 and EN-02R datasets (snakemake all)")
+    os.mkfifo(tmp_path / "en02.json")
+    one_line(creatio("task", "compare", str(tmp_path), *map(str, datasets), cwd=tmp_path), 1,
+             str(tmp_path / "en02.json"), "named pipe (FIFO)")
+
+
+SWEEP_READS = """
+import os, sys
+from pathlib import Path
+from creatio.pipeline.sweep import _batch_code, _known_points, aggregate, plan_sweep
+from creatio.store.regular import NotRegularFile
+
+plan = plan_sweep("en02", ["sphere.mu=0,0.1"])
+other = Path(plan.outdir).parent / "other" / "batches"
+other.mkdir(parents=True)
+os.mkfifo(other / "b1-00000.nc")
+print(_batch_code(other / "b1-00000.nc"), _known_points(plan, "code"))
+Path(plan.batches[0]).parent.mkdir(parents=True)
+os.mkfifo(plan.batches[0])
+print(plan.batches[0])
+try:
+    aggregate(plan)
+except NotRegularFile as e:
+    print(e)
+"""
+
+
+def test_a_fifo_batch_is_no_source_and_is_refused_by_the_aggregate(tmp_path):
+    """A FIFO among a sweep's batches: not current (no code version), never a source of
+    known points, and refused by name when the sweep is aggregated, all at once."""
+    proc = subprocess.run([sys.executable, "-c", SWEEP_READS], capture_output=True, text=True,
+                          cwd=tmp_path, timeout=TIMEOUT)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    known, batch, refusal = proc.stdout.strip().splitlines()
+    assert known == "None {}"
+    assert refusal == (f"{batch}: is a named pipe (FIFO), not a regular file (creatio reads "
+                       "data only from regular files)"), refusal
+
+
+RESOLVE = """
+import sys
+from creatio.pipeline.config import resolve
+print(resolve("ct02", ["study.n_radii=41"]).sha256)
+"""
+
+
+def test_a_fifo_config_cache_entry_is_removed_and_the_config_composed(tmp_path):
+    """A FIFO planted at a resolved config's cache entry (JSON) is not read: the entry is
+    dropped and the config composed anew, giving the same config."""
+    env = {**os.environ, "CREATIO_CONFIG_CACHE": str(tmp_path / "cache")}
+
+    def run() -> str:
+        proc = subprocess.run([sys.executable, "-c", RESOLVE], capture_output=True, text=True,
+                              cwd=tmp_path, env=env, timeout=TIMEOUT)
+        assert proc.returncode == 0, proc.stderr[-2000:]
+        return proc.stdout.strip()
+
+    first = run()
+    (entry,) = (tmp_path / "cache").glob("*.json")
+    entry.unlink()
+    os.mkfifo(entry)
+    assert run() == first
+    assert entry.is_file()  # the FIFO removed, the entry stored anew

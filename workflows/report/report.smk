@@ -32,6 +32,10 @@ REPORTED = {
         "_history.csv": ("sphere_table.rst", "table: time histories"),
         ".html": ("study_markdown.rst", "report tables"),
     },
+    "material": {
+        ".png": ("material_figure.rst", "figure: strain maps"),
+        ".html": ("study_markdown.rst", "report tables"),
+    },
     "analysis": {
         ".png": ("analysis_figure.rst", "figure"),
         ".md": ("analysis_markdown.rst", "report (markdown)"),

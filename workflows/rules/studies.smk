@@ -14,6 +14,7 @@ localrules:
     study_config,
     kinematic_report,
     sphere_report,
+    material_report,
     compare,
 
 
@@ -85,6 +86,24 @@ rule sphere_report:
         creatio=CREATIO,
         code=code_version("reports"),
         published=lambda wc: published_groups(wc.study),
+    conda:
+        "../envs/creatio.yaml"
+    log:
+        "{root}/logs/{study}_report.log",
+    shell:
+        "{params.creatio} task report {wildcards.study} {wildcards.root}/reports {input} 2> {log}"
+
+
+rule material_report:
+    input:
+        lambda wc: JOBS.datasets(wc.root, wc.study),
+    output:
+        reported("material"),
+    wildcard_constraints:
+        study=wildcard_pattern("material"),
+    params:
+        creatio=CREATIO,
+        code=code_version("reports"),
     conda:
         "../envs/creatio.yaml"
     log:

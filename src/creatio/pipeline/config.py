@@ -25,6 +25,7 @@ from omegaconf import DictConfig, OmegaConf
 from omegaconf.errors import OmegaConfBaseException
 
 from creatio.errors import ConfigError
+from creatio.store.regular import read_bytes, read_text
 from creatio.studies import registry
 from creatio.studies.schema import HUGE, OMIT_NULL, TINY, ProbeConfig, check_finite
 
@@ -127,7 +128,7 @@ def schemas_of(group: str, name: str) -> frozenset[str] | None:
 
     out: set[str] = set()
     try:
-        data = load_yaml((CONF_DIR / group / f"{name}.yaml").read_text())
+        data = load_yaml(read_text(CONF_DIR / group / f"{name}.yaml"))
     except (OSError, ValueError):
         return None
     for entry in (data or {}).get("defaults", []) if isinstance(data, dict) else []:
@@ -455,8 +456,7 @@ def _conf_stamp() -> str:
     h = hashlib.sha256()
     for rel in files:
         try:
-            with open(os.path.join(root, rel), "rb") as fh:
-                data = fh.read()
+            data = read_bytes(os.path.join(root, rel))
         except OSError as e:  # what Hydra would meet too: its reason, not the bytes
             data = f"unreadable: {e.strerror}".encode()
         name = rel.encode()
@@ -511,7 +511,7 @@ def _digest(files: list[Path]) -> str:
     h = hashlib.sha256()
     for path in files:
         h.update(str(path).encode())
-        h.update(path.read_bytes())
+        h.update(read_bytes(path))
     return h.hexdigest()
 
 
@@ -569,7 +569,7 @@ def _cache_key(create: bool) -> bytes | None:
     if st.st_uid != os.getuid() or st.st_mode & 0o077 or st.st_size != 32:
         return None
     try:
-        return path.read_bytes()
+        return read_bytes(path)
     except OSError:
         return None
 
@@ -586,7 +586,7 @@ def _load(path: Path, spec: str, study: str) -> Resolved | None:
     import hmac
 
     try:
-        entry = json.loads(path.read_text())
+        entry = json.loads(read_text(path))
     except FileNotFoundError:
         return None
     except (OSError, ValueError):

@@ -533,7 +533,7 @@ def unbuilt(entries: Sequence[Entry], data_dir: str | Path = "data") -> list[tup
     rows = (
         ("all", missing(registry.select(in_all=True)), "the notebook's studies",
          "make all (or snakemake all -c 2)"),
-        ("beyond", missing(registry.select(kind="sphere", in_all=False)),
+        ("beyond", missing(registry.beyond()),
          "the studies beyond the notebook", "snakemake beyond -c 2"),
         ("en05", missing(registry.select(kind="uncertainty")),
          "which inputs matter (Sobol' indices), the calibration round trip",

@@ -202,10 +202,10 @@ def default_studies() -> list[str]:
 
 
 def beyond_studies(selected: Any = None) -> list[str]:
-    """The studies `snakemake beyond` builds (the sphere studies outside `all`), or those of
-    them --config studies=[...] selects (the others it names are `all`'s business); an
-    empty selection builds none."""
-    ids = [s.id for s in registry.select(kind="sphere", in_all=False)]
+    """The studies `snakemake beyond` builds (the sphere and material studies outside `all`),
+    or those of them --config studies=[...] selects (the others it names are `all`'s
+    business); an empty selection builds none."""
+    ids = [s.id for s in registry.beyond()]
     return ids if selected is None else [s for s in ids if s in as_list(selected)]
 
 
@@ -440,7 +440,9 @@ class SweepRegistry:
         """The aggregate of a sweep defined in conf/sweeps/<name>.yaml."""
         import yaml
 
-        spec = yaml.safe_load((self.basedir / "conf" / "sweeps" / f"{name}.yaml").read_text())
+        from creatio.store.regular import read_text
+
+        spec = yaml.safe_load(read_text(self.basedir / "conf" / "sweeps" / f"{name}.yaml"))
         return self.outputs(spec["study"], spec["sweep"], spec.get("overrides"),
                             spec.get("batch"))
 

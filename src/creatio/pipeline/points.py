@@ -33,6 +33,7 @@ from creatio.errors import ConfigError
 from creatio.pipeline.config import Resolved, compose, resolve
 from creatio.pipeline.planning import one_line_errors
 from creatio.pipeline.sweep import MAX_BATCH, TARGET_BATCHES, SweepPlan, _interpolations, run_batch
+from creatio.store.regular import check_regular, read_text
 from creatio.studies import registry
 
 __all__ = ["En05Runs", "En05Sample", "PointPlan", "collect", "en05_sample", "main",
@@ -98,6 +99,7 @@ def collect(plan: SweepPlan, names: Sequence[str]) -> dict[str, Any]:
     out["message"] = np.full(n, "", dtype=object)
     seen = np.zeros(n, dtype=bool)
     for path in plan.batches:
+        check_regular(path)
         with xr.open_dataset(path, engine="netcdf4") as ds:
             idx = ds.point.values.astype(np.int64)
             seen[idx] = True
@@ -296,7 +298,7 @@ def _config(path: Path) -> Resolved:
     from creatio.pipeline.config import validate
     from creatio.store.yamlio import load_yaml
 
-    resolved = validate(load_yaml(path.read_text()))
+    resolved = validate(load_yaml(read_text(path)))
     if resolved.id != "en05":
         raise ConfigError("--config-file", str(path), f"holds study {resolved.id}, not en05")
     return resolved

@@ -88,7 +88,7 @@ def write_report(study: str, outdir: Path, datasets: Sequence[Path]) -> dict[str
 
 #: The kinds whose parts may compute at once: not the analyses, whose datasets are timings
 #: (each measured alone, as their rules run them), nor EN-05's uncertainty study.
-PARALLEL_KINDS = ("sphere", "kinematic")
+PARALLEL_KINDS = ("sphere", "kinematic", "material")
 
 
 def compute_parts(resolved: Resolved, directory: Path, names: Sequence[str]) -> list[Path]:

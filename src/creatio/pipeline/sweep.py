@@ -33,6 +33,7 @@ from pathlib import Path
 from typing import Any
 
 from creatio.errors import ConfigError
+from creatio.store.regular import check_regular
 from creatio.studies import registry
 
 __all__ = [
@@ -431,6 +432,7 @@ def _batch_code(path: str | Path) -> str | None:
     import xarray as xr
 
     try:
+        check_regular(path)
         with xr.open_dataset(path, engine="netcdf4") as ds:
             return ds.attrs.get("code_version")
     except Exception:  # noqa: BLE001 - a batch being written or damaged: not current
@@ -445,6 +447,7 @@ def _known_points(plan: SweepPlan, code: str) -> dict[str, dict[str, Any]]:
     rows: dict[str, dict[str, Any]] = {}
     for path in Path(plan.outdir).parent.glob("*/batches/*.nc"):
         try:
+            check_regular(path)
             with xr.open_dataset(path, engine="netcdf4") as ds:
                 if ds.attrs.get("study") != plan.study or ds.attrs.get("code_version") != code:
                     continue
@@ -611,6 +614,7 @@ def aggregate(plan: SweepPlan):
     message = np.full(shape, "", dtype=object)
     run = 0
     for path in plan.batches:
+        check_regular(path)
         with xr.open_dataset(path, engine="netcdf4") as ds:
             flat = ds.point.values
             for name in ds.data_vars:

@@ -608,10 +608,11 @@ def write_report(datasets: Sequence[Path], outdir: str | Path) -> dict[str, Path
 def write_comparison(datasets: Sequence[Path], outdir: str | Path) -> dict[str, Path]:
     """EN-02 vs EN-02R: both centre paths on shared time over the surface, and a table."""
     from creatio.store.netcdf import read_dataset
+    from creatio.store.regular import read_text
 
     loaded = [read_dataset(p) for p in datasets]
     outdir = Path(outdir)
-    summaries = [json.loads((outdir / f"{ds.attrs['study']}.json").read_text())
+    summaries = [json.loads(read_text(outdir / f"{ds.attrs['study']}.json"))
                  for ds, _ in loaded]
     names = [s["study"] for s in summaries]
     paths = {"md": outdir / "compare_en02_en02r.md", "png": outdir / "compare_en02_en02r.png"}

@@ -17,6 +17,8 @@ import subprocess
 import tempfile
 from pathlib import Path
 
+from creatio.store.regular import read_bytes
+
 __all__ = ["WEB", "build_library", "library_inputs", "web_file"]
 
 #: The viewer's sources: page template, viewer script and style, npm manifest and lock.
@@ -75,4 +77,4 @@ def _run(cmd: list[str], cwd: str, env: dict[str, str]) -> None:
 
 def digest(path: str | Path) -> str:
     """sha256 of a file (the page records the bundle's)."""
-    return hashlib.sha256(Path(path).read_bytes()).hexdigest()
+    return hashlib.sha256(read_bytes(path)).hexdigest()

@@ -141,7 +141,9 @@ def _config(args: argparse.Namespace):
     from creatio.scenes.config import resolve, route, validate
 
     if args.config_file is not None:
-        args.config_yaml = args.config_file.read_text()
+        from creatio.store.regular import read_text
+
+        args.config_yaml = read_text(args.config_file)
     if args.config_yaml is None:
         routed, used = route(args.scene, args.override)
         unused = [o for o in args.override if o not in used]

@@ -45,7 +45,7 @@ from creatio.model.sphere import (
 )
 from creatio.model.surface import Frame, Motion, Surface, wavenumber
 from creatio.studies.registry import Part
-from creatio.studies.schema import MISSING, DynamicConfig, require, vary
+from creatio.studies.schema import MISSING, DynamicConfig, require, require_samples, vary
 
 if TYPE_CHECKING:
     import xarray as xr
@@ -225,6 +225,8 @@ class BoundariesStudy:
                         "must be below the one before it (largest first)")
         require(self.analytic_samples >= 101, f"{path}.analytic_samples",
                 self.analytic_samples, "must be >= 101")
+        require_samples(f"{path}.analytic_samples", self.analytic_samples,
+                        self.analytic_samples, "R samples of each analytic section")
         require(math.isfinite(self.analytic_tol_deg) and 0.0 < self.analytic_tol_deg < 1.0,
                 f"{path}.analytic_tol_deg", self.analytic_tol_deg, "must lie in (0, 1) degree")
         for name, axis in AXES.items():

@@ -28,7 +28,7 @@ from creatio.studies.en03_schema import En03Config
 from creatio.studies.en03m_schema import En03mConfig
 from creatio.studies.schema import DynamicConfig
 
-__all__ = ["KINDS", "STUDIES", "Kind", "Part", "Study", "get", "select"]
+__all__ = ["BEYOND_KINDS", "KINDS", "STUDIES", "Kind", "Part", "Study", "beyond", "get", "select"]
 
 
 @dataclass(frozen=True)
@@ -58,11 +58,14 @@ KINEMATIC = Kind("kinematic", "studies", "reports", (".json", ".md", ".html", ".
 SPHERE = Kind("sphere", "studies", "reports", (".json", ".md", ".html", ".png", "_history.csv",
                                                 "_trajectory.png", "_convergence.png"))
 ANALYSIS = Kind("analysis", "benchmarks", "benchmarks", (".json", ".md", ".png"))
+#: EN-06: fields over the membrane from the prescribed surface (strain, stress, fatigue).
+MATERIAL = Kind("material", "studies", "reports", (".json", ".md", ".html", ".png",
+                                                   "_envelope.png", "_fatigue.png"))
 UNCERTAINTY = Kind("uncertainty", "studies", "reports", (".json", ".md", ".png", "_sobol.csv",
                                                          "_calibration.png", "_design.png"))
 
 #: Every kind, by name.
-KINDS = {k.name: k for k in (KINEMATIC, SPHERE, ANALYSIS, UNCERTAINTY)}
+KINDS = {k.name: k for k in (KINEMATIC, SPHERE, ANALYSIS, UNCERTAINTY, MATERIAL)}
 
 
 def _one_part(study_id: str) -> Callable[[Any], list[Part]]:
@@ -191,6 +194,9 @@ STUDIES: dict[str, Study] = {
               _timestep_parts("en03m"), in_all=False),
         Study("en04", SPHERE, "creatio.studies.en04:En04Config", "creatio.studies.en04:run",
               "creatio.studies.en04:parts", in_all=False),
+        # EN-06 (docs/materials.md): what the membrane must be made of; built by `beyond`
+        Study("en06", MATERIAL, "creatio.studies.en06_schema:En06Config",
+              "creatio.studies.en06:run", "creatio.studies.en06:parts", in_all=False),
         # EN-05 (docs/studies.md): its own target, `snakemake en05`; its Sobol' sample runs as
         # batch jobs of the pipeline, its other parts as datasets
         Study("en05", UNCERTAINTY, "creatio.studies.en05_schema:En05Config",
@@ -219,3 +225,13 @@ def select(kind: str | None = None, in_all: bool | None = None) -> list[Study]:
     """Registered studies, optionally of one kind or only those `snakemake all` builds."""
     return [s for s in STUDIES.values()
             if (kind is None or s.kind.name == kind) and (in_all is None or s.in_all == in_all)]
+
+
+#: The kinds of study `snakemake beyond` builds (EN-05 and the analyses have targets of their own).
+BEYOND_KINDS = ("sphere", "material")
+
+
+def beyond() -> list[Study]:
+    """The studies `snakemake beyond` builds: those outside `all` of the sphere and material
+    kinds, in registry order."""
+    return [s for s in select(in_all=False) if s.kind.name in BEYOND_KINDS]

@@ -41,7 +41,7 @@ from creatio.errors import ConfigError
 from creatio.model.numerics import steps_in
 from creatio.model.sphere import slip_relaxation_rate, stable_step
 from creatio.studies.registry import Part
-from creatio.studies.schema import MISSING, DynamicConfig, require, vary
+from creatio.studies.schema import MISSING, DynamicConfig, require, require_runs, vary
 
 if TYPE_CHECKING:
     import xarray as xr
@@ -165,6 +165,10 @@ class StabilityMapStudy:
                 and self.span[0] < self.span[1], f"{path}.span", list(self.span),
                 "must be [low, high] factors of the estimate with 0 < low < high")
         require(self.samples >= 2, f"{path}.samples", self.samples, "must be an integer >= 2")
+        points = sum(len(values) for values in self.axes.values())
+        require_runs(f"{path}.samples", self.samples, self.samples * len(self.methods) * points,
+                     f"sampled runs ({path}.samples x {len(self.methods)} methods x {points} "
+                     "axis values)")
         require(math.isfinite(self.chatter) and self.chatter > 1.0, f"{path}.chatter",
                 self.chatter, "must be finite and > 1 (a multiple of the reference's slip)")
         self.reference.check(f"{path}.reference")

@@ -49,7 +49,14 @@ from creatio.dynamics.solvers import IMPLICIT
 from creatio.errors import ConfigError
 from creatio.model.numerics import steps_in
 from creatio.studies.registry import Part
-from creatio.studies.schema import MISSING, DynamicConfig, require
+from creatio.studies.schema import (
+    MISSING,
+    DynamicConfig,
+    count,
+    require,
+    require_runs,
+    require_samples,
+)
 
 __all__ = [
     "PEER_METHODS",
@@ -261,8 +268,10 @@ class WorkPrecisionConfig:
     bases: dict[str, DynamicConfig] = field(default_factory=dict)
 
     def check(self) -> None:
-        """Validate the settings and every base (its keys prefixed ``bases.<id>.``), and
-        that each base's duration and JIT run fit the fixed-step grids."""
+        """Validate the settings and every base (its keys prefixed ``bases.<id>.``), that
+        each base's duration and JIT run fit the fixed-step grids, and the sizes: every
+        fixed step within each base's budget of evaluations, the timed calls within
+        MAX_RUNS."""
         self.study.check("study")
         require(len(self.bases) >= 1, "bases", list(self.bases), "needs at least 1 base study")
         for name, base in self.bases.items():
@@ -281,6 +290,59 @@ class WorkPrecisionConfig:
                     "study.jit.t_end", self.study.jit.t_end,
                     f"must be an integer multiple of the first base's solver.output_interval "
                     f"= {first.solver.output_interval}")
+            _check_jit_size(self.study.jit, first)
+        for name, base in self.bases.items():
+            _check_steps(self.study, name, base)
+        require_runs("study.repeats", self.study.repeats,
+                     _setting_count(self.study) * len(self.bases) * self.study.repeats,
+                     f"timed calls (settings x {len(self.bases)} bases x study.repeats)")
+
+
+def _check_steps(study: WorkPrecisionStudy, name: str, base: DynamicConfig) -> None:
+    """Refuse a fixed step whose run over the base's duration would take more steps than
+    the base's budget of evaluations (solver.max_rhs_evals; each step takes at least one)."""
+    duration, budget = base.study.duration, base.solver.max_rhs_evals
+    rows = duration / base.solver.output_interval
+
+    def bound(key: str, value: Any, steps: float, how: str) -> None:
+        require(steps <= budget, key, value,
+                f"asks for {count(steps)} steps per run ({how} over bases.{name}.study."
+                f"duration = {duration:g} s), more than bases.{name}.solver.max_rhs_evals = "
+                f"{budget:,} (each step takes at least one evaluation)")
+
+    grids = [*((f"study.methods.{m}", g) for m, g in study.methods.items()),
+             ("study.unlisted", study.unlisted),
+             *((f"study.full_state.{m}", g) for m, g in study.full_state.items())]
+    for path, g in grids:
+        for i, n in enumerate(g.steps_per_output):
+            bound(f"{path}.steps_per_output[{i}]", n, rows * n, f"{n} per output interval")
+        for i, dt in enumerate(g.dense_dt):
+            bound(f"{path}.dense_dt[{i}]", dt, duration / dt, f"dt = {dt:g} s")
+    n = study.reference.fixed_steps_per_output
+    bound("study.reference.fixed_steps_per_output", n, rows * n, f"{n} per output interval")
+
+
+def _check_jit_size(jit: JitConfig, base: DynamicConfig) -> None:
+    """Refuse a first-call run (on the first base) longer than its history rows or its fixed
+    step's budget of evaluations allow."""
+    sv = base.solver
+    require_samples("study.jit.t_end", jit.t_end, jit.t_end / sv.output_interval,
+                    "history rows (study.jit.t_end / solver.output_interval)")
+    steps = jit.t_end / sv.dt
+    require(steps <= sv.max_rhs_evals, "study.jit.t_end", jit.t_end,
+            f"asks for {count(steps)} steps at the first base's solver.dt = {sv.dt:g} s, more "
+            f"than solver.max_rhs_evals = {sv.max_rhs_evals:,} (each step takes at least one "
+            "evaluation)")
+
+
+def _setting_count(study: WorkPrecisionStudy) -> int:
+    """How many settings one base runs at most (every grid value, none thinned)."""
+    n = 2 + sum(len(v) for v in study.peers.values())
+    for name in METHODS:
+        g = study.grid(name)
+        n += (len(g.rtol) + len(g.steps_per_output) * (1 + len(g.newton_rtol))
+              + len(g.dense_rtol) + len(g.dense_dt))
+    return n + sum(len(g.rtol) + len(g.steps_per_output) for g in study.full_state.values())
 
 
 def parts(cfg: WorkPrecisionConfig) -> list[Part]:
