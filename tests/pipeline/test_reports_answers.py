@@ -342,3 +342,33 @@ def test_the_boundaries_open_with_each_axis_boundary_beside_its_analytic_value()
                                         axis("mu", "sphere.mu", math.nan, 0.3, "1")]))
     assert "amplitude at 0.2512 m (contact_lost; analytic 0.25 m)" in text
     assert "mu at - (contact_lost; analytic 0.3)" in text and "4 anomalies" in text
+
+
+def _kinematic_run(base: Path, overrides: list[str]) -> str:
+    """EN-01 computed into <base>/data(/runs/<key>) as `creatio run` lays it out (with its
+    overrides.json off the default); its report's markdown."""
+    from creatio.pipeline.config import resolve
+    from creatio.pipeline.index import record_run
+    from creatio.pipeline.run import compute_dataset
+
+    r = resolve("en01", overrides, only_applicable=True)
+    data_dir = base / "data"
+    root = data_dir / "runs" / r.key if overrides else data_dir
+    folder = root / "studies" / "en01"
+    folder.mkdir(parents=True, exist_ok=True)
+    record_run(root, "study", "en01", r.data, resolve("en01").data, None, r.sha256, data_dir)
+    out = compute_dataset(r, folder / "en01.nc", "en01")
+    return writer("en01")([out], root / "reports")["md"].read_text()
+
+
+def test_a_kinematic_override_is_not_graded_against_the_notebook(tmp_path):
+    """Issue 34.1 for EN-01: its published figures belong to the default geometry; a run at
+    A = 0.1 names the key that differs and shows no published column or verdict, while the
+    default run keeps its comparison."""
+    other = _kinematic_run(tmp_path / "a", ["geometry.A=0.1"])
+    assert "No published figure for this config" in other and "`geometry.A`: 0.18 -> 0.1" in other
+    assert "published" not in other.split("No published figure", 1)[1]
+    assert "agrees to the printed digits" not in other
+    default = _kinematic_run(tmp_path / "b", [])
+    assert "they are compared below" in default and "c_R published" in default
+    assert "agrees to the printed digits" in default

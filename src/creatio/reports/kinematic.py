@@ -9,7 +9,7 @@ observed order is keyed by the finer step of its pair (order between the previou
 from __future__ import annotations
 
 import csv
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -20,10 +20,14 @@ from creatio.model.numerics import observed_order
 from creatio.reports.answer import answer_lines, num
 from creatio.reports.common import (
     PUBLISHED_HEADER,
+    RunCase,
+    config_paragraph,
+    config_title,
     h_key,
     nested,
     plt,
     published_row,
+    run_case,
     save_figure,
     strict_json,
     table,
@@ -92,8 +96,8 @@ def kinematic_summary(ds: xr.Dataset) -> dict[str, Any]:
 
 
 
-def _fd_rows(summary: dict, study: str) -> tuple[list[str], list[list[Any]]]:
-    published = registry.get(study).published.get("fd_error", {})
+def _fd_rows(summary: dict, pub: Mapping[str, Any]) -> tuple[list[str], list[list[Any]]]:
+    published = pub.get("fd_error", {})
     names = list(summary["fd_error"])
     keys = list(summary["fd_error"][names[0]])
     header = ["h"]
@@ -114,8 +118,8 @@ def _fd_rows(summary: dict, study: str) -> tuple[list[str], list[list[Any]]]:
     return header, rows
 
 
-def _convergence_figure(summary: dict, study: str, path: Path) -> None:
-    published = registry.get(study).published.get("fd_error", {})
+def _convergence_figure(summary: dict, study: str, path: Path, pub: Mapping[str, Any]) -> None:
+    published = pub.get("fd_error", {})
     fig, ax = plt.subplots(figsize=(6.4, 4.6))
     for n, errs in summary["fd_error"].items():
         hs = [float(k) for k in errs]
@@ -146,16 +150,20 @@ def write_report(datasets: Sequence[Path], outdir: str | Path) -> dict[str, Path
     outdir = Path(outdir)
     outdir.mkdir(parents=True, exist_ok=True)
     summary = kinematic_summary(ds)
+    case = run_case(datasets, ds)
+    # the notebook's figures belong to its own config: compared only on the published case
+    pub = registry.get(study).published if case.published_case else {}
+    summary.update(case.json())
     paths = {ext: outdir / f"{study}.{ext}" for ext in ("json", "md", "html", "png")}
     paths["csv"] = outdir / f"{study}_fd_error.csv"
     write_text(paths["json"], strict_json(summary))
-    header, rows = _fd_rows(summary, study)
+    header, rows = _fd_rows(summary, pub)
     with atomic_write(paths["csv"], newline="") as fh:
         w = csv.writer(fh)
         w.writerow(header)
         w.writerows(rows)
-    _convergence_figure(summary, study, paths["png"])
-    write_markdown(paths["md"], _kinematic_markdown(ds, summary, header, rows, paths))
+    _convergence_figure(summary, study, paths["png"], pub)
+    write_markdown(paths["md"], _kinematic_markdown(ds, summary, header, rows, paths, case, pub))
     return paths
 
 
@@ -234,23 +242,21 @@ def _answer(ds: xr.Dataset, s: dict) -> list[str]:
     return answer_lines(what, answer, basis)
 
 
-def _kinematic_markdown(ds: xr.Dataset, s: dict, header, rows, paths) -> str:
+def _kinematic_markdown(ds: xr.Dataset, s: dict, header, rows, paths, case: RunCase,
+                        pub: Mapping[str, Any]) -> str:
     study = s["study"]
     u = _units(study)
-    lines = [f"# {ds.attrs.get('title', study)}", "", *_answer(ds, s),
-             f"Dataset config sha256 `{s['config_sha256'][:12]}`, creatio "
-             f"{ds.attrs.get('creatio_version')}, commit {ds.attrs.get('git_commit', '')[:10]}"
-             f"{' (dirty)' if int(ds.attrs.get('git_dirty', 0)) else ''}.", "",
+    lines = [config_title(ds, case), "", *_answer(ds, s), *config_paragraph(ds, case),
              "## Derivative check (max Euclidean error, analytic vs central difference)", "",
              f"Samples: {ds.attrs.get('n_samples')}. Observed order between the previous h "
              "and this one.", ""]
     lines += table(_unit_header(header, study), rows)
-    if study == "en01":
+    if study == "en01" and pub:
         lines += ["", "Rows below h = 1e-4 are rounding-dominated. The angular sampling starts "
                   "at alpha = 0; the notebook does not state its own, and c_alpha / c_t come "
                   "out slightly below the published values (ratio column)."]
     lines += ["", f"![convergence]({paths['png'].name})", "", "## Regularity", ""]
-    reg_pub = registry.get(study).published.get("regularity", {})
+    reg_pub = pub.get("regularity", {})
     reg = [
         ("max | J identity - |c_R x c_alpha| |", "j_identity_error"),
         ("max normalised normal-tangent dot", "normal_tangent_dot"),
@@ -285,7 +291,11 @@ def _kinematic_markdown(ds: xr.Dataset, s: dict, header, rows, paths) -> str:
             f"({_geometry(ds)}); it is not tied to metres."]
     else:
         lines += ["", "## Pattern velocity over the EN-02 cycle", ""]
-        lines += table(PUBLISHED_HEADER, [
-            published_row(PATTERN_LABELS.get(k, k), s[k], v)
-            for k, v in registry.get(study).published.get("pattern", {}).items()])
+        pattern = registry.get(study).published.get("pattern", {})
+        if pub:
+            lines += table(PUBLISHED_HEADER, [
+                published_row(PATTERN_LABELS.get(k, k), s[k], v) for k, v in pattern.items()])
+        else:
+            lines += table(["figure", "computed"],
+                           [(PATTERN_LABELS.get(k, k), s[k]) for k in pattern])
     return "\n".join(lines) + "\n"
