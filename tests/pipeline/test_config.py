@@ -214,3 +214,14 @@ def test_a_warm_processs_kept_compositions_are_dropped_when_conf_changes(tmp_pat
     out = subprocess.run([sys.executable, "-c", code, str(conf / "study" / "en02.yaml")],
                          env=env, capture_output=True, text=True, check=True).stdout.split()
     assert out == ["False", "True", "True", "False", "0.44", "0.44"], out
+
+
+def test_an_optional_key_the_default_leaves_out_still_applies():
+    """`snakemake all --config 'overrides=["sphere.beta_deg=2"]'` reaches the sphere studies:
+    a key whose null default the canonical text leaves out is applicable where its schema
+    has it, not silently dropped; a key no schema has is still left out."""
+    from creatio.pipeline.config import applicable
+
+    ovs = ["sphere.beta_deg=2", "sphere.psi_deg=30", "sphere.nope=1"]
+    assert applicable("en02", ovs) == ovs[:2]
+    assert applicable("ct02", ovs) == []

@@ -258,3 +258,20 @@ def test_a_controlled_run_has_its_control_section(tmp_path):
     page = paths["html"].read_text()
     assert all(f'<img src="{src}"' in page for _, src in _figures(md))
     assert "en02_control.png" in page
+
+
+def test_a_tilted_run_has_its_tilt_section_and_names_its_keys(tmp_path):
+    """A feature that came later (the mounting tilt) reports through the same mechanism: its
+    section gives the gravity vector g (sin b cos p, sin b sin p, -cos b), its answer line the
+    horizontal part g sin b, and the differing keys are named one by one (two new keys of
+    `sphere` are not a group switched on)."""
+    paths, _ = _run(tmp_path, [*SHORT, "sphere.beta_deg=2", "sphere.psi_deg=30"])
+    md = paths["md"].read_text()
+    b, p = math.radians(2.0), math.radians(30.0)
+    assert "## Tilt" in md and "`sphere.beta_deg`: None -> 2.0" in md
+    assert "`sphere`: none -> set" not in md
+    tilt = json.loads(paths["json"].read_text())["tilt"]
+    assert tilt["gravity_m_s2"] == pytest.approx(
+        [9.81 * math.sin(b) * math.cos(p), 9.81 * math.sin(b) * math.sin(p),
+         -9.81 * math.cos(b)], rel=1e-12)
+    assert f"horizontal part of {9.81 * math.sin(b):.4g} m/s^2" in md

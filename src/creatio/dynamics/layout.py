@@ -39,7 +39,8 @@ __all__ = [
     "F_OMEGA", "F_Q", "F_SPIN", "F_V", "F_WORK", "F_X", "FL_IMPACT_CAP", "FL_RESTITUTION",
     "FL_RESUME_SPEED", "FL_START_HEIGHT", "LAW_A", "LAW_GAMMA", "LAW_R", "NCOL", "NDIAG", "NEV",
     "NEXT", "NF", "NFL", "NFX", "NLAWS", "NPAR", "NQ", "NROT", "NSTRUCT", "P_A", "P_B", "P_DR",
-    "P_EPS", "P_G", "P_I", "P_INV_IS", "P_IS", "P_K", "P_KA", "P_M", "P_MCAV", "P_MU", "P_NCAV",
+    "P_EPS", "P_G", "P_GX", "P_GY", "P_I", "P_INV_IS", "P_IS", "P_K", "P_KA", "P_M", "P_MCAV",
+    "P_MU", "P_NCAV",
     "P_PRELOAD", "P_R0", "P_STOP_LEAVE", "SCALAR_KERNELS", "ST_RATE", "ST_THETA",
     "C_ALPHA0", "C_DELTA_MAX", "C_GOAL", "C_K_OMEGA", "C_K_THETA", "C_OMEGA_MAX", "C_OMEGA_N",
     "C_U_MAX", "C_ZETA", "CT_PHI", "CT_RATE", "LAW_CONTROL", "NCTL", "NCTLS", "control_start",
@@ -113,10 +114,13 @@ NFL = 4
 # --------------------------------------------------------------------- parameter vector
 #: The surface and sphere, the cavity (n, m) the run starts in, the structure's inertia I_s
 #: (inf: fixed) and its inverse, the normal preload P, and whether leaving the cavity stops
-#: the run (1.0) or is only recorded (0.0).
+#: the run (1.0) or is only recorded (0.0). P_G is the pull along -z (gravity's vertical part,
+#: plus the base confinement's P / m); P_GX, P_GY are gravity's horizontal components in the
+#: structure's frame, nonzero only under a mounting tilt (docs/model.md s.4, "Gravity as a
+#: vector"): at zero tilt the kernels never read them, so their arithmetic is unchanged.
 (P_R0, P_DR, P_K, P_A, P_KA, P_M, P_B, P_G, P_MU, P_EPS, P_I, P_NCAV, P_MCAV, P_IS, P_INV_IS,
- P_PRELOAD, P_STOP_LEAVE) = range(17)
-NPAR = 17
+ P_PRELOAD, P_STOP_LEAVE, P_GX, P_GY) = range(19)
+NPAR = 19
 
 # ------------------------------------------------------------------------- law matrix
 #: Rows of the law matrix: the radial phase, the angular phase, the inclination (each a

@@ -43,6 +43,8 @@ from creatio.dynamics.layout import (
     P_DR,
     P_EPS,
     P_G,
+    P_GX,
+    P_GY,
     P_I,
     P_INV_IS,
     P_IS,
@@ -135,17 +137,39 @@ def _multiple(name: str, value: float, dt: float) -> int:
 @dataclass(frozen=True)
 class Sphere:
     """The homogeneous rigid sphere and its contact (docs/model.md s.4): mass m, radius b,
-    gravity g (along -z), friction coefficient mu and its regularisation speed eps."""
+    gravity of magnitude g, friction coefficient mu and its regularisation speed eps, and the
+    membrane's mounting tilt: its plane off level by beta (0 <= beta < pi/2) toward the
+    azimuth psi, so gravity is g (sin beta cos psi, sin beta sin psi, -cos beta) in the
+    structure's frame (beta = 0: along -z, as on a level membrane)."""
 
     m: float
     b: float
     g: float
     mu: float
     eps: float
+    beta: float = 0.0
+    psi: float = 0.0
 
     def __post_init__(self) -> None:
         _positive(self, "m", "b", "eps")
-        _nonnegative(self, "g", "mu")
+        _nonnegative(self, "g", "mu", "beta")
+        if not self.beta < 0.5 * math.pi:
+            raise ValueError(f"beta must be < pi/2 (the membrane off level by less than 90 "
+                             f"degrees), got {self.beta}")
+        if not math.isfinite(self.psi):
+            raise ValueError(f"psi must be finite, got {self.psi}")
+
+    @property
+    def tilted(self) -> bool:
+        """Whether gravity has a horizontal part in the structure's frame (beta > 0, g > 0)."""
+        return self.beta != 0.0 and self.g != 0.0
+
+    @property
+    def gravity(self) -> tuple[float, float, float]:
+        """Gravity g_vec in the structure's frame (m/s^2); exactly (0, 0, -g) at beta = 0."""
+        if not self.tilted:
+            return 0.0, 0.0, -self.g
+        return contact.tilted_gravity(self.g, self.beta, self.psi)
 
     @property
     def inertia(self) -> float:
@@ -218,9 +242,19 @@ class Model:
     def vertical_pull(self) -> float:
         """Acceleration of the pull along -z: gravity g, plus P / m for the base confinement
         (docs/model.md s.10: a pull toward the base acts as gravity of strength P / m)."""
+        g = -self.sphere.gravity[2]
         if self.structure.confinement == "base":
-            return self.sphere.g + self.structure.force / self.sphere.m
-        return self.sphere.g
+            return g + self.structure.force / self.sphere.m
+        return g
+
+    @property
+    def pull(self) -> float:
+        """Magnitude of the whole pull (vertical and, under a tilt, horizontal): the m g of the
+        a-priori normal reaction (docs/model.md s.6); the vertical pull without tilt."""
+        gx, gy, _ = self.sphere.gravity
+        if not self.sphere.tilted:
+            return self.vertical_pull
+        return math.sqrt(self.vertical_pull ** 2 + gx * gx + gy * gy)
 
     def law_matrix(self) -> NDArray[np.float64]:
         """The three laws' coefficient vectors as the (NLAWS, NLAW) array the compiled core
@@ -359,6 +393,12 @@ class SphereProblem:
         if start.equilibrium and not self.model.vertical_pull > 0.0:
             raise ValueError("equilibrium start needs a pull along -z (g > 0 or a base "
                              "confinement with P > 0): the equilibrium minimises the height")
+        if self.model.sphere.tilted and (self.structure_free or ev.flight
+                                         or start.equilibrium):
+            raise ValueError(f"beta = {self.model.sphere.beta} rad (a mounting tilt) needs the "
+                             "fixed structure without a normal preload, no flight and no "
+                             "equilibrium start: only the contact dynamics of a fixed "
+                             "membrane carry gravity off the -z axis")
         if self.model.control is not None and self.structure_free:
             raise ValueError("the controlled phase needs the fixed structure and no normal "
                              "preload")
@@ -457,6 +497,7 @@ class SphereProblem:
         p[P_INV_IS] = inverse_inertia(structure.inertia)
         p[P_PRELOAD] = structure.preload
         p[P_STOP_LEAVE] = 1.0 if self.events.stop_on_leaving_cavity else 0.0
+        p[P_GX], p[P_GY], _ = sphere.gravity
         return p
 
     def law_matrix(self) -> NDArray[np.float64]:
@@ -630,6 +671,13 @@ def normal_reaction_at_start(problem: SphereProblem) -> float:
     _, _, n1, n2, n3, P, Q, Z = _start_jets(problem)
     a0 = contact.acceleration_at_fixed_rates(P, Q, Z, problem.start.Rdot, problem.start.alphadot)
     model = problem.model
+    if model.sphere.tilted:
+        gx, gy, _ = model.sphere.gravity
+        alpha = problem.start_point[1]
+        ca, sa = math.cos(alpha), math.sin(alpha)
+        return float(contact.normal_reaction_tilted(
+            model.sphere.m, gx * ca + gy * sa, gy * ca - gx * sa, model.vertical_pull, n1, n2,
+            n3, *a0) + model.structure.preload)
     return float(contact.normal_reaction(model.sphere.m, model.vertical_pull, n1, n2, n3, *a0)
                  + model.structure.preload)
 
@@ -644,7 +692,7 @@ def normal_estimate(problem: SphereProblem) -> float:
     """The a-priori normal reaction of the stability estimate (docs/model.md s.6)."""
     model = problem.model
     return contact.normal_estimate(normal_reaction_at_start(problem), model.sphere.m,
-                                   model.vertical_pull)
+                                   model.pull)
 
 
 def slip_rate(problem: SphereProblem, N: float, rho: float | None = None) -> float:

@@ -110,6 +110,8 @@ from creatio.dynamics.layout import (
     P_DR,
     P_EPS,
     P_G,
+    P_GX,
+    P_GY,
     P_I,
     P_INV_IS,
     P_IS,
@@ -146,6 +148,7 @@ from creatio.model.sphere import (
     centre_tangents,
     max_curvature_times_b,
     normal_reaction,
+    normal_reaction_tilted,
     tangent_coordinates,
     tangential_part,
 )
@@ -273,7 +276,11 @@ def rhs_on(sf: tuple, y: np.ndarray, dy: np.ndarray, pp: tuple, rot: bool, en: b
     ad = y[Y_ALPHADOT]
     xR1, xR2, xR3, xa1, xa2, xa3, xt1, xt2, xt3 = centre_tangents(P, Q, Z)
     a01, a02, a03 = acceleration_at_fixed_rates(P, Q, Z, Rd, ad)
-    N = normal_reaction(m, g, n1, n2, n3, a01, a02, a03)
+    g1, g2, tilt = horizontal_gravity(pp, a)
+    if tilt:
+        N = normal_reaction_tilted(m, g1, g2, g, n1, n2, n3, a01, a02, a03)
+    else:
+        N = normal_reaction(m, g, n1, n2, n3, a01, a02, a03)
     V1 = xt1 + xR1 * Rd + xa1 * ad
     V2 = xt2 + xR2 * Rd + xa2 * ad
     V3 = xt3 + xR3 * Rd + xa3 * ad
@@ -310,6 +317,9 @@ def rhs_on(sf: tuple, y: np.ndarray, dy: np.ndarray, pp: tuple, rot: bool, en: b
     r1 = f1 / m - a01
     r2 = f2 / m - a02
     r3 = f3 / m - g - a03
+    if tilt:
+        r1 += g1
+        r2 += g2
     dy[Y_R] = Rd
     dy[Y_ALPHA] = ad
     dy[Y_RDOT], dy[Y_ALPHADOT] = tangent_coordinates(xR1, xR2, xR3, xa1, xa2, xa3, r1, r2, r3)
@@ -333,6 +343,20 @@ def rhs_on(sf: tuple, y: np.ndarray, dy: np.ndarray, pp: tuple, rot: bool, en: b
     if diag:
         bk = max_curvature_times_b(rho, z, n1, n2, n3, b)
     return N, math.sqrt(slip2), P[0], Q[0], Z[0], V1, V2, V3, f1, f2, f3, pr, gm, bk, pa
+
+
+@njit(cache=True, inline="always")
+def horizontal_gravity(pp, a):
+    """(g1, g2, tilted): gravity's horizontal part (layout P_GX, P_GY) turned into the
+    rotating frame at alpha, and whether there is one (a mounting tilt, docs/model.md s.4);
+    without tilt the callers keep their level-membrane arithmetic, bit for bit."""
+    gx = pp[P_GX]
+    gy = pp[P_GY]
+    if gx == 0.0 and gy == 0.0:
+        return 0.0, 0.0, False
+    ca = math.cos(a)
+    sa = math.sin(a)
+    return gx * ca + gy * sa, gy * ca - gx * sa, True
 
 
 def rhs_of(free, t, y, dy, pp, lc, rot, en, diag):
@@ -498,6 +522,9 @@ def observe(first, t, y, d, pp, ext, out, row, final, sample, rot, en, free):
             kin += 0.5 * inertia * (y[Y_OMEGA] * y[Y_OMEGA] + y[Y_OMEGA + 1] * y[Y_OMEGA + 1]
                                     + y[Y_OMEGA + 2] * y[Y_OMEGA + 2])
         pot = m * g * X3
+        g1, g2, tilt = horizontal_gravity(pp, a)
+        if tilt:
+            pot -= m * (g1 * X1 + g2 * X2)
         energy = kin + pot
         if first:
             ext[E_E0] = energy

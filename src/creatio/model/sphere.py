@@ -21,8 +21,10 @@ __all__ = [
     "max_curvature_times_b",
     "normal_estimate",
     "normal_reaction",
+    "normal_reaction_tilted",
     "slip_relaxation_rate",
     "stable_step",
+    "tilted_gravity",
 ]
 
 #: Safety factor on the a-priori normal reaction of the friction stability estimate
@@ -76,6 +78,20 @@ def normal_reaction(m: float, g: float, n1: float, n2: float, n3: float, a01: fl
     """N = m n . (a0 - g_vec) with gravity g_vec = (0, 0, -g): exact because n . J = 0 and
     n . f = 0 (docs/model.md s.4)."""
     return m * (n1 * a01 + n2 * a02 + n3 * (a03 + g))
+
+
+def normal_reaction_tilted(m: float, g1: float, g2: float, g: float, n1: float, n2: float,
+                           n3: float, a01: float, a02: float, a03: float) -> float:
+    """N = m n . (a0 - g_vec) with gravity g_vec = (g1, g2, -g) off the -z axis (a mounting
+    tilt, docs/model.md s.4): :func:`normal_reaction` gains the horizontal parts."""
+    return m * (n1 * (a01 - g1) + n2 * (a02 - g2) + n3 * (a03 + g))
+
+
+def tilted_gravity(g: float, beta: float, psi: float) -> tuple[float, float, float]:
+    """g_vec = g (sin beta cos psi, sin beta sin psi, -cos beta): gravity of magnitude g on a
+    membrane whose plane is off level by beta toward the azimuth psi (docs/model.md s.4)."""
+    s = math.sin(beta)
+    return g * s * math.cos(psi), g * s * math.sin(psi), -g * math.cos(beta)
 
 
 def max_curvature_times_b(rho, z, n1: float, n2: float, n3: float, b: float) -> float:
@@ -163,5 +179,6 @@ def attitude_rates(q0: float, q1: float, q2: float, q3: float, wx: float, wy: fl
 
 #: The functions the dynamics layer compiles into its loops.
 SCALAR_KERNELS = (inertia, centre_tangents, acceleration_at_fixed_rates, normal_reaction,
+                  normal_reaction_tilted,
                   max_curvature_times_b, attitude_rates, tangential_part,
                   tangent_coordinates)

@@ -321,6 +321,29 @@ def _omit_by_schema(tp: Any, data: Any) -> Any:
     return data
 
 
+def _optional_key(schema: Any, key: str) -> bool:
+    """Whether a dotted key names, or lies under, a field of the schema that the canonical
+    text leaves out while null (sphere.beta_deg): the default's data cannot show it."""
+    import types
+    import typing
+
+    tp: Any = schema
+    for part in key.split("."):
+        origin, args = typing.get_origin(tp), typing.get_args(tp)
+        if origin in (typing.Union, types.UnionType):
+            inner = [a for a in args if a is not type(None)]
+            tp = inner[0] if len(inner) == 1 else None
+        if not (isinstance(tp, type) and is_dataclass(tp)):
+            return False
+        field_ = next((f for f in fields(tp) if f.name == part), None)
+        if field_ is None:
+            return False
+        if field_.metadata.get(OMIT_NULL, False):
+            return True
+        tp = _hints(tp)[part]
+    return False
+
+
 def _omittable(schema: Any) -> set[str]:
     """The top-level fields of a schema that its canonical text leaves out while null."""
     return {f.name for f in fields(schema) if f.metadata.get(OMIT_NULL, False)}
@@ -382,8 +405,9 @@ def applicable(study: str, overrides: Sequence[str]) -> list[str]:
     keep = []
     for ov in overrides:
         key = ov.split("=", 1)[0].lstrip("+~").split("@", 1)[0]
-        if key.split(".")[0] in optional:  # an optional group the default leaves out
-            # (control=pd, and its keys: control.omega_n=40)
+        if key.split(".")[0] in optional or _optional_key(registry.get(study).schema, key):
+            # an optional group or key the default leaves out (control=pd, and its keys:
+            # control.omega_n=40; sphere.beta_deg=2)
             keep.append(ov)
             continue
         node: Any = base

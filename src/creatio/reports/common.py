@@ -375,6 +375,8 @@ class RunCase:
     changes: dict[str, list[Any]] = field(default_factory=dict)
     differs: dict[str, list[Any]] = field(default_factory=dict)
     has_published: bool = False
+    #: top-level config group -> how many leaf keys the run's config has under it
+    leaves: dict[str, int] = field(default_factory=dict)
 
     @property
     def published_case(self) -> bool:
@@ -383,10 +385,12 @@ class RunCase:
         return self.has_published and not self.differs
 
     def differs_text(self) -> str:
-        """The differing keys as `key: default -> this run`, a group switched on as one."""
+        """The differing keys as `key: default -> this run`, a group switched on as one (every
+        key under it was null by default: `control`, not two new keys of `sphere`)."""
         def switched_on(head: str) -> bool:
             under = [v for k, v in self.differs.items() if k.startswith(head + ".")]
-            return len(under) > 1 and all(v[0] is None for v in under)
+            return (len(under) > 1 and all(v[0] is None for v in under)
+                    and len(under) >= self.leaves.get(head, 0))
 
         parts: list[str] = []
         for key, (old, new) in self.differs.items():
@@ -455,7 +459,24 @@ def run_case(datasets: Sequence[Path], ds: xr.Dataset) -> RunCase:
     overrides = given if given else [str(o) for o in record.get("overrides") or []]
     return RunCase(study, sha, overrides,
                    {k: list(v) for k, v in changes.items()}, differs,
-                   bool(entry and entry.published))
+                   bool(entry and entry.published), _leaves(ds))
+
+
+def _leaves(ds: xr.Dataset) -> dict[str, int]:
+    """How many set (non-null) leaf keys the dataset's resolved config has under each
+    top-level group."""
+    from creatio.store.yamlio import load_yaml
+
+    def count(node: Any) -> int:
+        if isinstance(node, dict):
+            return sum(count(v) for v in node.values())
+        return int(node is not None)
+
+    try:
+        config = load_yaml(str(ds.attrs.get("config_yaml", ""))) or {}
+    except Exception:  # noqa: BLE001 - an unreadable config: no group is collapsed
+        return {}
+    return {k: count(v) for k, v in config.items()} if isinstance(config, dict) else {}
 
 
 def config_title(ds: xr.Dataset, case: RunCase) -> str:

@@ -23,7 +23,8 @@ import xarray as xr
 from creatio.reports.common import finish_figure, fmt, plt, table
 
 __all__ = ["FEATURES", "Feature", "Section", "control_applies", "control_section",
-           "feature_sections", "flight_applies", "flight_section"]
+           "feature_sections", "flight_applies", "flight_section", "tilt_applies",
+           "tilt_section"]
 
 
 @dataclass
@@ -260,10 +261,38 @@ def flight_section(datasets: Sequence[xr.Dataset], config: Mapping[str, Any], ou
     return Section("flight", lines, [], {"flight": figures}, [answer])
 
 
+def tilt_applies(config: Mapping[str, Any], ds: xr.Dataset) -> bool:
+    """Whether the membrane was mounted off level (a tilted run records its tilt)."""
+    return "tilt_beta_deg" in ds.attrs
+
+
+def tilt_section(datasets: Sequence[xr.Dataset], config: Mapping[str, Any], outdir: Path,
+                 stem: str) -> Section:
+    """The tilt and the gravity vector it gave, and what the sphere felt of it."""
+    ds = datasets[0]
+    beta, psi = _num(ds.attrs["tilt_beta_deg"]), _num(ds.attrs.get("tilt_psi_deg", 0.0))
+    g = [_num(ds.attrs.get(f"gravity_{c}")) for c in "xyz"]
+    n_min = _num(ds.attrs.get("min_normal_reaction"))
+    lines = ["## Tilt", "",
+             "The membrane's plane was mounted off level: gravity is the vector g (sin beta cos "
+             "psi, sin beta sin psi, -cos beta) in the equations of motion, the normal reaction "
+             "and the energy books (docs/model.md).", "",
+             *table(["figure", "value"], [
+                 ("tilt beta (deg)", beta), ("toward azimuth psi (deg)", psi),
+                 ("gravity x (m/s^2)", g[0]), ("gravity y (m/s^2)", g[1]),
+                 ("gravity z (m/s^2)", g[2]),
+                 ("minimum normal reaction (N)", n_min)]), ""]
+    answer = (f"the membrane was tilted {fmt(beta)} deg toward azimuth {fmt(psi)} deg, so "
+              f"gravity had a horizontal part of {fmt(math.hypot(g[0], g[1]))} m/s^2.")
+    return Section("tilt", lines, [], {"tilt": {"beta_deg": beta, "psi_deg": psi,
+                                                "gravity_m_s2": g}}, [answer])
+
+
 #: Every feature with a report section, in the order a report shows them.
 FEATURES: tuple[Feature, ...] = (
     Feature("control", control_applies, control_section),
     Feature("flight", flight_applies, flight_section),
+    Feature("tilt", tilt_applies, tilt_section),
 )
 
 

@@ -444,14 +444,30 @@ class SphereConfig:
     g: float = 9.81
     mu: float = MISSING
     eps: float = 0.01
+    #: the membrane's mounting tilt: its plane off level by beta_deg toward the azimuth
+    #: psi_deg (degrees; docs/model.md s.4); null: level (left out of the canonical text
+    #: while null, so the level configs keep their hashes)
+    beta_deg: float | None = field(default=None, metadata={OMIT_NULL: True})
+    psi_deg: float | None = field(default=None, metadata={OMIT_NULL: True})
 
     def check(self, path: str) -> None:
-        """m > 0, b > 0, g >= 0, mu >= 0, eps > 0."""
+        """m > 0, b > 0, g >= 0, mu >= 0, eps > 0, 0 <= beta_deg < 90, psi_deg finite."""
         require(self.m > 0.0, f"{path}.m", self.m, "must be > 0")
         require(self.b > 0.0, f"{path}.b", self.b, "must be > 0")
         require(self.g >= 0.0, f"{path}.g", self.g, "must be >= 0")
         require(self.mu >= 0.0, f"{path}.mu", self.mu, "must be >= 0")
         require(self.eps > 0.0, f"{path}.eps", self.eps, "must be > 0")
+        if self.beta_deg is not None:
+            require(0.0 <= self.beta_deg < 90.0, f"{path}.beta_deg", self.beta_deg,
+                    "must lie in [0, 90) degrees (the membrane's tilt off level)")
+        if self.psi_deg is not None:
+            require(math.isfinite(self.psi_deg), f"{path}.psi_deg", self.psi_deg,
+                    "must be finite (the tilt's azimuth in degrees)")
+
+    def sphere(self) -> core.Sphere:
+        """The numeric core's sphere, the tilt in radians (null: level, azimuth 0)."""
+        return core.Sphere(self.m, self.b, self.g, self.mu, self.eps,
+                           math.radians(self.beta_deg or 0.0), math.radians(self.psi_deg or 0.0))
 
 
 @dataclass
@@ -744,7 +760,7 @@ class DynamicConfig:
         rtol, atol = sv.tolerances(dt)
         problem = SphereProblem(
             model=core.Model(self.geometry.surface(), Motion(*ph.laws()),
-                             core.Sphere(sp.m, sp.b, sp.g, sp.mu, sp.eps), self.run_structure()),
+                             sp.sphere(), self.run_structure()),
             start=core.Start(st.initial.R, math.radians(st.initial.alpha_deg),
                              st.initial.Rdot, st.initial.alphadot),
             solver=core.Solver(str(sv.method), dt, rtol, atol, sv.fixed_step, sv.dense_output,
@@ -820,6 +836,7 @@ _PROBLEM_KEYS = {
     "confinement": "structure.confinement", "force": "structure.force",
     "restitution": "flight.restitution", "resume_speed": "flight.resume_speed",
     "impact_cap": "flight.impact_cap", "height": "study.drop.height",
+    "beta": "sphere.beta_deg", "psi": "sphere.psi_deg",
 }
 
 

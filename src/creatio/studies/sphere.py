@@ -101,6 +101,12 @@ def result_dataset(prob: SphereProblem, res: SimulationResult,
         _control_variables(ds, prob, res, control or ControlGroup())
     if prob.adaptive:
         ds.attrs.update({"rtol": prob.solver.rtol, "atol": prob.solver.atol})
+    sp = prob.model.sphere
+    if sp.tilted:  # a mounting tilt (docs/model.md s.4); a level run's attributes are as before
+        gx, gy, gz = sp.gravity
+        ds.attrs.update({"tilt_beta_deg": math.degrees(sp.beta),
+                         "tilt_psi_deg": math.degrees(sp.psi), "gravity_x": gx,
+                         "gravity_y": gy, "gravity_z": gz})
     ds.attrs.update({
         "dt": dt,
         "method": res.method,
