@@ -45,7 +45,9 @@ def test_a_study_dataset_is_reused_only_when_it_exists_and_holds_the_frames(tmp_
     path.parent.mkdir(parents=True)
     path.write_bytes(b"")
     assert reusable(base, need, tmp_path) == str(path)
-    r2 = resolve("en02", ["scene.playback.fps=32"])  # frames every 8 / 32 = 0.25 s: off the
-    # study's 0.1 s output grid, so its dataset does not hold them
+    # frames every 8 / 32 = 0.25 s: off the study's 0.1 s output grid, so its dataset does
+    # not hold them (the scene alone: twice the frames would take its mu x T family's page
+    # past its size limit)
+    r2 = resolve("en02", ["scene.playback.fps=32", "~scene.axes.sphere", "~scene.axes.phases"])
     (need2,) = needs(r2)
     assert reusable(r2.bases["en02"], need2, tmp_path) is None
