@@ -252,3 +252,22 @@ def test_a_step_the_integrator_cannot_take_stops_cleanly(en02: SphereProblem) ->
     res = simulate(en02.replace(method="radau5", fixed_step=True, dt=1.0, interval=1.0))
     assert res.status == "step_failed" and res.stop_time == 0.0
     assert np.all(np.isfinite(res.X)) and res.t.size >= 1
+
+
+@pytest.mark.parametrize("name", list(METHODS))
+def test_flight_accepts_exactly_the_methods_the_registry_marks(en02: SphereProblem,
+                                                                name: str) -> None:
+    """Which methods flight's event loop runs is the registry's word (Method.flight), not a
+    list in a message: each method is accepted or refused by the problem accordingly, and a
+    refusal names the methods that would do (a new explicit method is accepted unedited)."""
+    method = METHODS[name]
+    changes = {"method": name, "flight": True, "energy": True, "rotation": None}
+    if method.adaptive:
+        changes.update(rtol=1e-8, atol=1e-10)
+    if method.flight:
+        assert en02.replace(**changes).events.flight
+    else:
+        with pytest.raises(ValueError) as err:
+            en02.replace(**changes)
+        able = [m for m, x in METHODS.items() if x.flight]
+        assert all(m in str(err.value) for m in able) and name in str(err.value)

@@ -409,8 +409,9 @@ class SphereProblem:
         if sv.dense_output:
             raise ValueError("flight takes its own steps to every event: dense_output is not "
                              "available with it")
-        if solvers.get(sv.method).stepper != solvers.EXPLICIT:
-            raise ValueError(f"flight needs an explicit method (rk4, dopri5, dop853), got "
+        if not solvers.get(sv.method).flight:
+            able = ", ".join(m.name for m in solvers.METHODS.values() if m.flight)
+            raise ValueError(f"flight needs a method its event loop runs ({able}), got "
                              f"{sv.method!r}")
         if self.structure_free:
             raise ValueError("flight needs the fixed structure without a normal preload")

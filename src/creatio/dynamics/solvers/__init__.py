@@ -179,6 +179,12 @@ class Method:
         return self.error_order is not None
 
     @property
+    def flight(self) -> bool:
+        """Whether flight's event loop runs the method (it steps onto every event with an
+        explicit stage scheme: solvers.hybrid)."""
+        return self.stepper == EXPLICIT
+
+    @property
     def l_stable(self) -> bool:
         """Whether stiff modes are damped at any step (no stability limit on dt)."""
         return self.stepper != EXPLICIT
