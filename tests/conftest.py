@@ -69,57 +69,57 @@ def en02_config_problem() -> SphereProblem:
 #: module::test (every parametrization of it). Kept here, in one list, rather than as
 #: decorators spread over the modules.
 LONG = (
-    "tests/pipeline/test_slurm.py",
-    "tests/pipeline/test_workflow.py",
+    "tests/workflow/test_slurm.py",
+    "tests/workflow/test_workflow.py",
     "tests/scenes/test_browser.py",
     "tests/scenes/test_browser_family.py",
-    "tests/scenes/test_scene_workflow.py",
-    "tests/core/test_beyond_inclination.py::test_en02g_at_zero_inclination_is_en02_bit_for_bit",
-    "tests/core/test_beyond_inclination.py::"
+    "tests/workflow/test_scene_workflow.py",
+    "tests/studies/test_en02g.py::test_en02g_at_zero_inclination_is_en02_bit_for_bit",
+    "tests/studies/test_en02g.py::"
     "test_equilibrium_solves_jt_g_to_rounding_and_is_a_minimum",
-    "tests/core/test_beyond_microgravity.py::"
+    "tests/studies/test_en03m.py::"
     "test_base_pull_closes_the_energy_balance_like_gravity",
-    "tests/core/test_beyond_structure.py::test_en03_study_dataset_and_report",
-    "tests/core/test_beyond_structure.py::test_every_integrator_runs_the_structure",
-    "tests/core/test_beyond_structure.py::"
+    "tests/studies/test_en03.py::test_en03_study_dataset_and_report",
+    "tests/studies/test_en03.py::test_every_integrator_runs_the_structure",
+    "tests/studies/test_en03.py::"
     "test_point_mass_estimate_approached_as_the_cavity_shrinks_and_stiffens",
-    "tests/core/test_boundaries.py::test_cli_help_lists_the_analysis_config",
-    "tests/core/test_boundaries.py::test_default_run_b_kappa_is_the_cavity_bottom_curvature",
-    "tests/core/test_dynamics_simulation.py::test_frictionless_no_spin_and_auto_rotation_off",
-    "tests/core/test_en04.py::test_report_contract_on_short_cycles",
-    "tests/core/test_en05.py::test_a_synthetic_track_is_fitted_back_within_its_interval",
-    "tests/core/test_flight.py::test_first_impact_time_and_apex_ratio",
-    "tests/core/test_radau_iia.py::"
+    "tests/studies/test_boundaries.py::test_cli_help_lists_the_analysis_config",
+    "tests/studies/test_boundaries.py::test_default_run_b_kappa_is_the_cavity_bottom_curvature",
+    "tests/dynamics/test_simulation.py::test_frictionless_no_spin_and_auto_rotation_off",
+    "tests/studies/test_en04.py::test_report_contract_on_short_cycles",
+    "tests/studies/test_en05.py::test_a_synthetic_track_is_fitted_back_within_its_interval",
+    "tests/model/test_flight.py::test_first_impact_time_and_apex_ratio",
+    "tests/dynamics/solvers/test_radau_iia.py::"
     "test_linear_stiff_system_follows_its_tolerance_with_one_jacobian",
-    "tests/core/test_radau_iia.py::test_observed_orders_5_9_13_at_fixed_steps",
-    "tests/core/test_radau_iia.py::"
+    "tests/dynamics/solvers/test_radau_iia.py::test_observed_orders_5_9_13_at_fixed_steps",
+    "tests/dynamics/solvers/test_radau_iia.py::"
     "test_variable_order_agrees_with_radau5_and_scipy_at_a_common_tolerance",
-    "tests/core/test_solvers.py::test_observed_order_on_smooth_case",
-    "tests/core/test_sphere_studies.py::test_trajectory_only_skips_what_it_does_not_need",
-    "tests/core/test_work_precision.py::test_tiny_run_end_to_end",
+    "tests/dynamics/solvers/test_solvers.py::test_observed_order_on_smooth_case",
+    "tests/studies/test_sphere.py::test_trajectory_only_skips_what_it_does_not_need",
+    "tests/studies/test_work_precision.py::test_tiny_run_end_to_end",
     "tests/pipeline/test_calibrate.py::"
     "test_point_list_runs_through_the_sweep_batches_and_reuses_points",
     "tests/pipeline/test_calibrate.py::test_the_en05_target_builds_everything_into_its_hash_dir",
-    "tests/pipeline/test_cf.py::test_no_high_priority_failure_on_any_kind_of_dataset",
-    "tests/pipeline/test_hardening.py::"
+    "tests/store/test_cf.py::test_no_high_priority_failure_on_any_kind_of_dataset",
+    "tests/trust/test_hardening.py::"
     "test_run_help_presents_creatio_and_only_the_groups_a_user_picks",
     "tests/pipeline/test_sweep.py::test_sweep_workflow_batches_and_reruns_only_new_points",
-    "tests/pipeline/test_trust.py::test_ctrl_c_inside_the_compiled_loop_exits_130_in_one_line",
-    "tests/pipeline/test_trust.py::test_override_text_never_reaches_a_shell",
-    "tests/pipeline/test_trust.py::test_quoted_values_work_end_to_end",
-    "tests/pipeline/test_trust.py::test_sweep_values_with_shell_text_stay_text",
-    "tests/core/test_scripts.py::test_radau_orders_quick",
-    "tests/core/test_solvers.py::test_dense_output_order_at_off_step_times",
-    "tests/core/test_solvers.py::test_harness_measures_the_native_error_on_the_same_solution",
-    "tests/core/test_beyond_microgravity.py::"
+    "tests/trust/test_trust.py::test_ctrl_c_inside_the_compiled_loop_exits_130_in_one_line",
+    "tests/trust/test_trust.py::test_override_text_never_reaches_a_shell",
+    "tests/trust/test_trust.py::test_quoted_values_work_end_to_end",
+    "tests/trust/test_trust.py::test_sweep_values_with_shell_text_stay_text",
+    "tests/scripts/test_scripts.py::test_radau_orders_quick",
+    "tests/dynamics/solvers/test_solvers.py::test_dense_output_order_at_off_step_times",
+    "tests/dynamics/solvers/test_solvers.py::test_harness_measures_the_native_error_on_the_same_solution",
+    "tests/studies/test_en03m.py::"
     "test_normal_preload_work_closes_the_energy_balance",
-    "tests/core/test_dynamics_simulation.py::test_stop_edge_crossed_and_left_annulus",
-    "tests/pipeline/test_trust.py::"
+    "tests/dynamics/test_simulation.py::test_stop_edge_crossed_and_left_annulus",
+    "tests/trust/test_trust.py::"
     "test_an_env_interpolation_in_an_override_is_refused_in_one_line",
-    "tests/pipeline/test_trust.py::test_beyond_builds_only_the_selected_studies",
-    "tests/pipeline/test_trust.py::test_a_refused_scene_config_is_one_line",
-    "tests/pipeline/test_trust.py::test_the_sweep_limit_has_a_ceiling",
-    "tests/pipeline/test_trust.py::test_re_invoked_jobs_get_only_shell_inert_config_text",
+    "tests/trust/test_trust.py::test_beyond_builds_only_the_selected_studies",
+    "tests/trust/test_trust.py::test_a_refused_scene_config_is_one_line",
+    "tests/trust/test_trust.py::test_the_sweep_limit_has_a_ceiling",
+    "tests/trust/test_trust.py::test_re_invoked_jobs_get_only_shell_inert_config_text",
     "tests/pipeline/test_worker.py::test_a_job_in_the_worker_writes_the_same_data_as_its_own_process",
     "tests/pipeline/test_worker.py::"
     "test_a_worker_killed_mid_job_stops_the_job_and_the_command_runs_alone",
@@ -127,23 +127,23 @@ LONG = (
     "tests/pipeline/test_worker.py::test_snakemake_jobs_run_in_the_shared_worker_across_invocations",
     "tests/pipeline/test_worker.py::test_a_refused_value_in_the_worker_is_one_line_and_exit_2",
     "tests/pipeline/test_worker.py::test_creatio_run_without_hydra_options_runs_as_the_hydra_app",
-    "tests/pipeline/test_forked.py::test_a_sphere_report_is_the_same_bytes_with_children_or_without",
+    "tests/store/test_forked.py::test_a_sphere_report_is_the_same_bytes_with_children_or_without",
     "tests/pipeline/test_worker.py::"
     "test_the_shared_worker_is_found_or_started_and_older_code_is_replaced",
     # the Radau IIA orders 9/13 and the controlled phase (each compiles a specialisation of
     # its own: 15-65 s apiece in the quick tier's --durations, load 2-3)
-    "tests/core/test_radau_sphere.py",
-    "tests/core/test_progress.py::test_budget_stops_a_run_without_changing_its_steps",
-    "tests/core/test_control.py::test_energy_residual_rk4_order",
+    "tests/dynamics/solvers/test_radau_sphere.py",
+    "tests/dynamics/test_progress.py::test_budget_stops_a_run_without_changing_its_steps",
+    "tests/model/test_control.py::test_energy_residual_rk4_order",
     # the control group's implicit and flight paths (each compiles specialisations of its
     # own) and its CLI refusals (subprocesses)
-    "tests/core/test_control_implicit.py::test_implicit_methods_agree_with_rk4",
-    "tests/core/test_control_flight.py",
-    "tests/pipeline/test_control_config.py::test_refusal_is_one_line_exit_2",
-    "tests/core/test_radau_iia.py::test_dense_output_order_is_s_plus_1_off_the_steps",
-    "tests/core/test_radau_iia.py::test_order_switch_picks_higher_orders_at_tighter_tolerance",
-    "tests/core/test_beyond_inclination.py::test_a_short_cycle_leaves_its_cavity_yet_ends_ok",
-    "tests/core/test_dynamics_simulation.py::"
+    "tests/dynamics/solvers/test_radau.py::test_implicit_methods_agree_with_rk4",
+    "tests/dynamics/solvers/test_hybrid.py",
+    "tests/pipeline/test_config_control.py::test_refusal_is_one_line_exit_2",
+    "tests/dynamics/solvers/test_radau_iia.py::test_dense_output_order_is_s_plus_1_off_the_steps",
+    "tests/dynamics/solvers/test_radau_iia.py::test_order_switch_picks_higher_orders_at_tighter_tolerance",
+    "tests/studies/test_en02g.py::test_a_short_cycle_leaves_its_cavity_yet_ends_ok",
+    "tests/dynamics/test_simulation.py::"
     "test_trajectory_only_matches_full_run_when_frictionless",
     # the EN-04 scene's tests that compute a cut-down EN-04 control dataset (the controlled
     # path's compile, then 8-s runs) or start a browser

@@ -162,7 +162,7 @@ def test_mass_total_index_is_zero_within_the_estimators_noise_on_kinematic_outpu
     study finds 7e-10 +- 5e-10 on the final radius, so "within its own interval" is not what
     holds; docs/studies.md EN-05.) An output constant over the design has no index: min N /
     (m g) is 1 at the start of every run. W_surface depends on m, exactly as m
-    (tests/core/test_en05.py)."""
+    (tests/studies/test_en05.py)."""
     resolved, sample, _ = small_sample
     ds = points.sobol_dataset(resolved, sample)
     j = list(ds.input.values).index("m")

@@ -8,7 +8,7 @@ Nothing here computes physics: every number comes from the dataset.
 
 A figure and its 3D axes are built once per process (they cost more than a frame's
 drawing); each frame replaces only the artists that move (:class:`_Moving`), so a frame
-shows what a fresh figure would show, pixel for pixel (tests/scenes/test_scene_media.py).
+shows what a fresh figure would show, pixel for pixel (tests/scenes/test_media.py).
 """
 
 from __future__ import annotations

@@ -6,7 +6,7 @@ which files a report writes; the report writer is the reports' own business
 (creatio.reports.registry), and a sampled study's batch jobs the pipeline's. Everything
 here is plain data: the run functions are named by import path and loaded on first use, so
 planning a workflow imports neither xarray nor the compiler, and no name here points to a
-layer above this one (tests/pipeline/test_layers.py).
+layer above this one (tests/architecture/test_layers.py).
 
 Adding a study of an existing kind is a ``conf/study/<id>.yaml`` (its time laws under
 ``conf/phases/`` if new), one entry of STUDIES below and one of the reports' registry.

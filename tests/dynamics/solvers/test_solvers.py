@@ -175,7 +175,8 @@ def test_dormand_prince_stability_interval_matches_its_polynomial() -> None:
     roots = (poly - 1).roots()
     edge = min(-r.real for r in roots if abs(r.imag) < 1e-9 and r.real < -1e-9)
     assert real_stability_bound("dopri5") == pytest.approx(edge, rel=1e-9)
-    # DOP853's real interval (test_stability derives it again from scipy's tableau)
+    # DOP853's real interval (tests/studies/test_stability_map.py derives it again from
+    # scipy's tableau)
     assert real_stability_bound("dop853") == pytest.approx(6.3937, abs=1e-4)
     assert math.isinf(real_stability_bound("radau5"))
 

@@ -447,7 +447,7 @@ def test_a_problem_refusal_past_the_rules_is_named_by_its_key(monkeypatch):
                               "be finite and > 0, got 1e-31")
 
 
-# ------------------------------ stale names (import circles: tests/pipeline/test_layers.py)
+# ------------------------------ stale names (import circles: tests/architecture/test_layers.py)
 def test_no_stale_module_names_in_the_workflow():
     """workflow/rules/release.smk (now workflows/) named creatio.release, which does not
     exist; every creatio.X the Snakefile and the rules name is a module (or a name in
@@ -607,7 +607,7 @@ def test_a_run_whose_own_checks_are_absurd_never_ends_ok(tmp_path, args, words):
     timesteps: it ends with exit 1 in one line naming the check, its datasets say
     checks_failed (the run's own status beside it), and no report is written. (The other
     example, eps = 1e-30 under radau5, wrote two rows at t = 0: the core writes a row once
-    now, tests/core/test_progress.py; the check of repeated times is tested below.)"""
+    now, tests/dynamics/test_progress.py; the check of repeated times is tested below.)"""
     import xarray as xr
 
     proc = creatio("run", *args, cwd=tmp_path)

@@ -49,7 +49,7 @@ def test_radau_thet_one_setting() -> None:
 
 def test_local_slurm_parses_and_refuses_an_unknown_command() -> None:
     """The script parses (bash -n); without a command it prints its usage and exits 2 (up,
-    down and status need root and a cluster: tests/pipeline/test_slurm.py runs them)."""
+    down and status need root and a cluster: tests/workflow/test_slurm.py runs them)."""
     _run("bash", "-n", "scripts/local-slurm.sh")
     proc = subprocess.run(["bash", "scripts/local-slurm.sh"], cwd=REPO, capture_output=True,
                           text=True, timeout=60)

@@ -14,7 +14,7 @@ from creatio.scenes.config import resolve
 from creatio.scenes.run import scene_dataset
 
 SHORT = ["bases.en02.phases.T=12",  # a 12 s cycle (duration follows T): 6,000 RK4 steps
-         # the scene alone (its family: test_scene_family.py)
+         # the scene alone (its family: test_family.py)
          "~scene.axes.sphere", "~scene.axes.phases"]
 
 

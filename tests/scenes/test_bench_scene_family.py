@@ -1,5 +1,5 @@
 """scripts/bench_scene_family.py runs (its other scripts' smoke tests are in
-tests/core/test_scripts.py): three switches of the family slider of a page built here."""
+tests/scripts/test_scripts.py): three switches of the family slider of a page built here."""
 
 from __future__ import annotations
 

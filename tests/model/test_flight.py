@@ -163,7 +163,7 @@ def test_flight_disabled_is_the_released_en02(en02_problem: SphereProblem) -> No
 def test_flight_settings_refused() -> None:
     with pytest.raises(ValueError, match="restitution"):
         drop(1.5)
-    with pytest.raises(ValueError, match="explicit method"):
+    with pytest.raises(ValueError, match="a method its event loop runs"):
         drop(0.5, method="radau5")
     with pytest.raises(ValueError, match="needs flight"):
         drop(0.5).replace(flight=False)
