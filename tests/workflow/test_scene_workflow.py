@@ -38,8 +38,8 @@ def test_a_family_is_computed_once_and_a_changed_axis_computes_only_the_new(tmp_
     assert (ds.attrs["family_computed"], ds.attrs["family_reused"],
             ds.attrs["family_refused"]) == (3, 0, 1)
     again = snakemake(tmp_path, str(nc.relative_to(tmp_path)), "-n", "--config",
-                      f'overrides=["{SHORT}","scene.axes.sphere.mu=0.1,0.2,0.4"]',
-                      'scenes=["en02"]')
+                      f'overrides=["{SHORT}","scene.axes.sphere.mu=0.1,0.2,0.4",'
+                      '"scene.axes.phases.T=null"]', 'scenes=["en02"]')
     assert again.returncode == 0 and "Nothing to be done" in again.stdout + again.stderr
     nc2, proc = _build(tmp_path, "0.1,0.2,0.25,0.4")
     assert proc.returncode == 0, proc.stderr[-3000:]

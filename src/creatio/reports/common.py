@@ -436,7 +436,8 @@ def given_overrides(ds: xr.Dataset) -> list[str] | None:
     if not sep or words[:2] != ["creatio", "run"]:
         return None
     return [w for w in words[2:] if "=" in w and not w.startswith("-")
-            and w.split("=", 1)[0] not in ("study", "analysis", "+study", "++study")]
+            and w.split("=", 1)[0] not in ("study", "analysis", "+study", "++study")
+            and not w.lstrip("+~").startswith("hydra.")]  # Hydra's own: not the config
 
 
 def run_case(datasets: Sequence[Path], ds: xr.Dataset) -> RunCase:
