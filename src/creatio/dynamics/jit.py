@@ -27,7 +27,7 @@ import os
 from pathlib import Path
 
 __all__ = ["COMPILE_SECONDS", "INLINED", "cache_dir", "compile_estimate", "ensure_compiled",
-           "inlined", "njit", "source_hash"]
+           "inlined", "load_cached", "njit", "source_hash"]
 
 _PACKAGE = Path(__file__).resolve().parents[1]
 
@@ -117,6 +117,25 @@ def _duration(seconds: float) -> str:
     return f"{seconds:.0f} s" if seconds < 90 else f"{seconds / 60:.0f} min"
 
 
+def load_cached(disp, sig) -> bool:  # type: ignore[no-untyped-def]
+    """Add the specialisation sig of a dispatcher from memory or numba's on-disk cache, as
+    Dispatcher.compile does on a cache hit; False when neither holds it."""
+    from numba.core.compiler_lock import global_compiler_lock
+
+    sig = tuple(sig)
+    with global_compiler_lock:
+        if sig in disp.overloads:
+            return True
+        cres = disp._cache.load_overload(sig, disp.targetctx)
+        if cres is None:
+            return False
+        disp._cache_hits[sig] += 1
+        if not cres.objectmode:
+            disp.targetctx.insert_user_function(cres.entry_point, cres.fndesc, [cres.library])
+        disp.add_overload(cres)
+        return True
+
+
 def ensure_compiled(disp, args: tuple, what: str) -> None:  # type: ignore[no-untyped-def]
     """Make the specialisation of dispatcher disp for args ready before it is called: loaded
     from memory or numba's on-disk cache as a call would, else compiled here after one line
@@ -125,20 +144,9 @@ def ensure_compiled(disp, args: tuple, what: str) -> None:  # type: ignore[no-un
     import sys
     import time
 
-    from numba.core.compiler_lock import global_compiler_lock
-
     sig = tuple(disp.typeof_pyval(a) for a in args)
-    if sig in disp.overloads:
+    if sig in disp.overloads or load_cached(disp, sig):
         return
-    with global_compiler_lock:
-        cres = disp._cache.load_overload(sig, disp.targetctx)
-        if cres is not None:  # a cache hit, as Dispatcher.compile takes one
-            disp._cache_hits[sig] += 1
-            if not cres.objectmode:
-                disp.targetctx.insert_user_function(cres.entry_point, cres.fndesc,
-                                                    [cres.library])
-            disp.add_overload(cres)
-            return
     name = disp.py_func.__name__
     seconds, source = compile_estimate(name)
     sys.stderr.write(f"creatio: compiling {what} ({name}, not in the cache {cache_dir()}): "

@@ -758,13 +758,15 @@ class Server:
     def _load_one(self) -> None:
         """Load one learned specialisation from numba's cache (never compile it here: a
         compilation belongs to the job that needs it)."""
+        from creatio.dynamics.jit import load_cached
+
         key, sig = self.learned.pop(0)
         disp = dict(_dispatchers()).get(key)
         if disp is None or sig in self.known.get(key, set()):
             return
         self.known.setdefault(key, set()).add(sig)
         with contextlib.suppress(Exception):
-            _load_cached(disp, sig)
+            load_cached(disp, sig)
         _freeze()
 
 
@@ -796,23 +798,6 @@ def _dispatchers() -> Iterator[tuple[str, Any]]:
                     for k, v in items:
                         if isinstance(v, Dispatcher):
                             yield f"{name}:{attr}[{k!r}]", v
-
-
-def _load_cached(disp: Any, sig: Any) -> bool:
-    """Add the specialisation sig of a dispatcher from numba's on-disk cache, as
-    Dispatcher.compile does on a cache hit; False when the cache does not hold it."""
-    from numba.core.compiler_lock import global_compiler_lock
-
-    with global_compiler_lock:
-        if tuple(sig) in disp.overloads:
-            return True
-        cres = disp._cache.load_overload(sig, disp.targetctx)
-        if cres is None:
-            return False
-        if not cres.objectmode:
-            disp.targetctx.insert_user_function(cres.entry_point, cres.fndesc, [cres.library])
-        disp.add_overload(cres)
-        return True
 
 
 def _child(entry: Callable[[list[str]], int], request: Mapping[str, Any], fds: Sequence[int],
