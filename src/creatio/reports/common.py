@@ -410,6 +410,7 @@ class RunCase:
 def _record(datasets: Sequence[Path]) -> dict[str, Any] | None:
     """The run folder's record (overrides.json at the datasets' output root), None for a
     default run (the data directory has none)."""
+    from creatio.store.regular import read_json
     from creatio.studies.registry import KINDS
 
     if not datasets:
@@ -417,11 +418,8 @@ def _record(datasets: Sequence[Path]) -> dict[str, Any] | None:
     folder = Path(datasets[0]).resolve().parent.parent  # <root>/<dataset_dir>/<study>/x.nc
     if folder.name not in {k.dataset_dir for k in KINDS.values()}:
         return None
-    path = folder.parent / RECORD
-    if not path.is_file():
-        return None
-    try:
-        data = json.loads(path.read_text())
+    try:  # absent (the default run), a pipe or garbage: no record
+        data = read_json(folder.parent / RECORD)
     except (OSError, ValueError):
         return None
     return data if isinstance(data, dict) else None
