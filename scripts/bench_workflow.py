@@ -78,7 +78,7 @@ IMPORTS = """
 import time
 t0 = time.perf_counter()
 import numpy, xarray, netCDF4, numba, matplotlib.pyplot, hydra, omegaconf
-import creatio.cli, creatio.pipeline.run, creatio.pipeline.io
+import creatio.cli, creatio.pipeline.run, creatio.pipeline.provenance
 print(time.perf_counter() - t0)
 """
 

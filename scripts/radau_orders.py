@@ -31,7 +31,7 @@ from numba import njit
 from scipy.integrate import solve_ivp
 from scipy.linalg import expm
 
-from creatio.dynamics.solvers import radau_vo as rv
+from creatio.dynamics.solvers import radau_variable_order as rv
 
 RTOLS = (1e-6, 1e-8, 1e-10, 1e-12)
 METHODS = ((3, 3), (5, 5), (7, 7), (3, 7))

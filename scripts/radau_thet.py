@@ -1,4 +1,4 @@
-"""Measure the Jacobian reuse threshold of the radau_sphere methods (radau.f's THET) on EN-02
+"""Measure the Jacobian reuse threshold of the radau_high_order methods (radau.f's THET) on EN-02
 and EN-02R: each method at thet 1e-3 (radau.f's default) and 0.1 (Hairer's advice when a
 Jacobian is costly), or those of --thet, over tolerances, with grid-cut and dense-output
 steps.
@@ -21,7 +21,7 @@ from creatio.dynamics.layout import COL_X
 from creatio.dynamics.simulation import _run_arguments
 from creatio.dynamics.solvers import METHODS
 from creatio.dynamics.solvers.driver import run
-from creatio.dynamics.solvers.radau_sphere import PRM_THET
+from creatio.dynamics.solvers.radau_high_order import PRM_THET
 from creatio.pipeline.config import resolve
 
 

@@ -89,10 +89,10 @@ LONG = (
     "tests/studies/test_en04.py::test_report_contract_on_short_cycles",
     "tests/studies/test_en05.py::test_a_synthetic_track_is_fitted_back_within_its_interval",
     "tests/model/test_flight.py::test_first_impact_time_and_apex_ratio",
-    "tests/dynamics/solvers/test_radau_iia.py::"
+    "tests/dynamics/solvers/test_radau_coefficients.py::"
     "test_linear_stiff_system_follows_its_tolerance_with_one_jacobian",
-    "tests/dynamics/solvers/test_radau_iia.py::test_observed_orders_5_9_13_at_fixed_steps",
-    "tests/dynamics/solvers/test_radau_iia.py::"
+    "tests/dynamics/solvers/test_radau_coefficients.py::test_observed_orders_5_9_13_at_fixed_steps",
+    "tests/dynamics/solvers/test_radau_coefficients.py::"
     "test_variable_order_agrees_with_radau5_and_scipy_at_a_common_tolerance",
     "tests/dynamics/solvers/test_solvers.py::test_observed_order_on_smooth_case",
     "tests/studies/test_sphere.py::test_trajectory_only_skips_what_it_does_not_need",
@@ -132,16 +132,16 @@ LONG = (
     "test_the_shared_worker_is_found_or_started_and_older_code_is_replaced",
     # the Radau IIA orders 9/13 and the controlled phase (each compiles a specialisation of
     # its own: 15-65 s apiece in the quick tier's --durations, load 2-3)
-    "tests/dynamics/solvers/test_radau_sphere.py",
+    "tests/dynamics/solvers/test_radau_high_order.py",
     "tests/dynamics/test_progress.py::test_budget_stops_a_run_without_changing_its_steps",
     "tests/model/test_control.py::test_energy_residual_rk4_order",
     # the control group's implicit and flight paths (each compiles specialisations of its
     # own) and its CLI refusals (subprocesses)
-    "tests/dynamics/solvers/test_radau.py::test_implicit_methods_agree_with_rk4",
-    "tests/dynamics/solvers/test_hybrid.py",
+    "tests/dynamics/solvers/test_radau5.py::test_implicit_methods_agree_with_rk4",
+    "tests/dynamics/solvers/test_flight.py",
     "tests/pipeline/test_config_control.py::test_refusal_is_one_line_exit_2",
-    "tests/dynamics/solvers/test_radau_iia.py::test_dense_output_order_is_s_plus_1_off_the_steps",
-    "tests/dynamics/solvers/test_radau_iia.py::test_order_switch_picks_higher_orders_at_tighter_tolerance",
+    "tests/dynamics/solvers/test_radau_coefficients.py::test_dense_output_order_is_s_plus_1_off_the_steps",
+    "tests/dynamics/solvers/test_radau_coefficients.py::test_order_switch_picks_higher_orders_at_tighter_tolerance",
     "tests/studies/test_en02g.py::test_a_short_cycle_leaves_its_cavity_yet_ends_ok",
     "tests/dynamics/test_simulation.py::"
     "test_trajectory_only_matches_full_run_when_frictionless",

@@ -12,7 +12,7 @@ import xarray as xr
 import yaml
 
 from creatio.diff.core import Tolerance, compare_arrays, diff, main
-from creatio.pipeline.io import provenance
+from creatio.pipeline.provenance import provenance
 from creatio.store.netcdf import write_dataset
 
 CONFIG = {"geometry": {"A": 0.18, "R0": 0.68}, "sphere": {"mu": 0.15}, "study": {"id": "en02"}}

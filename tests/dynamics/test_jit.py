@@ -60,9 +60,9 @@ def test_the_estimate_is_the_last_compile_here_else_the_measured_table(
     monkeypatch.setenv("CREATIO_NUMBA_CACHE", str(tmp_path))
     monkeypatch.delenv("NUMBA_CACHE_DIR", raising=False)
     # nothing recorded: the figure of the entry's stepper kind (the longest matching name)
-    assert jit.compile_estimate("_radau_rot_en")[0] == jit.COMPILE_SECONDS["radau"]
+    assert jit.compile_estimate("_radau5_rot_en")[0] == jit.COMPILE_SECONDS["radau5"]
     assert (jit.compile_estimate("_radau_sphere_structure")[0]
-            == jit.COMPILE_SECONDS["radau_sphere"])
+            == jit.COMPILE_SECONDS["radau_high_order"])
     assert jit.compile_estimate("_hybrid_control")[0] == jit.COMPILE_SECONDS["hybrid"]
     jit._record("_radau_rot_en", 12.34)
     # kept at the cache's root, beside the per-source directories: it outlives an edit
@@ -70,4 +70,4 @@ def test_the_estimate_is_the_last_compile_here_else_the_measured_table(
     assert jit.compile_estimate("_radau_rot_en") == (12.3, "its last compile here")
     assert jit.compile_estimate("_explicit_rot_en")[0] == jit.COMPILE_SECONDS["explicit"]
     (tmp_path / "compile_times.json").write_text("{not json")
-    assert jit.compile_estimate("_radau_rot_en")[0] == jit.COMPILE_SECONDS["radau"]
+    assert jit.compile_estimate("_radau5_rot_en")[0] == jit.COMPILE_SECONDS["radau5"]

@@ -123,7 +123,7 @@ def test_controller_refuses(field: str, value: float) -> None:
 
 def test_controlled_path_refuses_the_free_structure(base) -> None:
     """The control block sits after the fixed structure's state (the structure path has no
-    columns for it); the implicit methods are accepted (tests/dynamics/solvers/test_radau.py)."""
+    columns for it); the implicit methods are accepted (tests/dynamics/solvers/test_radau5.py)."""
     ctl = _controller(base, 1.0, 10.0)
     with pytest.raises(ValueError, match="fixed structure"):
         base.sphere_problem().replace(control=ctl, inertia=2.0)

@@ -16,7 +16,7 @@ import yaml
 from creatio.diff import diff
 from creatio.diff import main as diff_main
 from creatio.pipeline import release
-from creatio.pipeline.io import provenance
+from creatio.pipeline.provenance import provenance
 from creatio.pipeline.release import (
     Layout,
     ReleaseError,

@@ -73,7 +73,7 @@ def test_tiny_config_validates_and_plans_every_registered_method(tiny) -> None:
     assert wp.native_problem(wp.base_problem(cfg, "en02"), dense, 0.01).solver.dense_output
     assert {s.method for s in plan if s.group == "full"} == {"rk4-full", "radau5-full"}
     assert {s.method for s in plan if s.group == "mu0"} == {"rk4-mu0", "rk4-mu0-full"}
-    from creatio.dynamics.peers import PEERS, SUNDIALS
+    from creatio.dynamics.peer_solvers import PEERS, SUNDIALS
 
     assert tuple(wp.PEER_METHODS) == (*PEERS, *SUNDIALS)
     assert wp.SUNDIALS_PEERS == tuple(SUNDIALS)
@@ -201,7 +201,7 @@ def test_repeats_are_interleaved_round_robin() -> None:
 def test_harness_measures_the_native_error_on_the_same_solution(tiny) -> None:
     """A native run's states pushed through the peer harness's centre formula give the
     same error against the reference as the native path measures."""
-    from creatio.dynamics.peers import centre_grid
+    from creatio.dynamics.peer_solvers import centre_grid
 
     base = wp.base_problem(tiny.obj, "en02")
     ref, evidence = wp.reference(base, tiny.obj.study.reference)
@@ -353,7 +353,7 @@ def test_frontier_table_shows_median_spread_verdict_and_flags() -> None:
 
 def test_a_peer_that_is_not_installed_is_left_out_and_said_so(tiny, monkeypatch) -> None:
     """Without scikit-sundae the CVODE rows are dropped and the dataset names the peer."""
-    import creatio.dynamics.peers as peers
+    import creatio.dynamics.peer_solvers as peers
 
     monkeypatch.setattr(peers, "available", lambda m: m in peers.PEERS)
     cfg = dataclasses.replace(tiny.obj, study=dataclasses.replace(
@@ -372,7 +372,7 @@ def test_cvode_harness_measures_the_native_error_on_the_same_solution(tiny) -> N
     tolerances both runs' centres agree far below the benchmark's levels, and the error
     prepare_peer records is the harness's error against the same reference."""
     pytest.importorskip("sksundae")
-    from creatio.dynamics.peers import centre_grid, solve_peer
+    from creatio.dynamics.peer_solvers import centre_grid, solve_peer
 
     base = wp.base_problem(tiny.obj, "en02")
     ref, _ = wp.reference(base, tiny.obj.study.reference)

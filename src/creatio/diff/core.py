@@ -26,7 +26,7 @@ import numpy as np
 import xarray as xr
 
 from creatio.errors import Parser
-from creatio.pipeline.io import VOLATILE_ATTRS
+from creatio.pipeline.provenance import VOLATILE_ATTRS
 from creatio.pipeline.release import (
     MANIFEST,
     ReleaseError,

@@ -93,16 +93,16 @@ def _record(name: str, seconds: float) -> None:
 #: a machine that has recorded none: measured on the development machine (2 cores shared with
 #: other jobs, load average 6.5) through creatio.dynamics.simulate of EN-02's specialisation
 #: (rotation and energy: rk4, radau5, rodas4, radau9) and EN-02F's drop (hybrid), as
-#: ensure_compiled records them (Dispatcher.compile), rounded up. explicit, radau and
+#: ensure_compiled records them (Dispatcher.compile), rounded up. explicit, radau5 and
 #: rosenbrock with an empty cache (CREATIO_NUMBA_CACHE=$(mktemp -d)): 42.8, 54.4, 54.3 s;
-#: radau_sphere and hybrid with the shared formulas already cached by the others: 94.8, 74.2 s.
-COMPILE_SECONDS = {"explicit": 45.0, "radau": 55.0, "rosenbrock": 55.0, "radau_sphere": 95.0,
+#: radau_high_order and hybrid with the shared formulas already cached by the others: 94.8, 74.2 s.
+COMPILE_SECONDS = {"explicit": 45.0, "radau5": 55.0, "rosenbrock": 55.0, "radau_high_order": 95.0,
                    "hybrid": 75.0}
 
 
 def compile_estimate(name: str) -> tuple[float, str]:
     """(seconds, where the figure comes from) of compiling the entry point `name` (its
-    dispatcher's name: _radau_rot_en): its last compile here, else COMPILE_SECONDS for its
+    dispatcher's name: _radau5_rot_en): its last compile here, else COMPILE_SECONDS for its
     kind (the longest kind whose name starts the entry's)."""
     recorded = _recorded().get(name)
     if recorded is not None:

@@ -73,7 +73,7 @@ from creatio.dynamics.problem import (
 )
 from creatio.dynamics.progress import budget_message
 from creatio.dynamics.solvers.driver import run
-from creatio.dynamics.solvers.hybrid import FLIGHT, run_flight
+from creatio.dynamics.solvers.flight import FLIGHT, run_flight
 from creatio.model import sphere as contact
 from creatio.model.numerics import steps_in
 

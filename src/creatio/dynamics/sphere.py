@@ -233,7 +233,7 @@ def _surface_state(t, y, pp, lc, rot, en):
 
 def control_columns(lc):
     """How many state columns the control block adds to the feedback (the Jacobian's
-    differenced columns, creatio.dynamics.solvers.radau.jacobian): NCTLS on the controlled
+    differenced columns, creatio.dynamics.solvers.radau5.jacobian): NCTLS on the controlled
     path, 0 otherwise (compiled code only)."""
     raise NotImplementedError("called only from compiled code")
 

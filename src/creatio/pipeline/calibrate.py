@@ -397,7 +397,7 @@ def _dataset(resolved: Resolved, track: Any, fit: Any, noise: float, source: str
     each key's unit and physical range, the keys held at a bound."""
     import xarray as xr
 
-    from creatio.pipeline.io import provenance
+    from creatio.pipeline.provenance import provenance
 
     dims = ("frame", "coordinate")
     ds = xr.Dataset({

@@ -17,11 +17,12 @@ __all__ = ["CODE", "code_version", "package_version"]
 # The sources whose change changes a rule's outputs (relative to the package): a rule
 # carries their hash as a parameter, so new code reruns what it would compute differently.
 CODE = {
-    "datasets": ("model", "dynamics", "studies", "store", "pipeline/run.py", "pipeline/io.py",
-                 "pipeline/sweep.py", "pipeline/points.py",
+    "datasets": ("model", "dynamics", "studies", "store", "pipeline/run.py",
+                 "pipeline/provenance.py", "pipeline/sweep.py", "pipeline/points.py",
                  "pipeline/checks.py"),
-    "reports": ("reports", "store", "pipeline/run.py", "pipeline/io.py", "pipeline/checks.py"),
-    "scenes": ("scenes", "store", "pipeline/io.py"),
+    "reports": ("reports", "store", "pipeline/run.py", "pipeline/provenance.py",
+                "pipeline/checks.py"),
+    "scenes": ("scenes", "store", "pipeline/provenance.py"),
 }
 
 

@@ -67,7 +67,7 @@ def changes(default: Mapping[str, Any], config: Mapping[str, Any]) -> dict[str, 
 
 
 def _write(path: Path, text: str) -> Path:
-    """Write through a temporary sibling and a rename (creatio.pipeline.io, imported here:
+    """Write through a temporary sibling and a rename (creatio.pipeline.provenance, imported here:
     the Snakefile imports this module, and planning stays free of xarray)."""
     from creatio.store.atomic import atomic_write
 

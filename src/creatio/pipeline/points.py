@@ -202,7 +202,7 @@ def sobol_dataset(resolved: Resolved, sample: En05Sample | None = None,
                   compute_missing: bool = False) -> Any:
     """EN-05's Sobol' dataset from the sample's batch files (computing absent ones first in
     this process with compute_missing), with the provenance of the EN-05 config."""
-    from creatio.pipeline.io import provenance
+    from creatio.pipeline.provenance import provenance
     from creatio.studies import en05
 
     sample = sample or en05_sample(resolved)

@@ -271,7 +271,7 @@ def make_release(
 
     Returns (directory, manifest, warnings); ReleaseError, before writing, if it cannot."""
     from creatio import __version__
-    from creatio.pipeline.io import git_state, library_versions
+    from creatio.pipeline.provenance import git_state, library_versions
 
     parse_version(version)
     data_dir = Path(data_dir)

@@ -23,7 +23,7 @@ log = logging.getLogger("creatio")
 def run_study(resolved: Resolved, part: str | None = None, **args: Any) -> Any:
     """Compute one dataset of a study with provenance attached: the part named `part`, or
     the one whose arguments are `args` (``dt=0.001``), or else the study's first part."""
-    from creatio.pipeline.io import provenance
+    from creatio.pipeline.provenance import provenance
 
     entry = resolved.entry
     parts = entry.parts(resolved.obj)

@@ -512,7 +512,7 @@ def run_batch(plan: SweepPlan, k: int, out: str | Path | None = None,
     import numpy as np
     import xarray as xr
 
-    from creatio.pipeline.io import provenance
+    from creatio.pipeline.provenance import provenance
     from creatio.store.netcdf import write_dataset
     from creatio.studies.schema import vary
 
@@ -656,7 +656,7 @@ def write_sweep(plan: SweepPlan, compute_missing: bool = False) -> dict[str, Pat
     code, first, in this process (`creatio run -m`, outside Snakemake).
     """
     from creatio.pipeline.index import record_sweep, refresh_index
-    from creatio.pipeline.io import provenance
+    from creatio.pipeline.provenance import provenance
     from creatio.reports.sweep import report_paths, write_sweep_report
     from creatio.store.forked import run_all
     from creatio.store.netcdf import write_dataset

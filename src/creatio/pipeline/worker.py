@@ -402,7 +402,7 @@ def _malformed(request: Any) -> bool:
 WARM_MODULES = (
     "numpy", "scipy.linalg", "scipy.optimize", "xarray", "netCDF4", "numba", "matplotlib",
     "hydra", "omegaconf", "yaml", "creatio.pipeline.config",
-    "creatio.pipeline.run", "creatio.pipeline.io", "creatio.pipeline.sweep",
+    "creatio.pipeline.run", "creatio.pipeline.provenance", "creatio.pipeline.sweep",
     "creatio.pipeline.points", "creatio.pipeline.checks", "creatio.pipeline.index",
 )
 

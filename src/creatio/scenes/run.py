@@ -1,7 +1,8 @@
 """Build a scene: its dataset with provenance, its page, its animation and poster.
 
 The steps the scene rules run (``creatio task scene dataset|page|media``), and all of them in
-one process (:func:`build_scene`). Provenance is the pipeline's (creatio.pipeline.io), for the
+one process (:func:`build_scene`). Provenance is the pipeline's
+(creatio.pipeline.provenance), for the
 scene's resolved config, plus the config hash of every study it shows and where each run came
 from (reused study dataset or computed here).
 """
@@ -26,7 +27,7 @@ log = logging.getLogger("creatio")
 def frames_dataset(resolved: Resolved, reuse: Mapping[str, str | Path] | None = None) -> Any:
     """The scene's own frames (what its animation draws: no family) with provenance
     attached: the config's hash, each study's, where each run came from."""
-    from creatio.pipeline.io import provenance
+    from creatio.pipeline.provenance import provenance
 
     ds = resolved.entry.compute_function()(resolved, reuse or {})
     title = getattr(resolved.obj.scene, "title", "") or resolved.id

@@ -32,8 +32,8 @@ from creatio.dynamics.layout import (
     EVENT_KINDS,
 )
 from creatio.model.cavity import in_cavity_cell
-from creatio.studies.beyond import output_grid, run_dataset, stack
 from creatio.studies.en02f_schema import En02fConfig
+from creatio.studies.run_datasets import output_grid, run_dataset, stack
 from creatio.studies.schema import with_cycle
 
 __all__ = ["HISTORIES", "cycle_boundary", "event_figures", "run", "run_drop"]

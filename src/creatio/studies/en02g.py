@@ -18,8 +18,8 @@ import xarray as xr
 
 from creatio.dynamics import simulate
 from creatio.model.equilibrium import equilibrium_limit
-from creatio.studies.beyond import output_grid, run_dataset, stack
 from creatio.studies.en02g_schema import En02gConfig
+from creatio.studies.run_datasets import output_grid, run_dataset, stack
 
 __all__ = ["HISTORIES", "run"]
 

@@ -12,8 +12,8 @@ from __future__ import annotations
 import xarray as xr
 
 from creatio.dynamics import simulate
-from creatio.studies.beyond import output_grid, stack, structure_dataset
 from creatio.studies.en03_schema import En03Config
+from creatio.studies.run_datasets import output_grid, stack, structure_dataset
 
 __all__ = ["SWEEP_HISTORIES", "SWEEP_SCALARS", "run"]
 

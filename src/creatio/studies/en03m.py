@@ -26,8 +26,8 @@ import numpy as np
 import xarray as xr
 
 from creatio.dynamics import simulate
-from creatio.studies.beyond import output_grid, stack, structure_dataset
 from creatio.studies.en03m_schema import En03mConfig
+from creatio.studies.run_datasets import output_grid, stack, structure_dataset
 from creatio.studies.schema import Confinement
 from creatio.studies.sphere import pattern
 

@@ -508,7 +508,7 @@ def run_actuation(cfg: En04Config) -> xr.Dataset:
     histories on a common time grid (NaN past a run's end) and its figures."""
     import xarray as xr
 
-    from creatio.studies.beyond import output_grid
+    from creatio.studies.run_datasets import output_grid
 
     a = cfg.study.actuation
     cases = [demand(cfg, name) for name in a.studies]

@@ -18,7 +18,7 @@ minimum is the headline number, the median and the spread are kept beside it. Th
 call's extra time (JIT compile or cache load) is reported separately.
 
 Peers: scipy's DOP853, Radau and LSODA on a plain NumPy right-hand side, and SUNDIALS
-CVODE's BDF through scikit-sundae on the same one (creatio.dynamics.peers). CVODE is a
+CVODE's BDF through scikit-sundae on the same one (creatio.dynamics.peer_solvers). CVODE is a
 benchmark-only dependency (the ``bench`` extra): without it its rows are left out and the
 dataset says so (attribute peers_unavailable). Two more rows measure what a minimal-state
 run saves: rk4 and radau5 with full diagnostics (energy bookkeeping on); and, without
@@ -74,7 +74,7 @@ __all__ = [
     "settings",
 ]
 
-#: Names of the peers: scipy's (creatio.dynamics.peers.PEERS, which imports scipy: the names
+#: Names of the peers: scipy's (creatio.dynamics.peer_solvers.PEERS, which imports scipy: the names
 #: are repeated here so that validating a config does not) and SUNDIALS' (peers.SUNDIALS).
 SUNDIALS_PEERS = ("CVODE",)
 PEER_METHODS = ("RK45", "DOP853", "Radau", "LSODA", *SUNDIALS_PEERS)
@@ -553,7 +553,7 @@ def prepare_peer(base: SphereProblem, s: Setting, ref: np.ndarray, study: WorkPr
                  ) -> Run:
     """A warm-up peer solve gives the error; a timed call is its construction and stepping
     loop (scipy) or construction and solve (CVODE), as solve_peer times them."""
-    from creatio.dynamics.peers import centre_grid, solve_peer
+    from creatio.dynamics.peer_solvers import centre_grid, solve_peer
 
     rtol, atol = s.value, s.value * study.atol_ratio
     res = solve_peer(base, s.solver, rtol, atol)
@@ -720,7 +720,7 @@ def run(cfg: WorkPrecisionConfig, base: str, jit: bool = False):
     attrs["timing"] = ("warm-up run, then repeats of the core call interleaved round-robin "
                        "across all settings (each round starting one setting later); "
                        "time_s = min, time_median_s = median, times_s = every repeat")
-    from creatio.dynamics.peers import available
+    from creatio.dynamics.peer_solvers import available
 
     plan = settings(study, prob)
     missing = sorted({s.solver for s in plan if s.group == "peer" and not available(s.solver)})

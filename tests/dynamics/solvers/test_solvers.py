@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from creatio.dynamics import SphereProblem, UnstableStepError, simulate, stability_limit
-from creatio.dynamics.peers import centre_grid, solve_peer
+from creatio.dynamics.peer_solvers import centre_grid, solve_peer
 from creatio.dynamics.solvers import METHODS
 from creatio.errors import ConfigError
 from creatio.pipeline.config import resolve

@@ -1,13 +1,13 @@
 """The integration methods: one record per method, one registry, no compiler at import.
 
 A method is data, as scipy's RungeKutta classes are their constants: a stepper kind
-(``explicit`` reads any Butcher tableau; ``radau`` is the 3-stage Radau IIA collocation;
-``rosenbrock`` the linearly implicit RODAS4; ``radau_sphere`` Radau IIA with 5 and 7 stages and
-the variable-order 5/9/13 method, told apart by their parameters), its order, the order of its
-error estimate (None without one), its tableau, its dense output's order and its real stability
-interval at a fixed step. The compiled loop that runs them all is creatio.dynamics.solvers
-.driver; config validation, the stability estimate, benchmarks and the stability map read this
-registry.
+(``explicit`` reads any Butcher tableau; ``radau5`` is the 3-stage Radau IIA collocation;
+``rosenbrock`` the linearly implicit RODAS4; ``radau_high_order`` Radau IIA with 5 and 7
+stages and the variable-order 5/9/13 method, told apart by their parameters), its order, the
+order of its error estimate (None without one), its tableau, its dense output's order and its
+real stability interval at a fixed step. The compiled loop that runs them all is
+creatio.dynamics.solvers.driver; config validation, the stability estimate, benchmarks and the
+stability map read this registry.
 
 Adding an explicit method is a tableau (creatio.dynamics.solvers.tableaus) and one entry of
 METHODS below.
@@ -35,8 +35,8 @@ EXPLICIT = 0
 RADAU = 1
 ROSENBROCK = 2
 RADAU_VO = 3
-STEPPERS = {EXPLICIT: "explicit", RADAU: "radau", ROSENBROCK: "rosenbrock",
-            RADAU_VO: "radau_sphere"}
+STEPPERS = {EXPLICIT: "explicit", RADAU: "radau5", ROSENBROCK: "rosenbrock",
+            RADAU_VO: "radau_high_order"}
 #: The kinds with a Newton iteration (fully implicit: a Newton tolerance applies).
 IMPLICIT = (RADAU, RADAU_VO)
 
@@ -168,7 +168,7 @@ class Method:
     #: collocation cubic); None: the tableau's
     dense_order_override: int | None = field(default=None, repr=False)
     exact_stability_bound: float | None = field(default=None, repr=False)
-    #: the stepper's parameters when its kind runs several methods (radau_sphere's PRM_*:
+    #: the stepper's parameters when its kind runs several methods (radau_high_order's PRM_*:
     #: stage range, first stage count, Jacobian reuse threshold); passed as the stand-in
     #: tableau's c
     params: tuple[float, ...] = field(default=(), repr=False)
@@ -181,7 +181,7 @@ class Method:
     @property
     def flight(self) -> bool:
         """Whether flight's event loop runs the method (it steps onto every event with an
-        explicit stage scheme: solvers.hybrid)."""
+        explicit stage scheme: solvers.flight)."""
         return self.stepper == EXPLICIT
 
     @property
@@ -227,7 +227,7 @@ class Method:
             rk_stability_polynomial(self.tableau.a, self.tableau.weights()))
 
 
-#: Jacobian reuse threshold of the radau_sphere methods (radau.f's THET): the Jacobian is
+#: Jacobian reuse threshold of the radau_high_order methods (radau.f's THET): the Jacobian is
 #: recomputed after a step whose Newton contraction was worse. Measured on EN-02 and EN-02R
 #: (scripts/radau_thet.py): see docs/solvers.md.
 _THET = 1e-3

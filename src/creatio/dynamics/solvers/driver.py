@@ -59,8 +59,8 @@ from creatio.dynamics.solvers import (
     STEPPERS,
     Method,
     explicit,
-    radau,
-    radau_sphere,
+    radau5,
+    radau_high_order,
     rosenbrock,
 )
 from creatio.dynamics.solvers.explicit import ACCEPTED, ERROR_REJECTED, next_step
@@ -75,7 +75,7 @@ from creatio.dynamics.sphere import (
 __all__ = ["CONTROLLED", "SPECIALISATIONS", "run"]
 
 #: The module of each implicit kind (the contract of the module docstring).
-_IMPLICIT = {RADAU: radau, ROSENBROCK: rosenbrock, RADAU_VO: radau_sphere}
+_IMPLICIT = {RADAU: radau5, ROSENBROCK: rosenbrock, RADAU_VO: radau_high_order}
 assert set(_IMPLICIT) | {EXPLICIT} == set(STEPPERS)
 
 
@@ -365,7 +365,7 @@ SPECIALISATIONS = {key: _entry(*key) for key in itertools.product(
     STEPPERS, (True, False), (True, False), (True, False))}
 #: The controlled path's entry points (docs/model.md s.12.2), (stepper kind, rotation,
 #: energy) -> entry point: every stepper kind on the fixed structure (the implicit kinds'
-#: Jacobian differences the control block's columns too, creatio.dynamics.solvers.radau).
+#: Jacobian differences the control block's columns too, creatio.dynamics.solvers.radau5).
 CONTROLLED = {(stepper, rot, en): _entry(stepper, rot, en, False, True)
               for stepper, rot, en in itertools.product(STEPPERS, (True, False),
                                                         (True, False))}

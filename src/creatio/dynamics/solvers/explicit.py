@@ -1,7 +1,7 @@
 """The explicit Runge-Kutta stepper, any tableau of the registry, with scipy's step control.
 
 :func:`stages` computes a step's stages and its new state for any right-hand side (the
-sphere's, and the hybrid loop's contact and flight phases, creatio.dynamics.solvers.hybrid);
+sphere's, and the hybrid loop's contact and flight phases, creatio.dynamics.solvers.flight);
 :func:`step` is one try at one step of the driver (creatio.dynamics.solvers.driver), and
 :func:`dense` its dense output. Step control is scipy's for the same pairs (safety 0.9,
 factors in [0.2, 10], RMS norm of err / (atol + rtol max(|y|, |y_new|))), so native and scipy

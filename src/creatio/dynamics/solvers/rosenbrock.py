@@ -4,7 +4,7 @@ II, s. VI.4).
 Six stages, each one linear solve with the same matrix W = I / (h gamma) - J and no Newton
 iteration: stiffly accurate and L-stable, so like Radau IIA it damps the friction's slip
 mode at any h. Its order needs the Jacobian at each step's start: J is the forward-difference
-Jacobian of the feedback columns with the exact quaternion block (radau.jacobian), and the
+Jacobian of the feedback columns with the exact quaternion block (radau5.jacobian), and the
 explicit time dependence of the surface enters through a forward difference df/dt. Step
 control is the explicit pairs' (creatio.dynamics.solvers.explicit: safety 0.9, factors in
 [0.2, 10], RMS norm). Dense output: the cubic Hermite polynomial of the step's ends.
@@ -26,7 +26,7 @@ from creatio.dynamics.solvers.explicit import (
     step_factor,
 )
 from creatio.dynamics.solvers.linalg import lu_factor, lu_solve
-from creatio.dynamics.solvers.radau import jacobian
+from creatio.dynamics.solvers.radau5 import jacobian
 from creatio.dynamics.sphere import rhs_of, store
 
 __all__ = ["dense", "step", "workspace"]
@@ -71,7 +71,7 @@ def workspace(n, params):
 def step(stepper, t, t_next, h, y, f, ynew, fnew, dbuf, ws, tol, fixed, rejected, pp, lc, rot,
          en, free):
     """One try at the step t -> t_next = t + h (the driver's implicit-stepper contract, as
-    creatio.dynamics.solvers.radau.step): (outcome, factor, rhs evaluations, jacobians, LU
+    creatio.dynamics.solvers.radau5.step): (outcome, factor, rhs evaluations, jacobians, LU
     factorisations, Newton iterations (none: 0), whether fnew and dbuf hold the end-of-step
     evaluation)."""
     rs, jac, lu, piv, U, dfdt, work, tmp, hermite = ws

@@ -1,4 +1,4 @@
-"""Provenance (creatio.pipeline.io): what a dataset says about the command that made it."""
+"""Provenance (creatio.pipeline.provenance): what a dataset says about the command that made it."""
 
 from __future__ import annotations
 
@@ -8,7 +8,7 @@ def test_history_records_the_command_not_the_path_of_cli_py(monkeypatch, tmp_pat
     path of cli.py (what `history` held): it now records the command as typed, `creatio
     task dataset ...` with every argument, paths relative to the working directory."""
     import creatio.cli
-    from creatio.pipeline.io import provenance
+    from creatio.pipeline.provenance import provenance
 
     monkeypatch.chdir(tmp_path)
     argv = [creatio.cli.__file__, "task", "dataset", "en02",

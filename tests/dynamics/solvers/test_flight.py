@@ -23,7 +23,7 @@ from creatio.dynamics.layout import (
     EV_SEPARATION,
     NF,
 )
-from creatio.dynamics.solvers.hybrid import FLIGHT, NC, _f, _to_flight
+from creatio.dynamics.solvers.flight import FLIGHT, NC, _f, _to_flight
 from creatio.dynamics.sphere import pack_controlled, rhs
 from creatio.pipeline.config import resolve
 

@@ -1,5 +1,5 @@
 """Radau IIA with 3, 5 and 7 stages: coefficients computed from the collocation nodes
-(creatio.dynamics.solvers.radau_iia) and the variable-order stepper (radau_vo).
+(creatio.dynamics.solvers.radau_coefficients) and the variable-order stepper (radau_variable_order).
 
 The coefficients are checked against independent values: the closed forms of the 3-stage
 method and creatio's radau5 constants, the published doubles of Hairer & Wanner's radau.f
@@ -21,14 +21,14 @@ from scipy.integrate import solve_ivp
 from scipy.linalg import expm
 
 from creatio.dynamics.solvers import tableaus as tb
-from creatio.dynamics.solvers.radau_iia import (
+from creatio.dynamics.solvers.radau_coefficients import (
     STAGES,
     coefficients,
     pade_denominator,
     pade_numerator,
     stability_function,
 )
-from creatio.dynamics.solvers.radau_vo import CNT_CHANGES, CNT_JAC, CNT_STEPS, solve
+from creatio.dynamics.solvers.radau_variable_order import CNT_CHANGES, CNT_JAC, CNT_STEPS, solve
 
 # radau.f (Hairer & Wanner, Solving ODEs II, 2nd ed., code of the book), subroutines COERTV
 # and COERCV: T, T^-1, nodes, error weights DD, real eigenvalue U1 and the complex pairs

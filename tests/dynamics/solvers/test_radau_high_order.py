@@ -17,13 +17,13 @@ import pytest
 
 from creatio.dynamics import simulate
 from creatio.dynamics.solvers import METHODS, RADAU_VO
-from creatio.dynamics.solvers import radau_vo as vo
-from creatio.dynamics.solvers.radau_iia import (
+from creatio.dynamics.solvers import radau_variable_order as vo
+from creatio.dynamics.solvers.radau_coefficients import (
     coefficients,
     pade_denominator,
     stability_function,
 )
-from creatio.dynamics.solvers.radau_sphere import PRM_S_MAX, PRM_S_MIN, solve
+from creatio.dynamics.solvers.radau_high_order import PRM_S_MAX, PRM_S_MIN, solve
 from creatio.pipeline.config import resolve
 
 NEW = ("radau9", "radau13", "radau")
@@ -158,7 +158,7 @@ def test_agrees_with_radau5_at_a_common_tolerance(en02, en02_reference, name) ->
 
 
 def test_driver_counts_match_the_stepper(en02) -> None:
-    """The driver's counts are the stepper's: radau_sphere.solve runs the same stepper with
+    """The driver's counts are the stepper's: radau_high_order.solve runs the same stepper with
     free steps, so its Newton iterations per step and Jacobians are of the same size; every
     count is positive and a fixed radau9 step of 0.2 s needs no rejection."""
     res = simulate(en02.replace(method="radau9", rtol=1e-10, atol=1e-12, fixed_step=False))
@@ -167,7 +167,7 @@ def test_driver_counts_match_the_stepper(en02) -> None:
     assert 0 < res.jacobians <= res.steps + res.rejected_steps
     assert res.lu_factorisations >= res.jacobians
     # rhs: 5 per Newton iteration, the Jacobian's columns, one per step for f(t, y)
-    n_cols = 7  # R, alpha and their rates, omega (creatio.dynamics.solvers.radau.jacobian)
+    n_cols = 7  # R, alpha and their rates, omega (creatio.dynamics.solvers.radau5.jacobian)
     assert res.rhs_evals >= 5 * res.newton_iterations + n_cols * res.jacobians + res.steps
     fixed = simulate(en02.replace(method="radau9", dt=0.2, fixed_step=True, rtol=1e-12,
                                   atol=1e-14, interval=0.2))

@@ -11,7 +11,7 @@ from numba import njit
 
 from creatio.dynamics import simulate
 from creatio.dynamics.layout import CT_PHI, CT_RATE, control_start
-from creatio.dynamics.solvers.radau import jacobian
+from creatio.dynamics.solvers.radau5 import jacobian
 from creatio.dynamics.sphere import pack_controlled, rhs
 from creatio.pipeline.config import resolve
 

@@ -6,7 +6,7 @@ work, tmp, ctx)`` writes df/dy into J and returns the right-hand-side evaluation
 or jac is None for forward differences of every column; both are numba-compiled functions
 passed as arguments (each pair compiles its own specialisation), ctx is anything they need
 (a tuple of arrays and flags). The coefficients come from creatio.dynamics.solvers
-.radau_iia, computed from the collocation nodes.
+.radau_coefficients, computed from the collocation nodes.
 
 Why step and solve are inlined into their callers (numba's inline="always"): a compiled
 function passed as a value makes numba embed its address, and a cached caller whose code
@@ -81,7 +81,7 @@ import numpy as np
 from creatio.dynamics.jit import njit
 from creatio.dynamics.solvers.explicit import ACCEPTED, ERROR_REJECTED, NEWTON_FAILED
 from creatio.dynamics.solvers.linalg import lu_factor, lu_solve
-from creatio.dynamics.solvers.radau_iia import STAGES, coefficients
+from creatio.dynamics.solvers.radau_coefficients import STAGES, coefficients
 
 __all__ = ["CNT_CHANGES", "CNT_JAC", "CNT_LU_COMPLEX", "CNT_LU_REAL", "CNT_NEWTON",
            "CNT_REJECTED_ERROR", "CNT_REJECTED_NEWTON", "CNT_RHS", "CNT_STEPS", "dense",
