@@ -31,15 +31,18 @@ SMALL = ["study.strain.n_alpha=48", "study.strain.n_R=9", "study.strain.n_t=25",
 
 
 def compose(overrides: list[str]) -> Any:
-    """EN-06's config composed from conf/ by Hydra on its own schema (as the pipeline
-    composes a registered study), then validated."""
+    """EN-06's config composed from conf/ by Hydra on its own schema and EN-02's (its base,
+    bases.en02), as the pipeline composes a registered study, then validated."""
     from hydra import compose as hydra_compose
     from hydra import initialize_config_dir
     from hydra.core.config_store import ConfigStore
     from hydra.core.global_hydra import GlobalHydra
 
-    ConfigStore.instance().store(group="schema", name="en06", node=En06Config,
-                                 package="_global_")
+    from creatio.studies.schema import DynamicConfig
+
+    for name, schema in (("en06", En06Config), ("en02", DynamicConfig)):
+        ConfigStore.instance().store(group="schema", name=name, node=schema,
+                                     package="_global_")
     gh = GlobalHydra.instance()
     outer, gh.hydra = gh.hydra, None
     try:
@@ -242,14 +245,16 @@ def test_report_contract_and_opening_lines(small: Any, tmp_path: Path) -> None:
 
 
 def test_parts_units_and_an_unknown_part(small: Any) -> None:
-    """Two parts, every numeric variable with its units and the assumptions stated; a part
-    the study does not have is named."""
-    assert [p.name for p in en06.parts(small[0])] == ["en06_strain", "en06_fatigue"]
+    """The strain and fatigue parts first (the tolerances' follow: test_en06_tolerances),
+    every numeric variable with its units and the assumptions stated; a part the study does
+    not have is named with the choices."""
+    assert [p.name for p in en06.parts(small[0])][:2] == ["en06_strain", "en06_fatigue"]
     for ds in small[1:]:
         assert isinstance(ds, xr.Dataset)
         assert "material coordinates" in ds.attrs["assumptions"]
         for name, var in ds.variables.items():
             if var.dtype.kind in "fiu":
                 assert var.attrs.get("units"), name
-    with pytest.raises(ValueError, match="part must be one of strain, fatigue"):
-        en06.run(small[0], "ribs")
+    with pytest.raises(ValueError, match="part must be one of strain, fatigue, tilt, sobol, "
+                       "allocation, joint.*, got 'nothing'"):
+        en06.run(small[0], "nothing")

@@ -53,7 +53,13 @@ SIZES: dict[str, list[tuple[str, Any]]] = {
     "en06": [*((f"study.{g}.{n}", 10**7) for g in ("strain", "beyond", "fatigue")
                for n in ("n_alpha", "n_R", "n_t")),
              ("study.fatigue_check.samples_per_half_turn", 10**7),
-             ("study.fatigue_check.n_R", 10**7)],
+             ("study.fatigue_check.n_R", 10**7),
+             ("study.tolerances.sobol.base_sizes", [2**20]),
+             ("study.tolerances.sobol.resamples", 10**7),
+             ("study.tolerances.allocation.scan", 10**7),
+             ("study.tolerances.allocation.azimuths", 10**7),
+             ("study.tolerances.joint.n", 10**7),
+             ("study.tilt_check.cycle_s", 1e9)],
     "boundaries": [("study.analytic_samples", 10**8)],
     "stability_map": [("study.samples", 10**6), ("study.duration", 1e9),
                       ("study.duration_check.duration", 1e9)],
@@ -85,9 +91,12 @@ NOT_SIZES = {
     "study.strain.candidates": "points refined, bounded to [1, 64] by its own rule",
     "study.strain.max_levels": "halvings, bounded to [1, 60] by its own rule",
     "study.fatigue_check.n_alpha": "must divide 2 Ka samples_per_half_turn (96): bounded by it",
+    "study.tolerances.sobol.seed": "a seed: no allocation",
+    "study.tolerances.joint.seed": "a seed: no allocation",
+    "study.tolerances.allocation.iterations": "bisections, bounded to [1, 60] by their own rule",
 }
 #: Studies whose config holds no list (nothing for test_every_list_is_bounded to walk).
-NO_LISTS = {"en06"}
+NO_LISTS: set[str] = set()
 SIZE_NAME = re.compile(r"(duration|interval|(^|\.)T$|(^|\.)dt$|cycle_s$|rate_hz|growth|levels|"
                        r"seeds?$|samples|size|(^|\.)n_)")
 #: The analyses' schemas keep their own sizes (their modules, not the study schemas): they

@@ -1,9 +1,11 @@
 """EN-06's report (docs/materials.md): what the membrane must be made of. From the study's
 datasets (one per part, told apart by their ``part`` attribute) it writes ``en06.json``,
 ``.md`` and ``.html``, ``.png`` (the strain maps at the worst time), ``_envelope.png`` (the
-strain envelopes along R) and ``_fatigue.png`` (the damage maps and the life per material).
-Each part has its summary and its markdown section (SECTIONS): a later part (tolerances,
-ribs) adds one entry. Nothing here recomputes the study."""
+strain envelopes along R), ``_fatigue.png`` (the damage maps and the life per material) and
+``_tolerances.png`` (the Sobol' bars and the allocation: creatio.reports.en06_tolerances).
+Each part has its summary (SUMMARIES), and each later part its section, answer fragment and
+figures (LATER_SECTIONS): a later part (ribs) adds one entry to each. Nothing here
+recomputes the study."""
 
 from __future__ import annotations
 
@@ -16,6 +18,7 @@ import numpy as np
 import xarray as xr
 from matplotlib.colors import ListedColormap
 
+from creatio.reports import en06_tolerances as TOL
 from creatio.reports.answer import answer_lines, num
 from creatio.reports.common import (
     fixed_layout,
@@ -27,7 +30,7 @@ from creatio.reports.common import (
     write_markdown,
 )
 
-__all__ = ["SUMMARIES", "en06_summary", "write_report"]
+__all__ = ["LATER_SECTIONS", "SUMMARIES", "en06_summary", "write_report"]
 
 
 def _by_part(runs: Sequence[xr.Dataset]) -> dict[str, xr.Dataset]:
@@ -132,7 +135,22 @@ def _fatigue_summary(ds: xr.Dataset, out: dict[str, Any]) -> None:
 
 #: Each part's summary: fills the report's JSON from that part's dataset.
 SUMMARIES: dict[str, Callable[[xr.Dataset, dict[str, Any]], None]] = {
-    "strain": _strain_summary, "fatigue": _fatigue_summary}
+    "strain": _strain_summary, "fatigue": _fatigue_summary, **TOL.SUMMARIES}
+
+
+def _tolerance_section(parts: dict[str, xr.Dataset], s: dict[str, Any], outdir: Path
+                       ) -> list[str]:
+    """The tilt check and the tolerances: en06_tolerances.png and their markdown."""
+    path = outdir / f"{s['study']}_tolerances.png"
+    return TOL.section(parts, s, path if TOL.figure(parts, path) else None)
+
+
+#: The sections after fatigue, in order: (markdown writer (datasets by part, summary, report
+#: directory) -> lines, answer fragment (summary) -> text, '' for none). A later part (ribs)
+#: adds its pair here.
+LATER_SECTIONS: list[tuple[Callable[[dict[str, xr.Dataset], dict[str, Any], Path], list[str]],
+                           Callable[[dict[str, Any]], str]]] = [
+    (_tolerance_section, TOL.answer)]
 
 
 def en06_summary(datasets: xr.Dataset | Sequence[xr.Dataset]) -> dict[str, Any]:
@@ -144,7 +162,7 @@ def en06_summary(datasets: xr.Dataset | Sequence[xr.Dataset]) -> dict[str, Any]:
         if part in SUMMARIES:
             SUMMARIES[part](ds, out)
     out["config_sha256"] = first.attrs.get("config_sha256", "")
-    order = ("study", "strain", "materials", "fatigue_check")
+    order = ("study", "strain", "materials", "fatigue_check", "tilt_check", "tolerances")
     return {**{k: out[k] for k in order if k in out},
             **{k: v for k, v in out.items() if k not in order}}
 
@@ -182,6 +200,9 @@ def _answer(s: dict[str, Any]) -> list[str]:
         verdicts.append(part)
     if verdicts:
         lines.append("; ".join(verdicts) + ".")
+    later = [text for _, fragment in LATER_SECTIONS if (text := fragment(s))]
+    if later:
+        lines.append("; ".join(later) + ".")
     chk = s.get("fatigue_check")
     basis = ("material coordinates (the sheet follows the surface, reference = the surface "
              "without corrugation); illustrative materials, not measured")
@@ -366,7 +387,8 @@ def _fatigue_section(s: dict[str, Any], paths: dict[str, Path]) -> list[str]:
 
 
 def write_report(datasets: Sequence[Path], outdir: str | Path) -> dict[str, Path]:
-    """Write en06.json/.md/.html, en06.png, en06_envelope.png and en06_fatigue.png."""
+    """Write en06.json/.md/.html, en06.png, en06_envelope.png, en06_fatigue.png and the
+    later sections' figures (en06_tolerances.png)."""
     runs, s, paths = start_report(datasets, outdir, en06_summary)
     out = Path(outdir)
     paths = {"json": paths["json"], "md": paths["md"], "html": paths["html"],
@@ -387,6 +409,10 @@ def write_report(datasets: Sequence[Path], outdir: str | Path) -> dict[str, Path
     if "fatigue" in parts:
         _fatigue_figure(parts["fatigue"], paths["fatigue"])
         lines += _fatigue_section(s, paths)
+    for write, _ in LATER_SECTIONS:
+        lines += write(parts, s, out)
+    if {"sobol", "allocation"} & set(parts):
+        paths["tolerances"] = out / f"{s['study']}_tolerances.png"
     lines += ["## Assumptions", "", f"{s.get('assumptions', '')}.", ""]
     write_markdown(paths["md"], "\n".join(lines))
     return paths

@@ -15,14 +15,18 @@ there; and the closed-form check on one surface at h = 0 (docs/materials.md s.5)
 cycles counted at every point against |phi_a travel| / pi, their range against |a - b| and
 their mean against (a + b) / 2.
 
+Parts ``tilt``, ``sobol``, ``allocation`` and ``joint``: the energy check under a mounting
+tilt and the tolerances of EN-02's transport (creatio.studies.en06_tolerances).
+
 Assumptions (stated in every dataset): (alpha, R) are material coordinates, the reference is
 the surface without corrugation, the sheet is thin, and the shipped materials are
-illustrative. Later parts (tolerances, ribs) add their own datasets beside these two.
+illustrative. Every part is one entry of PART_RUNS (a later part, ribs, adds its own).
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 
 import numpy as np
 import xarray as xr
@@ -32,17 +36,16 @@ from creatio.model import fatigue as FT
 from creatio.model import strain as S
 from creatio.model.laws import Law, LawKind
 from creatio.model.surface import Motion, Surface
+from creatio.studies import en06_tolerances as TOL
 from creatio.studies.en06_schema import En06Config
 from creatio.studies.material_schema import MaterialConfig, MaterialLaw
 from creatio.studies.registry import Part
 
-__all__ = ["ASSUMPTIONS", "PARTS", "check_dataset", "closed_form", "envelope", "fatigue_dataset",
-           "motion_of", "parts", "phase_times", "run", "strain_dataset", "stress_field"]
+__all__ = ["ASSUMPTIONS", "PARTS", "PART_RUNS", "check_dataset", "closed_form", "envelope",
+           "fatigue_dataset", "motion_of", "parts", "phase_times", "run", "strain_dataset",
+           "stress_field"]
 
 Array = NDArray[np.float64]
-
-#: The dataset parts of EN-06, in report order (later parts append theirs).
-PARTS = ("strain", "fatigue")
 
 #: What every figure rests on, one line each (datasets' attrs and the report's opening).
 ASSUMPTIONS = ("material coordinates: (alpha, R) label material points, the sheet does not "
@@ -60,12 +63,10 @@ def parts(cfg: En06Config) -> list[Part]:
 
 
 def run(cfg: En06Config, part: str) -> xr.Dataset:
-    """One dataset of EN-06 (``strain`` or ``fatigue``)."""
-    if part == "strain":
-        return strain_dataset(cfg)
-    if part == "fatigue":
-        return fatigue_dataset(cfg)
-    raise ValueError(f"part must be one of {', '.join(PARTS)}, got {part!r}")
+    """One dataset of EN-06 (a name of PARTS)."""
+    if part not in PART_RUNS:
+        raise ValueError(f"part must be one of {', '.join(PARTS)}, got {part!r}")
+    return PART_RUNS[part](cfg)
 
 
 def motion_of(cfg: En06Config, name: str) -> tuple[Surface, Motion, float]:
@@ -366,3 +367,16 @@ def fatigue_dataset(cfg: En06Config) -> xr.Dataset:
     })
     return ds
 
+
+#: The dataset parts of EN-06, in report order: name -> the function config -> dataset. A
+#: later part (ribs) adds its entry here; each is one job of the workflow.
+PART_RUNS: dict[str, Callable[[En06Config], xr.Dataset]] = {
+    "strain": strain_dataset,
+    "fatigue": fatigue_dataset,
+    "tilt": TOL.tilt_dataset,
+    "sobol": TOL.sobol_dataset,
+    "allocation": TOL.allocation_dataset,
+    "joint": TOL.joint_dataset,
+}
+#: The part names, in report order.
+PARTS = tuple(PART_RUNS)

@@ -1,28 +1,46 @@
 """The config schema of EN-06 (docs/materials.md): what the membrane must be made of. The
 surfaces of EN-02 and EN-02R (their phase groups on one geometry), the materials (their
-groups, conf/material/), and the grids of each part; the run is en06.py.
+groups, conf/material/), and the grids of each part; the run is en06.py. The tolerance
+parts (docs/materials.md s.8) vary EN-02's full config, ``bases.en02``, whose geometry is
+the study's own: their groups are ``study.tolerances`` and ``study.tilt_check`` (the runs
+are en06_tolerances.py).
 
 Every size that sets an allocation or a count of evaluations is checked against
-MAX_SAMPLES before anything runs, and refused in one line naming the key. Later parts
-(tolerances, ribs) add their own group beside ``strain``, ``beyond`` and ``fatigue``.
+MAX_SAMPLES (or MAX_RUNS for runs) before anything runs, and refused in one line naming
+the key. A later part (ribs) adds its own group beside these.
 """
 
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from enum import StrEnum
+from typing import Any
 
+from creatio.errors import ConfigError
 from creatio.studies.material_schema import MaterialConfig
 from creatio.studies.schema import (
     MISSING,
+    DynamicConfig,
     GeometryConfig,
     PhasesConfig,
     require,
+    require_runs,
     require_samples,
+    vary,
 )
 
-__all__ = ["BeyondGrid", "En06Config", "En06Study", "FatigueCheckConfig", "FatigueGrid",
-           "StrainGrid"]
+__all__ = ["AllocationConfig", "BASE", "BeyondGrid", "En06Config", "En06Study",
+           "FatigueCheckConfig", "FatigueGrid", "Interval", "JointConfig", "SobolConfig",
+           "SpecConfig", "StrainGrid", "TiltCheckConfig", "ToleranceInput",
+           "TolerancesConfig"]
+
+#: The study whose transport the tolerance parts vary (its full config: bases.en02).
+BASE = "en02"
+#: The tilt's azimuth key: the allocation checks every azimuth of a grid instead of one.
+AZIMUTH_KEY = "sphere.psi_deg"
+#: Most halvings of a bisection (2^-60 of a cap is below double precision).
+MAX_HALVINGS = 60
 
 #: Most halvings a maximum's refinement may take (each halves the spacing: 2^-60 is far
 #: below double precision of any coordinate).
@@ -129,10 +147,244 @@ class FatigueCheckConfig:
                         f"history samples ({self.n_alpha} x {self.n_R} x {n_t})")
 
 
+def _vary_as(path: str, value: Any, base: DynamicConfig, changes: dict[str, Any]) -> None:
+    """vary(base, changes), a refusal re-keyed to ``path`` = value, with the base's key and
+    rule."""
+    try:
+        vary(base, changes)
+    except ConfigError as e:
+        raise ConfigError(path, value, f"gives {e.key}={e.value!r}, refused by {BASE}: "
+                          f"{e.rule}") from None
+
+
+def nominal_of(base: DynamicConfig, key: str) -> float:
+    """The base's value of a dotted key (a null tilt reads as 0: level, azimuth 0)."""
+    node: Any = base
+    for part in key.split("."):
+        node = getattr(node, part)
+    return 0.0 if node is None else float(node)
+
+
+@dataclass
+class ToleranceInput:
+    """One manufacturing or mounting input: the dotted key of bases.en02 it sets, its
+    declared tolerance (uniform on [nominal - minus, nominal + plus]; with ``relative`` the
+    deviations are fractions of the nominal) and the allocation's cap on each side
+    ([minus, plus], in the same units; 0: that side is not allocated)."""
+
+    key: str = MISSING
+    minus: float = 0.0
+    plus: float = 0.0
+    relative: bool = False
+    cap: list[float] = field(default_factory=lambda: [0.0, 0.0])
+
+    def value(self, nominal: float, deviation: float) -> float:
+        """The input's value at a signed deviation from the nominal."""
+        return nominal * (1.0 + deviation) if self.relative else nominal + deviation
+
+    def check(self, path: str, base: DynamicConfig) -> None:
+        """minus, plus >= 0 with a width; each cap 0 or at least the declared tolerance of
+        its side; a relative input's nominal nonzero; every end (declared and capped) a
+        value EN-02 accepts; the azimuth is not allocated (every azimuth is checked)."""
+        require(self.minus >= 0.0, f"{path}.minus", self.minus, "must be >= 0")
+        require(self.plus >= 0.0, f"{path}.plus", self.plus, "must be >= 0")
+        require(self.minus + self.plus > 0.0, f"{path}.plus", self.plus,
+                f"must be > 0 when {path}.minus = 0 (an input needs a width)")
+        require(len(self.cap) == 2, f"{path}.cap", list(self.cap),
+                "must be [minus, plus]: the allocation's cap on each side")
+        require(not (self.key == AZIMUTH_KEY and any(self.cap)), f"{path}.cap",
+                list(self.cap), f"must be [0, 0] for {AZIMUTH_KEY}: the allocation checks "
+                "every azimuth of study.tolerances.allocation.azimuths")
+        for i, (c, tol) in enumerate(zip(self.cap, (self.minus, self.plus), strict=True)):
+            require(c == 0.0 or c >= tol, f"{path}.cap[{i}]", c,
+                    f"must be 0 (not allocated) or >= the declared tolerance {tol:g}")
+        try:
+            nominal = nominal_of(base, self.key)
+        except (AttributeError, TypeError, ValueError):
+            raise ConfigError(f"{path}.key", self.key, f"must name a number of {BASE}'s "
+                              f"config (bases.{BASE})") from None
+        if self.relative:
+            require(nominal != 0.0, f"{path}.relative", self.relative,
+                    f"needs a nonzero nominal ({self.key} = {nominal:g})")
+        for name, value, dev in (("minus", self.minus, -self.minus),
+                                 ("plus", self.plus, self.plus),
+                                 ("cap[0]", self.cap[0], -self.cap[0]),
+                                 ("cap[1]", self.cap[1], self.cap[1])):
+            _vary_as(f"{path}.{name}", value, base, {self.key: self.value(nominal, dev)})
+
+
+@dataclass
+class SpecConfig:
+    """What "within spec" means for one transport: carried, |final angle error| <=
+    angle_deg and |final radius error| <= radius_m (both from the nominal run's)."""
+
+    angle_deg: float = 1.0
+    radius_m: float = 0.01
+
+    def check(self, path: str) -> None:
+        """Both bounds > 0."""
+        require(self.angle_deg > 0.0, f"{path}.angle_deg", self.angle_deg, "must be > 0")
+        require(self.radius_m > 0.0, f"{path}.radius_m", self.radius_m, "must be > 0")
+
+
+@dataclass
+class SobolConfig:
+    """The Sobol' design of the declared tolerances (EN-05's machinery: base sizes N,
+    powers of 2, the smaller designs prefixes of the largest; N (d + 2) runs)."""
+
+    base_sizes: list[int] = field(default_factory=lambda: [256, 512])
+    seed: int = 6
+    resamples: int = 1000
+    confidence: float = 0.95
+
+    def check(self, path: str, d: int) -> None:
+        """Sizes powers of 2 >= 4 increasing, resamples >= 100, confidence in (0, 1); the
+        runs and bootstrap samples within MAX_RUNS and MAX_SAMPLES."""
+        sizes = list(self.base_sizes)
+        require(len(sizes) >= 1, f"{path}.base_sizes", sizes, "needs at least 1 value")
+        for i, n in enumerate(sizes):
+            require(n >= 4 and n & (n - 1) == 0, f"{path}.base_sizes[{i}]", n,
+                    "must be a power of 2 >= 4 (Sobol' points balance in blocks of 2^k)")
+        require(sizes == sorted(set(sizes)), f"{path}.base_sizes", sizes, "must increase")
+        require(self.seed >= 0, f"{path}.seed", self.seed, "must be >= 0")
+        require(self.resamples >= 100, f"{path}.resamples", self.resamples, "must be >= 100")
+        require(0.0 < self.confidence < 1.0, f"{path}.confidence", self.confidence,
+                "must lie in (0, 1)")
+        n = max(sizes)
+        require_runs(f"{path}.base_sizes", sizes, n * (d + 2),
+                     f"runs (the largest base size x ({d} inputs + 2), Saltelli's design)")
+        require_samples(f"{path}.resamples", self.resamples, self.resamples * n,
+                        "bootstrap indices (resamples x the largest base size)")
+
+
+@dataclass
+class AllocationConfig:
+    """The tolerance allocation (docs/materials.md s.8): on each allocated side of each
+    input alone, ``scan`` equal steps up to the cap find the first deviation out of spec,
+    then ``iterations`` bisections between it and the last one within; a tilted point is
+    within spec only at every one of ``azimuths`` equally spaced azimuths."""
+
+    scan: int = 8
+    iterations: int = 20
+    azimuths: int = 12
+
+    def check(self, path: str, runs_per_point: int) -> None:
+        """scan >= 1, 1 <= iterations <= 60, azimuths >= 1; the runs within MAX_RUNS."""
+        require(self.scan >= 1, f"{path}.scan", self.scan, "must be >= 1")
+        require(1 <= self.iterations <= MAX_HALVINGS, f"{path}.iterations", self.iterations,
+                f"must lie in [1, {MAX_HALVINGS}] (bisections of the last scan step)")
+        require(self.azimuths >= 1, f"{path}.azimuths", self.azimuths, "must be >= 1")
+        sizes = {"scan": self.scan, "azimuths": self.azimuths}
+        name = max(sizes, key=lambda k: sizes[k])
+        require_runs(f"{path}.{name}", sizes[name],
+                     runs_per_point * (self.scan + self.iterations) * self.azimuths,
+                     f"runs ({runs_per_point} allocated sides x (scan {self.scan} + "
+                     f"iterations {self.iterations}) x azimuths {self.azimuths})")
+
+
+class Interval(StrEnum):
+    """The binomial interval of the joint fraction (scipy.stats.binomtest)."""
+
+    exact = "exact"    # Clopper-Pearson: covers at least the confidence level
+    wilson = "wilson"  # Wilson score, without continuity correction
+
+
+@dataclass
+class JointConfig:
+    """The joint Monte Carlo at the declared tolerances: n independent draws (numpy's
+    PCG64 seeded by ``seed``) and the binomial interval of the fraction within spec."""
+
+    n: int = 1000
+    seed: int = 7
+    confidence: float = 0.95
+    interval: Interval = Interval.exact
+
+    def check(self, path: str) -> None:
+        """n >= 1 within MAX_RUNS, seed >= 0, confidence in (0, 1)."""
+        require(self.n >= 1, f"{path}.n", self.n, "must be >= 1")
+        require_runs(f"{path}.n", self.n, self.n, "runs (one per draw)")
+        require(self.seed >= 0, f"{path}.seed", self.seed, "must be >= 0")
+        require(0.0 < self.confidence < 1.0, f"{path}.confidence", self.confidence,
+                "must lie in (0, 1)")
+
+
+@dataclass
+class TolerancesConfig:
+    """EN-06 part 4 (docs/materials.md s.8): the inputs with their declared tolerances,
+    the spec, and the sizes of the Sobol' indices, the allocation and the joint sample."""
+
+    inputs: dict[str, ToleranceInput] = field(default_factory=dict)
+    spec: SpecConfig = field(default_factory=SpecConfig)
+    sobol: SobolConfig = field(default_factory=SobolConfig)
+    allocation: AllocationConfig = field(default_factory=AllocationConfig)
+    joint: JointConfig = field(default_factory=JointConfig)
+
+    def check(self, path: str, base: DynamicConfig) -> None:
+        """At least one input, distinct keys, each valid on the base; every size bounded."""
+        require(len(self.inputs) >= 1, f"{path}.inputs", dict(self.inputs),
+                "needs at least 1 input")
+        keys = [i.key for i in self.inputs.values()]
+        for name, inp in self.inputs.items():
+            require(keys.count(inp.key) == 1, f"{path}.inputs.{name}.key", inp.key,
+                    "is varied by two inputs")
+            inp.check(f"{path}.inputs.{name}", base)
+        self.spec.check(f"{path}.spec")
+        self.sobol.check(f"{path}.sobol", len(self.inputs))
+        sides = sum(int(c > 0.0) for i in self.inputs.values() for c in i.cap)
+        self.allocation.check(f"{path}.allocation", max(sides, 1))
+        self.joint.check(f"{path}.joint")
+
+    @property
+    def names(self) -> list[str]:
+        """Input names, sorted: the design's column order however the config was written."""
+        return sorted(self.inputs)
+
+
+@dataclass
+class TiltCheckConfig:
+    """The energy identity under a mounting tilt (docs/materials.md s.8): EN-02 at
+    beta_deg toward psi_deg on a cycle of cycle_s, at bases.en02's fixed step dt, dt / 2
+    and dt / 4; the residual's largest value falls at the scheme's order."""
+
+    beta_deg: float = 2.0
+    psi_deg: float = 30.0
+    cycle_s: float = 8.0
+
+    def check(self, path: str, base: DynamicConfig) -> None:
+        """0 < beta_deg < 90; a fixed-step base (the order is of dt); each run accepted."""
+        require(0.0 < self.beta_deg < 90.0, f"{path}.beta_deg", self.beta_deg,
+                "must lie in (0, 90) degrees (a tilt)")
+        require(self.cycle_s > 0.0, f"{path}.cycle_s", self.cycle_s, "must be > 0")
+        require(not base.solver.adaptive, f"bases.{BASE}.solver.method",
+                str(base.solver.method), "study.tilt_check needs a fixed step (its order is "
+                "of dt)")
+        for dt in self.steps(base):
+            changes = self.changes(dt)
+            try:
+                vary(base, changes)
+            except ConfigError as e:
+                key = {"study.duration": "cycle_s", "phases.T": "cycle_s",
+                       "sphere.beta_deg": "beta_deg", "sphere.psi_deg": "psi_deg"}.get(
+                    e.key, "cycle_s")
+                raise ConfigError(f"{path}.{key}", getattr(self, key),
+                                  f"at dt = {dt:g} s: {e.key}={e.value!r}: {e.rule}") from None
+
+    @staticmethod
+    def steps(base: DynamicConfig) -> list[float]:
+        """The three steps: the base's dt, dt / 2, dt / 4."""
+        return [base.solver.dt / 2**h for h in range(3)]
+
+    def changes(self, dt: float) -> dict[str, Any]:
+        """The changes of the base for the run at dt."""
+        return {"sphere.beta_deg": self.beta_deg, "sphere.psi_deg": self.psi_deg,
+                "phases.T": self.cycle_s, "study.duration": self.cycle_s, "solver.dt": dt}
+
+
 @dataclass
 class En06Study:
-    """EN-06 parts 1-2: the strain the surfaces of EN-02 and EN-02R demand of the membrane,
-    the stress and fatigue it causes in each material, and the closed-form fatigue check."""
+    """EN-06: the strain the surfaces of EN-02 and EN-02R demand of the membrane, the stress
+    and fatigue it causes in each material, the closed-form fatigue check, the energy check
+    under tilt, and the tolerances of EN-02's transport."""
 
     id: str = MISSING
     title: str = ""
@@ -142,6 +394,8 @@ class En06Study:
     beyond: BeyondGrid = field(default_factory=BeyondGrid)
     fatigue: FatigueGrid = field(default_factory=FatigueGrid)
     fatigue_check: FatigueCheckConfig = field(default_factory=FatigueCheckConfig)
+    tolerances: TolerancesConfig = field(default_factory=TolerancesConfig)
+    tilt_check: TiltCheckConfig = field(default_factory=TiltCheckConfig)
 
     def check(self, path: str, Ka: int) -> None:
         """At least one surface and material, each valid; every grid within the limits."""
@@ -162,12 +416,28 @@ class En06Study:
 @dataclass
 class En06Config:
     """Root schema of EN-06 (docs/materials.md): one geometry, the surfaces' phases and the
-    materials under ``study``."""
+    materials under ``study``, and EN-02's full config (bases.en02, on the same geometry)
+    that the tolerance parts vary."""
 
     study: En06Study = field(default_factory=En06Study)
     geometry: GeometryConfig = field(default_factory=GeometryConfig)
+    bases: dict[str, DynamicConfig] = field(default_factory=dict)
 
     def check(self) -> None:
-        """Validate the geometry, then the study."""
+        """Validate the geometry, then the study, then the base (its errors named under
+        bases.en02) and the tolerance groups on it."""
         self.geometry.check("geometry")
         self.study.check("study", self.geometry.Ka)
+        require(BASE in self.bases, "bases", sorted(self.bases), f"needs the base {BASE!r}")
+        for name, base in self.bases.items():
+            try:
+                base.check()
+            except ConfigError as e:
+                raise ConfigError(f"bases.{name}.{e.key}", e.value, e.rule) from None
+        self.study.tolerances.check("study.tolerances", self.base)
+        self.study.tilt_check.check("study.tilt_check", self.base)
+
+    @property
+    def base(self) -> DynamicConfig:
+        """The EN-02 config the tolerance parts vary."""
+        return self.bases[BASE]
