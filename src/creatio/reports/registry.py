@@ -28,6 +28,7 @@ WRITERS: dict[str, str] = {
     "en04": "en04:write_report",
     "en05": "en05:write_report",
     "en06": "en06:write_report",
+    "en07": "en07:write_report",
     "work_precision": "work_precision:write_report",
     "stability_map": "stability_map:write_report",
     "boundaries": "boundaries:write_report",

@@ -60,12 +60,17 @@ SPHERE = Kind("sphere", "studies", "reports", (".json", ".md", ".html", ".png", 
 ANALYSIS = Kind("analysis", "benchmarks", "benchmarks", (".json", ".md", ".png"))
 #: EN-06: fields over the membrane from the prescribed surface (strain, stress, fatigue).
 MATERIAL = Kind("material", "studies", "reports", (".json", ".md", ".html", ".png",
-                                                   "_envelope.png", "_fatigue.png"))
+                                                   "_envelope.png", "_fatigue.png",
+                                                   "_tolerances.png"))
+#: EN-07: a microgravity demonstrator (similarity, platforms' requirements, host interfaces).
+DEMONSTRATOR = Kind("demonstrator", "studies", "reports", (".json", ".md", ".html", ".png",
+                                                           "_feasible.png", "_yaw.png"))
 UNCERTAINTY = Kind("uncertainty", "studies", "reports", (".json", ".md", ".png", "_sobol.csv",
                                                          "_calibration.png", "_design.png"))
 
 #: Every kind, by name.
-KINDS = {k.name: k for k in (KINEMATIC, SPHERE, ANALYSIS, UNCERTAINTY, MATERIAL)}
+KINDS = {k.name: k for k in (KINEMATIC, SPHERE, ANALYSIS, UNCERTAINTY, MATERIAL,
+                             DEMONSTRATOR)}
 
 
 def _one_part(study_id: str) -> Callable[[Any], list[Part]]:
@@ -197,6 +202,9 @@ STUDIES: dict[str, Study] = {
         # EN-06 (docs/materials.md): what the membrane must be made of; built by `beyond`
         Study("en06", MATERIAL, "creatio.studies.en06_schema:En06Config",
               "creatio.studies.en06:run", "creatio.studies.en06:parts", in_all=False),
+        # EN-07 (docs/aerospace.md): a microgravity demonstrator; built by `beyond`
+        Study("en07", DEMONSTRATOR, "creatio.studies.en07_schema:En07Config",
+              "creatio.studies.en07:run", "creatio.studies.en07:parts", in_all=False),
         # EN-05 (docs/studies.md): its own target, `snakemake en05`; its Sobol' sample runs as
         # batch jobs of the pipeline, its other parts as datasets
         Study("en05", UNCERTAINTY, "creatio.studies.en05_schema:En05Config",
@@ -228,10 +236,10 @@ def select(kind: str | None = None, in_all: bool | None = None) -> list[Study]:
 
 
 #: The kinds of study `snakemake beyond` builds (EN-05 and the analyses have targets of their own).
-BEYOND_KINDS = ("sphere", "material")
+BEYOND_KINDS = ("sphere", "material", "demonstrator")
 
 
 def beyond() -> list[Study]:
-    """The studies `snakemake beyond` builds: those outside `all` of the sphere and material
-    kinds, in registry order."""
+    """The studies `snakemake beyond` builds: those outside `all` of the sphere, material and
+    demonstrator kinds, in registry order."""
     return [s for s in select(in_all=False) if s.kind.name in BEYOND_KINDS]
