@@ -125,7 +125,7 @@ def main() -> None:
             f"{name}:\n    core median {med * 1e3:.1f} ms, min {min(core_times) * 1e3:.1f} ms; "
             f"simulate median {statistics.median(sim_times) * 1e3:.1f} ms, "
             f"min {min(sim_times) * 1e3:.1f} ms; {evals} RHS evals, "
-            f"{med / evals * 1e9:.0f} ns per RHS eval; status {res.status}"
+            f"{med / evals * 1e9:.0f} ns per RHS eval; status {res.counts.status}"
         )
 
 

@@ -38,7 +38,7 @@ def main() -> None:
     for study in args.studies.split(","):
         base = resolve(study, []).obj.sphere_problem().replace(energy=False)
         ref = simulate(base.replace(method="dop853", rtol=1e-13, atol=1e-15,
-                                    fixed_step=False)).X
+                                    fixed_step=False)).histories.X
         calls = []
         for name in args.methods.split(","):
             for thet in (float(v) for v in args.thet.split(",")):

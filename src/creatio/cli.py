@@ -140,18 +140,21 @@ def _run_plain(args: Sequence[str]) -> int:
     import logging.config
 
     from creatio.pipeline.config import resolve
-    from creatio.pipeline.run import run_resolved
+    from creatio.pipeline.run import figures_after, run_resolved
 
     logging.config.dictConfig(HYDRA_STDOUT_LOGGING)
     study, rest = _selected(args)
-    try:
-        run_resolved(resolve(study, rest))
+    try:  # the result is said, then the figures are drawn (CREATIO_FIGURES=now: before)
+        run_resolved(resolve(study, rest), figures="after" if figures_after() else "now")
     except (Exception, KeyboardInterrupt) as e:  # the Hydra app's one line (_run_task)
         if os.environ.get("CREATIO_DEBUG"):  # Ctrl-C too, in Python or in a compiled loop
             raise
         message, code = describe(e)
         print(f"creatio run: {message}", file=sys.stderr)
         return code
+    from creatio.pipeline.worker import autostart
+
+    autostart(["run", *args])  # no worker served this run: one warms up for the next
     return 0
 
 

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from creatio.dynamics.kinematics import centre_kinematics
-from creatio.model.laws import Law, law_eval
+from creatio.model.laws import Law, LawKind, law_eval
 from creatio.model.surface import Motion, Surface
 
 # Notebook geometry (docs/studies.md): R0 = 0.68, dR = 1.72, A = 0.18, Kr = 1, Ka = 6.
@@ -104,7 +104,24 @@ def _d(f, i: int, h: float):
 @pytest.mark.parametrize("case", list(CASES), ids=list(CASES))
 @pytest.mark.parametrize("point", POINTS)
 def test_centre_derivatives_match_central_differences(case: str, point: tuple) -> None:
-    laws = CASES[case]
+    check_against_differences(CASES[case], point)
+
+
+@pytest.mark.parametrize("kind", list(LawKind))
+def test_centre_kinematics_follow_a_phase_law_of_every_kind(kind: LawKind) -> None:
+    """The compiled kinematics read a phase law of each kind of the registry (every term of
+    the general form on, the step the kind's; a trapezoid's ramp 1/4): X and its derivatives
+    against central differences of the closed-form centre, at times inside the cycle away
+    from the step's kinks (0.5, 1.5, 2 s) and after it."""
+    laws = dict(CASES["gamma_varying"])
+    laws["law_a"] = Law(0.5, 0.47, -0.7, 2.0, 0.2, 0.9, kind=kind, ramp=0.25)
+    for point in ((0.3, 0.4, 0.37), (1.2, 2.5, 1.11), (1.7, 5.0, 1.7), (0.43, 0.5, 2.9)):
+        check_against_differences(laws, point)
+
+
+def check_against_differences(laws: dict, point: tuple) -> None:
+    """X, its first and second derivatives at point = (R, alpha, t) against 4th-order central
+    differences of :func:`centre_reference`, and n unit and normal to X_R and X_alpha."""
     R, alpha, t = point
     kin = _kin(laws, R, alpha, t)
 

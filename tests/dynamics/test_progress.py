@@ -28,10 +28,11 @@ def _stderr(capfd) -> list[str]:
 
 def _prefix_equal(short, full) -> None:
     """The stopped run's histories are the unbounded run's, row for row, bit for bit."""
-    n = short.t.size
-    assert n >= 2 and np.unique(short.t).size == n  # one row per time: no repeated stop row
+    t = short.histories.t
+    assert t.size >= 2 and np.unique(t).size == t.size  # one row per time: no repeated stop row
+    n = t.size
     for name in ("t", "X", "V", "omega", "N", "slip_speed"):
-        a, b = getattr(short, name), getattr(full, name)[:n]
+        a, b = getattr(short.histories, name), getattr(full.histories, name)[:n]
         assert np.array_equal(a[:-1], b[:-1]), name  # the last row is the stop's own state
 
 
@@ -45,23 +46,24 @@ def test_budget_stops_a_run_without_changing_its_steps(en02_problem: SphereProbl
     base = en02_problem.replace(method=method, t_end=3.0, rtol=1e-8, atol=1e-10)
     full = simulate(base)
     short = simulate(base.replace(max_rhs_evals=budget))
-    assert full.status == "ok" and full.rhs_evals > 2 * budget
-    assert short.status == "budget_exceeded" and 0.0 < short.stop_time < 3.0
+    assert full.counts.status == "ok" and full.counts.rhs_evals > 2 * budget
+    assert short.counts.status == "budget_exceeded" and 0.0 < short.counts.stop_time < 3.0
     # the check comes before each step try: at most one try (and the stop row) beyond it
-    assert budget <= short.rhs_evals <= budget + beyond
+    assert budget <= short.counts.rhs_evals <= budget + beyond
     _prefix_equal(short, full)
     err = _stderr(capfd)
     assert len(err) == 1 and err[0].startswith("creatio: stopped at t = ")
     assert f"budget of {budget:,} right-hand-side evaluations" in err[0]
-    assert err[0].removeprefix("creatio: ") in short.warnings
+    assert err[0].removeprefix("creatio: ") in short.counts.warnings
 
 
 def test_budget_bounds_the_flight_loop(capfd) -> None:
     """The hybrid loop (flight, docs/model.md s.11) has the same budget (set on the problem:
     the config refuses a fixed-step study whose steps alone exceed it)."""
     res = simulate(resolve("en02f").obj.drop_problem().replace(max_rhs_evals=3000))
-    assert res.status == "budget_exceeded" and res.flight
-    assert 3000 <= res.rhs_evals <= 3000 + 20 and np.unique(res.t).size == res.t.size
+    assert res.counts.status == "budget_exceeded" and res.events.flight
+    t = res.histories.t
+    assert 3000 <= res.counts.rhs_evals <= 3000 + 20 and np.unique(t).size == t.size
     assert len(_stderr(capfd)) == 1
 
 
@@ -69,7 +71,7 @@ def _collapse_line(capfd, res) -> str:
     """The one stderr line of a collapsed run, also among its warnings."""
     (line,) = _stderr(capfd)
     assert line.startswith("creatio: stopped at t = ") and "the step size collapsed" in line
-    assert line.removeprefix("creatio: ") in res.warnings
+    assert line.removeprefix("creatio: ") in res.counts.warnings
     return line
 
 
@@ -81,11 +83,12 @@ def test_a_stiff_regularisation_collapses_in_seconds_not_a_budget_later(capfd) -
     evaluations, one line naming sphere.eps and its slip relaxation time."""
     cfg = resolve("en02", ["sphere.eps=1e-9", "solver=radau5"]).obj
     res = simulate(cfg.sphere_problem())
-    assert res.status == "step_size_collapse"
+    assert res.counts.status == "step_size_collapse"
     # the sustained floor needs that many tries in a row; each costs evaluations
-    assert res.steps + res.rejected_steps > st.COLLAPSE_TRIES
-    assert res.rhs_evals < 50_000 and res.stop_time < 1e-3
-    assert np.unique(res.t).size == res.t.size and res.t[-1] == res.stop_time
+    assert res.counts.steps + res.counts.rejected_steps > st.COLLAPSE_TRIES
+    assert res.counts.rhs_evals < 50_000 and res.counts.stop_time < 1e-3
+    t = res.histories.t
+    assert np.unique(t).size == t.size and t[-1] == res.counts.stop_time
     line = _collapse_line(capfd, res)
     assert "t_end / solver.max_rhs_evals = 2.4e-06 s for 1,000 tries in a row" in line
     assert "likely cause: sphere.eps = 1e-09 m/s" in line
@@ -101,12 +104,12 @@ def test_a_long_run_prints_progress_lines(en02_problem: SphereProblem, capfd) ->
     res = simulate(en02_problem.replace(t_end=60.0, progress_interval=1e-9))
     lines = _stderr(capfd)
     # one look every 4096 step tries: 30,000 steps give 7 looks, the first starts the clock
-    assert res.status == "ok" and len(lines) == math.ceil(res.steps / 4096) - 1
+    assert res.counts.status == "ok" and len(lines) == math.ceil(res.counts.steps / 4096) - 1
     first = lines[0]
     assert first.startswith("creatio: t = ") and " of 60 s (" in first
     assert " 4096 steps, " in first and "% of the budget)" in first and "steps/s" in first
     quiet = simulate(en02_problem.replace(t_end=60.0))
-    assert quiet.rhs_evals == res.rhs_evals and capfd.readouterr().err == ""
+    assert quiet.counts.rhs_evals == res.counts.rhs_evals and capfd.readouterr().err == ""
 
 
 @pytest.mark.parametrize("value", [0, -5])
@@ -122,9 +125,10 @@ def test_a_run_failing_at_its_first_step_has_one_row(capfd) -> None:
     records its start once, not once as a sample and again as the stop (issue 28 class 8)."""
     cfg = resolve("en02", ["sphere.eps=1e-30", "solver=radau5"]).obj
     res = simulate(cfg.sphere_problem())
-    assert res.status == "step_size_collapse" and res.stop_time == 0.0 and res.steps == 0
-    assert res.rhs_evals < 1000
-    assert np.unique(res.t).size == res.t.size == 1
+    c = res.counts
+    assert c.status == "step_size_collapse" and c.stop_time == 0.0 and c.steps == 0
+    assert res.counts.rhs_evals < 1000
+    assert np.unique(res.histories.t).size == res.histories.t.size == 1
     line = _collapse_line(capfd, res)
     assert line.startswith("creatio: stopped at t = 0 of 120 s after 0 steps: ")
     assert "likely cause: sphere.eps = 1e-30 m/s" in line and "(raise sphere.eps)" in line

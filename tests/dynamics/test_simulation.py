@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -10,6 +11,7 @@ import pytest
 from creatio.dynamics import SphereProblem, UnstableStepError, simulate, stability_limit
 from creatio.dynamics import sphere as core
 from creatio.dynamics.kinematics import centre_kinematics
+from creatio.dynamics.layout import NEV
 from creatio.dynamics.solvers.tableaus import RK4_REAL_STABILITY
 from creatio.model.laws import Law
 
@@ -43,112 +45,140 @@ def en02r_pair(en02r_problem: SphereProblem):
 
 def test_en02_published_figures(en02_pair) -> None:
     res, half = en02_pair
-    assert res.status == "ok" and res.stop_time == 120.0 and res.steps == 60_000
-    assert res.rhs_evals == 4 * 60_000 + 1
-    assert len(res.t) == 1201 and res.t[-1] == pytest.approx(120.0, abs=1e-12)
-    displacement = math.degrees(res.azimuth[-1] - res.azimuth[0])
+    c = res.counts
+    assert c.status == "ok" and c.stop_time == 120.0 and c.steps == 60_000
+    assert c.rhs_evals == 4 * 60_000 + 1
+    h = res.histories
+    assert len(h.t) == 1201 and h.t[-1] == pytest.approx(120.0, abs=1e-12)
+    displacement = math.degrees(h.azimuth[-1] - h.azimuth[0])
     assert displacement == pytest.approx(-360.0, abs=1e-3)
-    assert round(float(np.hypot(*res.X[-1, :2])), 3) == 1.110
-    assert round(res.min_N, 3) == 9.810
-    timestep_difference = np.abs(res.X - half.X).max()
+    assert round(float(np.hypot(*res.histories.X[-1, :2])), 3) == 1.110
+    assert round(res.extrema.min_N, 3) == 9.810
+    timestep_difference = np.abs(res.histories.X - half.histories.X).max()
     assert timestep_difference <= 6.04e-11  # published upper bound
     assert timestep_difference < 1e-12  # exact derivatives: ~1e-13
-    assert res.max_energy_residual <= 1.48e-7
-    assert res.max_energy_residual < 1e-12
-    assert res.min_edge_clearance > 0.3 and res.max_b_kappa < 1.0
-    np.testing.assert_allclose(res.cavity_R, 0.43, atol=1e-12)
+    assert res.extrema.max_energy_residual <= 1.48e-7
+    assert res.extrema.max_energy_residual < 1e-12
+    assert res.extrema.min_edge_clearance > 0.3 and res.extrema.max_b_kappa < 1.0
+    np.testing.assert_allclose(res.histories.cavity_R, 0.43, atol=1e-12)
 
 
 def test_en02r_transport(en02r_pair) -> None:
     res, half = en02r_pair
-    assert res.status == "ok"
-    assert math.degrees(res.azimuth[-1] - res.azimuth[0]) == pytest.approx(360.0, abs=1e-3)
-    assert np.hypot(*res.X[0, :2]) == pytest.approx(1.11, abs=1e-12)
-    assert np.hypot(*res.X[-1, :2]) == pytest.approx(1.97, abs=1e-4)
-    s = res.t / 120.0
-    np.testing.assert_allclose(res.cavity_R, 0.43 + 0.86 * s**3 * (10 - 15 * s + 6 * s**2))
-    assert res.max_cavity_tracking_error < 2e-3
-    assert np.abs(res.R - res.cavity_R).max() <= res.max_cavity_tracking_error
-    assert 0.0 < res.min_edge_clearance <= 0.31
-    assert np.abs(res.X - half.X).max() < 1e-12
-    assert res.max_energy_residual < 1e-12
+    h = res.histories
+    assert res.counts.status == "ok"
+    assert math.degrees(h.azimuth[-1] - h.azimuth[0]) == pytest.approx(360.0, abs=1e-3)
+    assert np.hypot(*h.X[0, :2]) == pytest.approx(1.11, abs=1e-12)
+    assert np.hypot(*h.X[-1, :2]) == pytest.approx(1.97, abs=1e-4)
+    s = h.t / 120.0
+    np.testing.assert_allclose(h.cavity_R, 0.43 + 0.86 * s**3 * (10 - 15 * s + 6 * s**2))
+    assert res.extrema.max_cavity_tracking_error < 2e-3
+    assert np.abs(h.R - h.cavity_R).max() <= res.extrema.max_cavity_tracking_error
+    assert 0.0 < res.extrema.min_edge_clearance <= 0.31
+    assert np.abs(h.X - half.histories.X).max() < 1e-12
+    assert res.extrema.max_energy_residual < 1e-12
 
 
 def test_extrema_cover_every_step(en02_pair) -> None:
     res, _ = en02_pair
-    assert res.min_N <= res.N.min() and res.max_N >= res.N.max()
-    assert res.max_slip_speed >= res.slip_speed.max()
-    assert res.max_energy_residual >= np.abs(res.energy_residual).max()
+    h = res.histories
+    assert res.extrema.min_N <= h.N.min() and res.extrema.max_N >= h.N.max()
+    assert res.extrema.max_slip_speed >= h.slip_speed.max()
+    assert res.extrema.max_energy_residual >= np.abs(h.energy_residual).max()
+
+
+def test_result_records_hold_every_history_row_for_row(en02_pair) -> None:
+    """Every history has one row per output time at its width (vectors 3, the quaternion 4);
+    off the structure path its histories are NaN and the world azimuth is the structure
+    frame's; a run without flight has an empty event table and never left its cavity."""
+    res, _ = en02_pair
+    h = res.histories
+    n = h.t.size
+    widths = {"X": 3, "V": 3, "f": 3, "omega": 3, "marker": 3, "Q": 4}
+    for f in dataclasses.fields(h):
+        shape = (n, widths[f.name]) if f.name in widths else (n,)
+        assert getattr(h, f.name).shape == shape, f.name
+    for name in ("theta", "theta_rate", "hz_structure", "hz_orbital", "hz_spin",
+                 "confinement_work"):  # fmt: skip
+        assert np.isnan(getattr(h, name)).all(), name
+    np.testing.assert_array_equal(h.world_azimuth, h.azimuth)
+    assert not res.counts.structure_free and np.isnan(res.extrema.max_hz_drift)
+    assert res.events.table.shape == (0, NEV) and not res.events.flight
+    assert math.isnan(res.events.left_cavity_time) and res.carried
 
 
 def test_newton_identity_on_running_state(lively: SphereProblem) -> None:
     """m (X'' - g) = N n + f, I omega' = (-b n) x f, m' = omega x m, from differences."""
     h = 2.5e-4
     res = simulate(lively.replace(dt=h, interval=h))
-    assert res.status == "ok" and res.max_slip_speed > 0.1 and not res.warnings
-    assert res.slip_speed[20] > 0.05 and res.slip_speed[2800] < 0.01
+    r = res.histories
+    assert res.counts.status == "ok" and res.extrema.max_slip_speed > 0.1
+    assert not res.counts.warnings
+    assert r.slip_speed[20] > 0.05 and r.slip_speed[2800] < 0.01
     sphere = lively.model.sphere
     inertia = 0.4 * sphere.m * sphere.b**2
     for i in (20, 2800, 6000):  # sliding (|v_s| >> eps) at 5 ms, then near rolling
-        acc = (-res.X[i - 2] + 16 * res.X[i - 1] - 30 * res.X[i] + 16 * res.X[i + 1]
-               - res.X[i + 2]) / (12 * h * h)  # fmt: skip
-        n = _kin(lively, res.R[i], res.alpha[i], res.t[i])["n"]
-        np.testing.assert_allclose(sphere.m * (acc - GRAVITY), res.N[i] * n + res.f[i], atol=1e-6)
-        dw = (res.omega[i - 2] - 8 * res.omega[i - 1] + 8 * res.omega[i + 1]
-              - res.omega[i + 2]) / (12 * h)  # fmt: skip
-        np.testing.assert_allclose(inertia * dw, np.cross(-sphere.b * n, res.f[i]), atol=1e-7)
+        acc = (-r.X[i - 2] + 16 * r.X[i - 1] - 30 * r.X[i] + 16 * r.X[i + 1]
+               - r.X[i + 2]) / (12 * h * h)  # fmt: skip
+        n = _kin(lively, r.R[i], r.alpha[i], r.t[i])["n"]
+        np.testing.assert_allclose(sphere.m * (acc - GRAVITY), r.N[i] * n + r.f[i], atol=1e-6)
+        dw = (r.omega[i - 2] - 8 * r.omega[i - 1] + 8 * r.omega[i + 1]
+              - r.omega[i + 2]) / (12 * h)  # fmt: skip
+        np.testing.assert_allclose(inertia * dw, np.cross(-sphere.b * n, r.f[i]), atol=1e-7)
         # the body marker turns with the world-frame omega: dm/dt = omega x m
-        dm = (res.marker[i - 2] - 8 * res.marker[i - 1] + 8 * res.marker[i + 1]
-              - res.marker[i + 2]) / (12 * h)  # fmt: skip
-        np.testing.assert_allclose(dm, np.cross(res.omega[i], res.marker[i]), atol=1e-8)
+        dm = (r.marker[i - 2] - 8 * r.marker[i - 1] + 8 * r.marker[i + 1]
+              - r.marker[i + 2]) / (12 * h)  # fmt: skip
+        np.testing.assert_allclose(dm, np.cross(r.omega[i], r.marker[i]), atol=1e-8)
         # friction is tangential, bounded by mu N, and opposes the slip
-        assert abs(res.f[i] @ n) < 1e-12
-        assert np.linalg.norm(res.f[i]) <= sphere.mu * res.N[i]
-        vel = (res.X[i - 2] - 8 * res.X[i - 1] + 8 * res.X[i + 1] - res.X[i + 2]) / (12 * h)
-        np.testing.assert_allclose(res.V[i], vel, atol=1e-9)
+        assert abs(r.f[i] @ n) < 1e-12
+        assert np.linalg.norm(r.f[i]) <= sphere.mu * r.N[i]
+        vel = (r.X[i - 2] - 8 * r.X[i - 1] + 8 * r.X[i + 1] - r.X[i + 2]) / (12 * h)
+        np.testing.assert_allclose(r.V[i], vel, atol=1e-9)
 
 
 def test_energy_balance_converges_at_fourth_order(lively: SphereProblem) -> None:
     coarse = simulate(lively.replace(dt=2e-3, interval=2e-3))
+    hc = coarse.histories
     fine = simulate(lively)
-    assert coarse.friction_dissipation[-1] > 1e-3 and abs(coarse.surface_work[-1]) > 1e-2
+    assert hc.friction_dissipation[-1] > 1e-3 and abs(hc.surface_work[-1]) > 1e-2
     np.testing.assert_allclose(
-        coarse.energy_residual,
-        coarse.energy - coarse.energy[0] - coarse.surface_work + coarse.friction_dissipation,
+        hc.energy_residual,
+        hc.energy - hc.energy[0] - hc.surface_work + hc.friction_dissipation,
         atol=1e-15,
     )
-    np.testing.assert_allclose(coarse.energy, coarse.kinetic + coarse.potential)
-    assert fine.max_energy_residual < 1e-6
-    assert coarse.max_energy_residual / fine.max_energy_residual > 10.0  # ~2^4
+    np.testing.assert_allclose(hc.energy, hc.kinetic + hc.potential)
+    assert fine.extrema.max_energy_residual < 1e-6
+    assert coarse.extrema.max_energy_residual / fine.extrema.max_energy_residual > 10.0  # ~2^4
 
 
 def test_frictionless_no_spin_and_auto_rotation_off(en02_problem: SphereProblem) -> None:
     p = en02_problem.replace(mu=0.0, t_end=20.0)
     auto = simulate(p)
-    assert not auto.rotation_integrated and auto.energy_integrated
-    assert np.all(auto.omega == 0.0) and np.all(auto.cumulative_spin == 0.0)
-    np.testing.assert_array_equal(auto.Q, np.tile([1.0, 0.0, 0.0, 0.0], (len(auto.t), 1)))
-    np.testing.assert_array_equal(auto.marker, np.tile([0.0, 0.0, 1.0], (len(auto.t), 1)))
+    h = auto.histories
+    assert not auto.counts.rotation_integrated and auto.counts.energy_integrated
+    assert np.all(h.omega == 0.0) and np.all(h.cumulative_spin == 0.0)
+    np.testing.assert_array_equal(h.Q, np.tile([1.0, 0.0, 0.0, 0.0], (len(h.t), 1)))
+    np.testing.assert_array_equal(h.marker, np.tile([0.0, 0.0, 1.0], (len(h.t), 1)))
     forced = simulate(p.replace(rotation=True))
-    assert forced.rotation_integrated
-    assert np.all(forced.omega == 0.0) and np.all(forced.cumulative_spin == 0.0)
-    np.testing.assert_array_equal(forced.marker[-1], [0.0, 0.0, 1.0])
-    np.testing.assert_allclose(forced.X, auto.X, rtol=0, atol=1e-15)
-    assert np.all(forced.slip_speed[1:] > 0.0)  # it slides: the pattern moves under it
-    assert forced.max_energy_residual < 1e-12
+    assert forced.counts.rotation_integrated
+    assert np.all(forced.histories.omega == 0.0) and np.all(forced.histories.cumulative_spin == 0.0)
+    np.testing.assert_array_equal(forced.histories.marker[-1], [0.0, 0.0, 1.0])
+    np.testing.assert_allclose(forced.histories.X, h.X, rtol=0, atol=1e-15)
+    assert np.all(forced.histories.slip_speed[1:] > 0.0)  # it slides: the pattern moves under it
+    assert forced.extrema.max_energy_residual < 1e-12
 
 
 def test_trajectory_only_matches_full_run_when_frictionless(en02_problem: SphereProblem) -> None:
     p = en02_problem.replace(mu=0.0, t_end=30.0)
     full = simulate(p.replace(rotation=True, energy=True))
     bare = simulate(p.replace(rotation=False, energy=False))
-    assert not bare.rotation_integrated and not bare.energy_integrated
-    np.testing.assert_allclose(bare.X, full.X, rtol=0, atol=1e-15)
-    np.testing.assert_allclose(bare.N, full.N, rtol=0, atol=1e-13)
-    assert np.isnan(bare.max_energy_residual)
+    assert not bare.counts.rotation_integrated and not bare.counts.energy_integrated
+    np.testing.assert_allclose(bare.histories.X, full.histories.X, rtol=0, atol=1e-15)
+    np.testing.assert_allclose(bare.histories.N, full.histories.N, rtol=0, atol=1e-13)
+    assert np.isnan(bare.extrema.max_energy_residual)
     for name in ("kinetic", "potential", "energy", "surface_work", "friction_dissipation",
                  "energy_residual"):  # fmt: skip
-        assert np.all(np.isnan(getattr(bare, name)))
+        assert np.all(np.isnan(getattr(bare.histories, name)))
 
 
 def test_rotation_false_refused_with_friction(en02_problem: SphereProblem) -> None:
@@ -161,26 +191,28 @@ def test_quaternion_and_marker_follow_a_free_spin(en02_problem: SphereProblem) -
     w = 3.0
     p = en02_problem.replace(mu=0.0, omega=(w, 0.0, 0.0), t_end=10.0)
     res = simulate(p)
-    assert res.rotation_integrated
-    half = 0.5 * w * res.t
+    h = res.histories
+    assert res.counts.rotation_integrated
+    half = 0.5 * w * h.t
     zero = np.zeros_like(half)
-    np.testing.assert_allclose(res.Q, np.stack([np.cos(half), np.sin(half), zero, zero], 1),
+    np.testing.assert_allclose(h.Q, np.stack([np.cos(half), np.sin(half), zero, zero], 1),
                                atol=1e-9)  # fmt: skip
-    np.testing.assert_allclose(res.marker, np.stack([zero, -np.sin(2 * half), np.cos(2 * half)], 1),
+    np.testing.assert_allclose(h.marker, np.stack([zero, -np.sin(2 * half), np.cos(2 * half)], 1),
                                atol=1e-9)  # fmt: skip
-    np.testing.assert_allclose(res.cumulative_spin, w * res.t, rtol=1e-12)
+    np.testing.assert_allclose(h.cumulative_spin, w * h.t, rtol=1e-12)
 
 
 def test_quaternion_stays_unit(en02_pair) -> None:
     res, _ = en02_pair
-    np.testing.assert_allclose(np.linalg.norm(res.Q, axis=1), 1.0, atol=1e-15)
-    np.testing.assert_allclose(np.linalg.norm(res.marker, axis=1), 1.0, atol=1e-14)
-    assert res.cumulative_spin[-1] > 10.0 and np.all(np.diff(res.cumulative_spin) >= 0.0)
+    h = res.histories
+    np.testing.assert_allclose(np.linalg.norm(h.Q, axis=1), 1.0, atol=1e-15)
+    np.testing.assert_allclose(np.linalg.norm(h.marker, axis=1), 1.0, atol=1e-14)
+    assert h.cumulative_spin[-1] > 10.0 and np.all(np.diff(h.cumulative_spin) >= 0.0)
 
 
 def test_output_sampling_and_interval_validation(en02_problem: SphereProblem) -> None:
     res = simulate(en02_problem.replace(t_end=1.05, interval=0.1))
-    np.testing.assert_allclose(res.t, np.r_[np.arange(11) * 0.1, 1.05], atol=1e-12)
+    np.testing.assert_allclose(res.histories.t, np.r_[np.arange(11) * 0.1, 1.05], atol=1e-12)
     with pytest.raises(ValueError, match=r"interval = 0\.101 s is not .* dt = 0\.002"):
         en02_problem.replace(interval=0.101)
     with pytest.raises(ValueError, match="t_end"):
@@ -219,7 +251,7 @@ def test_unstable_step_refused_with_a_useful_message(en02_problem: SphereProblem
     for word in ("mu = 0.15", "eps = 0.01", "dt = 0.005", f"{limit:.6g}"):
         assert word in message
     res = simulate(en02_problem.replace(dt=0.005, t_end=1.0, allow_unstable=True))
-    assert res.status == "ok" and any("allow_unstable" in w for w in res.warnings)
+    assert res.counts.status == "ok" and any("allow_unstable" in w for w in res.counts.warnings)
 
 
 def test_runs_beyond_the_limit_chatter(en02_problem: SphereProblem) -> None:
@@ -227,33 +259,35 @@ def test_runs_beyond_the_limit_chatter(en02_problem: SphereProblem) -> None:
     ref = simulate(short.replace(dt=0.0005))
     true_limit = stability_limit(en02_problem) * 1.25  # without the a-priori margin, N = m g
     below = simulate(short.replace(dt=0.004))  # 0.92 x stability_limit
-    assert not below.warnings
-    assert below.max_slip_speed == pytest.approx(ref.max_slip_speed, rel=1e-3)
-    assert np.abs(below.X - ref.X).max() < 1e-10
+    assert not below.counts.warnings
+    assert below.extrema.max_slip_speed == pytest.approx(ref.extrema.max_slip_speed, rel=1e-3)
+    assert np.abs(below.histories.X - ref.histories.X).max() < 1e-10
     for dt in (0.006, 0.008):  # 1.11 and 1.48 x the limit at N = m g
         assert dt > 1.1 * true_limit
         above = simulate(short.replace(dt=dt, allow_unstable=True))
-        assert above.warnings
-        assert above.max_slip_speed > 100 * ref.max_slip_speed  # chatter at the eps scale
-        assert np.abs(above.X - ref.X).max() > 1e-6
+        assert above.counts.warnings
+        # chatter at the eps scale
+        assert above.extrema.max_slip_speed > 100 * ref.extrema.max_slip_speed
+        assert np.abs(above.histories.X - ref.histories.X).max() > 1e-6
 
 
 # ---------------------------------------------------------------- stop conditions
 
 
 def _assert_stopped(res, status: str) -> None:
-    assert res.status == status
-    assert res.t[-1] == res.stop_time
-    assert res.steps == round(res.stop_time / res.dt)
-    assert res.rhs_evals == 4 * res.steps + 1
+    assert res.counts.status == status
+    assert res.histories.t[-1] == res.counts.stop_time
+    assert res.counts.steps == round(res.counts.stop_time / res.counts.dt)
+    assert res.counts.rhs_evals == 4 * res.counts.steps + 1
 
 
 def test_stop_contact_lost_on_a_fast_cycle(en02_problem: SphereProblem) -> None:
     fast = Law.quintic(0.0, 12 * math.pi, 1.0)
     res = simulate(en02_problem.replace(phi_a=fast, t_end=1.0))
+    h = res.histories
     _assert_stopped(res, "contact_lost")
-    assert 0.0 < res.stop_time < 1.0 and res.N[-1] <= 0.0 and np.all(res.N[:-1] > 0.0)
-    assert res.min_N <= 0.0
+    assert 0.0 < res.counts.stop_time < 1.0 and h.N[-1] <= 0.0 and np.all(h.N[:-1] > 0.0)
+    assert res.extrema.min_N <= 0.0
 
 
 def test_stop_offset_singular_when_cavity_too_tight(en02_problem: SphereProblem) -> None:
@@ -261,24 +295,24 @@ def test_stop_offset_singular_when_cavity_too_tight(en02_problem: SphereProblem)
     # grows until b kappa reaches 1
     res = simulate(en02_problem.replace(phi_r=Law.quintic(0.0, math.pi, 10.0), t_end=10.0))
     _assert_stopped(res, "offset_singular")
-    assert 1.0 < res.stop_time < 10.0 and 1.0 <= res.max_b_kappa < 1.01
+    assert 1.0 < res.counts.stop_time < 10.0 and 1.0 <= res.extrema.max_b_kappa < 1.01
     big = simulate(en02_problem.replace(b=0.2))  # b A Ka^2 / rho^2 = 1.05 at the start
     _assert_stopped(big, "offset_singular")
-    assert big.stop_time == 0.0 and len(big.t) == 1
+    assert big.counts.stop_time == 0.0 and len(big.histories.t) == 1
 
 
 def test_stop_edge_crossed_and_left_annulus(en02_problem: SphereProblem) -> None:
     flat = en02_problem.replace(A=0.0, mu=0.0, t_end=1.0)  # a flat annulus: N = m g
     edge = simulate(flat.replace(R=0.501, Rdot=-1.0))
     _assert_stopped(edge, "edge_crossed")  # envelope reaches R = 0 once R < b = 0.12
-    assert edge.stop_time == pytest.approx(0.382, abs=1e-9) and edge.R[-1] > 0.0
-    assert edge.min_edge_clearance < 0.0
+    assert edge.counts.stop_time == pytest.approx(0.382, abs=1e-9) and edge.histories.R[-1] > 0.0
+    assert edge.extrema.min_edge_clearance < 0.0
     jump = simulate(flat.replace(R=0.2, Rdot=-1.0, dt=0.25, interval=0.25))  # fmt: skip
     _assert_stopped(jump, "left_annulus")
-    assert jump.stop_time == 0.25 and jump.R[-1] < 0.0
+    assert jump.counts.stop_time == 0.25 and jump.histories.R[-1] < 0.0
     outside = simulate(en02_problem.replace(R=1.75, mu=0.0))
     _assert_stopped(outside, "left_annulus")
-    assert outside.stop_time == 0.0
+    assert outside.counts.stop_time == 0.0
 
 
 def test_stop_non_finite_at_a_huge_step(en02_problem: SphereProblem) -> None:
@@ -287,9 +321,9 @@ def test_stop_non_finite_at_a_huge_step(en02_problem: SphereProblem) -> None:
                              allow_unstable=True)
     res = simulate(p)
     _assert_stopped(res, "non_finite")
-    assert res.stop_time == dt and res.steps == 1
-    assert res.warnings and not np.all(np.isfinite(res.X[-1]))
-    assert np.all(np.isfinite(res.X[0]))
+    assert res.counts.stop_time == dt and res.counts.steps == 1
+    assert res.counts.warnings and not np.all(np.isfinite(res.histories.X[-1]))
+    assert np.all(np.isfinite(res.histories.X[0]))
 
 
 def test_cosine_ramp_pattern_runs_at_the_scheme_order() -> None:
@@ -304,7 +338,7 @@ def test_cosine_ramp_pattern_runs_at_the_scheme_order() -> None:
     cfg = resolve("en02", ["phases.a.kind=cosine_ramp", "phases.T=30", "study.duration=30"]).obj
     assert cfg.phases.a.to_law(cfg.phases.T).kind.value == "cosine_ramp"
     runs = [simulate(cfg.sphere_problem(dt)) for dt in (0.004, 0.002, 0.001)]
-    assert all(r.status == "ok" for r in runs)
-    d1 = np.abs(runs[0].X - runs[1].X).max()
-    d2 = np.abs(runs[1].X - runs[2].X).max()
+    assert all(r.counts.status == "ok" for r in runs)
+    d1 = np.abs(runs[0].histories.X - runs[1].histories.X).max()
+    d2 = np.abs(runs[1].histories.X - runs[2].histories.X).max()
     assert 14.0 < d1 / d2 < 18.0, d1 / d2

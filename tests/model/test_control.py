@@ -80,23 +80,23 @@ def test_energy_residual_rk4_order(base) -> None:
     ctl = _controller(base, 0.5, 20.0)
     coarse = _run(base, ctl, 0.002)
     fine = _run(base, ctl, 0.001)
-    assert coarse.status == fine.status == "ok"
-    assert abs(coarse.alpha[-1] - ctl.alpha0) > 1.0  # it travelled
-    ratio = coarse.max_energy_residual / fine.max_energy_residual
+    assert coarse.counts.status == fine.counts.status == "ok"
+    assert abs(coarse.histories.alpha[-1] - ctl.alpha0) > 1.0  # it travelled
+    ratio = coarse.extrema.max_energy_residual / fine.extrema.max_energy_residual
     assert 14.0 < ratio < 19.0
-    assert coarse.max_energy_residual < 1e-8
+    assert coarse.extrema.max_energy_residual < 1e-8
     # the recorded phase rate is the state's, and the work is not zero: the actuator works
-    assert np.all(np.isfinite(coarse.phi_a_rate))
-    assert abs(coarse.surface_work[-1]) > 1e-4
+    assert np.all(np.isfinite(coarse.histories.phi_a_rate))
+    assert abs(coarse.histories.surface_work[-1]) > 1e-4
 
 
 def test_zero_lead_limit_keeps_the_sphere_at_its_bottom(base) -> None:
     """delta_max = 0 commands the cavity onto the sphere: it never leaves the bottom it
     starts at (the start is the cavity bottom, at rest)."""
     res = _run(base, _controller(base, 3.0, 0.0), 0.002)
-    assert res.status == "ok" and res.carried
-    assert np.max(np.abs(res.alpha - res.alpha[0])) < 1e-9
-    assert np.max(np.abs(res.R - res.R[0])) < 1e-9
+    assert res.counts.status == "ok" and res.carried
+    assert np.max(np.abs(res.histories.alpha - res.histories.alpha[0])) < 1e-9
+    assert np.max(np.abs(res.histories.R - res.histories.R[0])) < 1e-9
 
 
 @pytest.mark.parametrize("method", ["dopri5", "dop853"])
@@ -104,10 +104,10 @@ def test_adaptive_methods_agree_with_rk4(base, method: str) -> None:
     ctl = _controller(base, 1.5, 10.0)
     ref = _run(base, ctl, 0.0005, t_end=4.0)
     res = _run(base, ctl, 0.001, t_end=4.0, method=method, rtol=1e-10, atol=1e-12)
-    assert res.status == ref.status == "ok"
-    assert np.max(np.abs(res.alpha - ref.alpha)) < 1e-7
-    assert np.max(np.abs(res.phi_a - ref.phi_a)) < 1e-6
-    assert res.max_energy_residual < 1e-8
+    assert res.counts.status == ref.counts.status == "ok"
+    assert np.max(np.abs(res.histories.alpha - ref.histories.alpha)) < 1e-7
+    assert np.max(np.abs(res.histories.phi_a - ref.histories.phi_a)) < 1e-6
+    assert res.extrema.max_energy_residual < 1e-8
 
 
 @pytest.mark.parametrize(("field", "value"), [
@@ -137,7 +137,7 @@ def test_trapezoid_law_converges_at_rk4_order() -> None:
     cfg = resolve("en02", ["phases.T=30", "phases.a.kind=trapezoid",
                            "phases.a.rate=115.2"]).obj
     prob = cfg.sphere_problem()
-    X = {dt: simulate(prob.replace(dt=dt, interval=0.1, t_end=30.0)).X
+    X = {dt: simulate(prob.replace(dt=dt, interval=0.1, t_end=30.0)).histories.X
          for dt in (0.002, 0.001, 0.0005)}
     d1 = np.max(np.linalg.norm(X[0.002] - X[0.001], axis=1))
     d2 = np.max(np.linalg.norm(X[0.001] - X[0.0005], axis=1))

@@ -36,7 +36,7 @@ def drop(e: float, h: float = 0.1, mu: float = 0.0, **kw) -> SphereProblem:
 
 
 def impacts(res) -> np.ndarray:
-    return res.events[res.events[:, EV_KIND] == EV_IMPACT]
+    return res.events.table[res.events.table[:, EV_KIND] == EV_IMPACT]
 
 
 @pytest.fixture(scope="module")
@@ -46,18 +46,18 @@ def bouncing():
 
 def test_first_impact_time_and_apex_ratio(bouncing) -> None:
     imp = impacts(bouncing)
-    assert bouncing.status == "ok"
+    assert bouncing.counts.status == "ok"
     assert abs(imp[0, EV_T] - math.sqrt(2 * 0.1 / 9.81)) < 1e-9
     heights = imp[:6, EV_HEIGHT]
     assert np.allclose(heights[1:] / heights[:-1], 0.25, rtol=1e-8, atol=0.0)
     # the sequence ends in contact once the rebound is below the resumption speed
-    assert bouncing.events[-1, EV_KIND] == 2
-    assert not bouncing.ends_in_flight
+    assert bouncing.events.table[-1, EV_KIND] == 2
+    assert not bouncing.events.ends_in_flight
 
 
 def test_drop_has_no_spin_and_balance_closes(bouncing) -> None:
-    assert np.abs(bouncing.omega).max() < 1e-12  # rounding of v_s in the final contact
-    assert bouncing.max_energy_residual < 1e-12
+    assert np.abs(bouncing.histories.omega).max() < 1e-12  # rounding of v_s in the final contact
+    assert bouncing.extrema.max_energy_residual < 1e-12
     # the losses: (1 - e^2) of the kinetic energy at each impact, m g h in total at the end
     total = impacts(bouncing)[:, EV_LOSS].sum()
     assert total == pytest.approx(9.81 * 0.1, rel=1e-6)
@@ -67,9 +67,9 @@ def test_elastic_frictionless_drop_loses_nothing() -> None:
     res = simulate(drop(1.0, h=0.05, t_end=0.5))
     imp = impacts(res)
     assert len(imp) >= 2
-    assert np.abs(res.events[:, EV_LOSS]).max() < 1e-12
+    assert np.abs(res.events.table[:, EV_LOSS]).max() < 1e-12
     assert np.allclose(imp[:, EV_HEIGHT], 0.05, rtol=1e-9)
-    assert res.max_energy_residual < 1e-12
+    assert res.extrema.max_energy_residual < 1e-12
 
 
 @pytest.mark.parametrize("X, guess", [
@@ -103,16 +103,16 @@ def test_contact_lost_without_flight_and_ok_with(fling: SphereProblem) -> None:
     """Flight takes the run past the contact_lost stop: separation, impact, contact."""
     off = simulate(fling)
     on = simulate(fling.replace(flight=True))
-    assert off.status == "contact_lost"
-    assert on.status == "ok" and on.stop_time == fling.output.t_end
-    assert list(on.events[:, EV_KIND]) == [0, 1, 2]
-    assert on.events[0, EV_T] == pytest.approx(off.stop_time, abs=fling.solver.dt)
+    assert off.counts.status == "contact_lost"
+    assert on.counts.status == "ok" and on.counts.stop_time == fling.output.t_end
+    assert list(on.events.table[:, EV_KIND]) == [0, 1, 2]
+    assert on.events.table[0, EV_T] == pytest.approx(off.counts.stop_time, abs=fling.solver.dt)
     # before the first separation the hybrid loop is the driver, bit for bit
-    n = int(np.searchsorted(off.t, on.events[0, EV_T]))
+    n = int(np.searchsorted(off.histories.t, on.events.table[0, EV_T]))
     assert n > 10
-    assert np.array_equal(on.X[:n], off.X[:n])
-    assert np.array_equal(on.omega[:n], off.omega[:n])
-    assert np.array_equal(on.energy_residual[:n], off.energy_residual[:n])
+    assert np.array_equal(on.histories.X[:n], off.histories.X[:n])
+    assert np.array_equal(on.histories.omega[:n], off.histories.omega[:n])
+    assert np.array_equal(on.histories.energy_residual[:n], off.histories.energy_residual[:n])
 
 
 def test_flight_energy_balance_closes_with_losses(fling: SphereProblem) -> None:
@@ -121,9 +121,9 @@ def test_flight_energy_balance_closes_with_losses(fling: SphereProblem) -> None:
     res = []
     for dt in (0.001, 0.0005):
         on = simulate(fling.replace(flight=True, restitution=0.5, dt=dt))
-        assert on.status == "ok"
-        assert np.sum(on.events[:, EV_KIND] == EV_IMPACT) > 5
-        res.append(on.max_energy_residual)
+        assert on.counts.status == "ok"
+        assert np.sum(on.events.table[:, EV_KIND] == EV_IMPACT) > 5
+        res.append(on.extrema.max_energy_residual)
     assert res[1] < res[0] / 8 and res[1] < 1e-7
 
 
@@ -131,7 +131,7 @@ def test_separation_time_converges_at_fourth_order(fling: SphereProblem) -> None
     times = []
     for dt in (0.004, 0.002, 0.001):
         res = simulate(fling.replace(flight=True, dt=dt, t_end=1.6))
-        times.append(res.events[0, EV_T])
+        times.append(res.events.table[0, EV_T])
     d1 = abs(times[0] - times[1])
     d2 = abs(times[1] - times[2])
     assert d2 < d1
@@ -150,14 +150,15 @@ def test_flight_disabled_is_the_released_en02(en02_problem: SphereProblem) -> No
     from creatio.store.netcdf import read_dataset
 
     a = simulate(en02_problem)
-    assert a.events.shape == (0, 11) and not a.flight
+    assert a.events.table.shape == (0, 11) and not a.events.flight
     released, _ = read_dataset(RELEASED_EN02)
     centre = released["centre"].values
-    assert centre.shape == a.X.shape
-    assert np.max(np.abs(centre - a.X)) <= 1e-12
-    assert np.max(np.abs(released["omega"].values - a.omega)) <= 1e-12
+    assert centre.shape == a.histories.X.shape
+    assert np.max(np.abs(centre - a.histories.X)) <= 1e-12
+    assert np.max(np.abs(released["omega"].values - a.histories.omega)) <= 1e-12
     b = simulate(en02_problem.replace(restitution=0.7, impact_cap=5.0))
-    assert np.array_equal(a.X, b.X) and np.array_equal(a.energy_residual, b.energy_residual)
+    ha, hb = a.histories, b.histories
+    assert np.array_equal(ha.X, hb.X) and np.array_equal(ha.energy_residual, hb.energy_residual)
 
 
 def test_flight_settings_refused() -> None:
@@ -176,9 +177,9 @@ def test_adaptive_method_locates_the_same_events(fling: SphereProblem) -> None:
     assert abs(impacts(d)[0, EV_T] - math.sqrt(2 * 0.1 / 9.81)) < 1e-9
     rk = simulate(fling.replace(flight=True, dt=0.0005))
     dp = simulate(fling.replace(flight=True, method="dopri5", rtol=1e-10, atol=1e-12))
-    assert dp.status == "ok"
-    assert list(dp.events[:, EV_KIND]) == list(rk.events[:, EV_KIND])
-    assert np.abs(dp.events[:, EV_T] - rk.events[:, EV_T]).max() < 1e-7
+    assert dp.counts.status == "ok"
+    assert list(dp.events.table[:, EV_KIND]) == list(rk.events.table[:, EV_KIND])
+    assert np.abs(dp.events.table[:, EV_T] - rk.events.table[:, EV_T]).max() < 1e-7
 
 
 def test_impact_cap_turns_bounces_into_contact() -> None:
@@ -186,8 +187,8 @@ def test_impact_cap_turns_bounces_into_contact() -> None:
     free = simulate(drop(0.9, h=0.02))
     capped = simulate(drop(0.9, h=0.02, impact_cap=5.0))
     assert len(impacts(capped)) < len(impacts(free))
-    assert capped.events[-1, EV_KIND] == 2 and abs(capped.events[-1, 2]) > 1e-4
-    assert capped.max_energy_residual < 1e-12
+    assert capped.events.table[-1, EV_KIND] == 2 and abs(capped.events.table[-1, 2]) > 1e-4
+    assert capped.extrema.max_energy_residual < 1e-12
 
 
 def test_en02f_builds_its_datasets_and_report(tmp_path) -> None:
@@ -227,7 +228,7 @@ def test_events_that_do_not_advance_the_clock_end_the_run() -> None:
     cfg = resolve("en02f", ["phases.r.phi0=1e12"]).obj
     T, _, prob = next(c for c in cfg.run_problems(0.001) if c[0] == 3.0 and c[1] == 0.0)
     res = simulate(prob)
-    assert res.status == "step_failed"
-    assert 0.0 < res.stop_time < T
-    tail = res.events[-100:, EV_T]
+    assert res.counts.status == "step_failed"
+    assert 0.0 < res.counts.stop_time < T
+    tail = res.events.table[-100:, EV_T]
     assert np.ptp(tail) < 1e-6  # the stop is where the events piled up

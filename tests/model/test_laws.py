@@ -17,11 +17,13 @@ from creatio.model.laws import (
     L_RATE,
     L_T,
     NLAW,
+    QUINTIC_CODES,
     Law,
     LawKind,
     law_eval,
     quintic_step,
     trapezoid_on_grid,
+    unit_coefficients,
 )
 from creatio.model.surface import Motion, Surface
 
@@ -29,24 +31,35 @@ from creatio.model.surface import Motion, Surface
 # that its derivatives come from numpy's polynomial algebra, not from the code under test.
 S_POLY = Polynomial([0.0, 0.0, 0.0, 10.0, -15.0, 6.0])
 
-# Laws used throughout: one of each kind, with non-trivial coefficients.
+# One law of each kind (its special case of docs/model.md s.2), with non-trivial coefficients,
+# and its closed form below: the independent check each kind needs.
+# test_every_kind_has_a_closed_form fails for a kind of LawKind that has none here.
 LAWS = {
-    "constant": Law.constant(0.7),
-    "linear": Law.linear(0.23, 0.31),
-    "quintic": Law.quintic(0.5, 3.0, 2.0),
-    "sinusoid": Law.sinusoid(np.pi / 4, 0.3, 0.7),
-    "cosine_ramp": Law.cosine_ramp(0.5, 3.0, 2.0),
+    LawKind.constant: Law.constant(0.7),
+    LawKind.linear: Law.linear(0.23, 0.31),
+    LawKind.quintic: Law.quintic(0.5, 3.0, 2.0),
+    LawKind.sinusoid: Law.sinusoid(np.pi / 4, 0.3, 0.7),
+    LawKind.cosine_ramp: Law.cosine_ramp(0.5, 3.0, 2.0),
+    LawKind.trapezoid: Law.trapezoid(0.5, 3.0, 2.0, 0.25),
 }
 
 
-def closed_form(name: str, t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Value, d1, d2 of LAWS[name] written out from docs/model.md s.2."""
+def law_of(kind: LawKind) -> Law:
+    """A law of kind with every term of the general form nonzero (phi0, rate, the step's
+    delta over T = 2, a sinusoid; a trapezoid's ramp 1/4): built from the registry alone, so
+    the tests over LawKind run a new kind with no edit here."""
+    return Law(phi0=0.5, rate=0.31, delta=3.0, T=2.0, amplitude=0.3, omega=0.7, kind=kind,
+               ramp=0.25)
+
+
+def closed_form(kind: LawKind, t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Value, d1, d2 of LAWS[kind] written out from docs/model.md s.2."""
     z = np.zeros_like(t)
-    if name == "constant":
+    if kind is LawKind.constant:
         return 0.7 + z, z, z
-    if name == "linear":
+    if kind is LawKind.linear:
         return 0.23 + 0.31 * t, 0.31 + z, z
-    if name == "quintic":
+    if kind is LawKind.quintic:
         T, D = 2.0, 3.0
         tau = t / T
         return (
@@ -54,11 +67,14 @@ def closed_form(name: str, t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.nd
             D * 30.0 * tau**2 * (1.0 - tau) ** 2 / T,
             D * 60.0 * tau * (1.0 - tau) * (1.0 - 2.0 * tau) / T**2,
         )
-    if name == "cosine_ramp":
+    if kind is LawKind.cosine_ramp:
         T, D = 2.0, 3.0
         w = np.pi / T
         return (0.5 + D * (1.0 - np.cos(w * t)) / 2.0, D * w * np.sin(w * t) / 2.0,
                 D * w**2 * np.cos(w * t) / 2.0)
+    if kind is LawKind.trapezoid:
+        return trapezoid_closed_form(t, 0.5, 3.0, 2.0, 0.5)
+    assert kind is LawKind.sinusoid, f"no closed form written for kind {kind.value}"
     G, Om = 0.3, 0.7
     return np.pi / 4 + G * np.sin(Om * t), G * Om * np.cos(Om * t), -G * Om**2 * np.sin(Om * t)
 
@@ -74,36 +90,78 @@ def d5(f, x: np.ndarray, h: float) -> np.ndarray:
 T_IN = np.linspace(0.01, 1.99, 67)
 
 
-@pytest.mark.parametrize("name", list(LAWS))
-def test_law_matches_closed_form(name: str) -> None:
+def test_every_kind_has_a_closed_form() -> None:
+    """Each kind of the registry has its special case and closed form here (a new kind is
+    picked up by every test over LawKind and fails this one until its closed form is
+    written)."""
+    assert set(LAWS) == set(LawKind)
+    assert all(LAWS[kind].kind is kind for kind in LawKind)
+
+
+@pytest.mark.parametrize("kind", list(LawKind))
+def test_law_matches_closed_form(kind: LawKind) -> None:
     """Each kind's value, d1, d2 equal the formulas of docs/model.md (rounding-level agreement)."""
-    lv = LAWS[name](T_IN)
-    v, d1, d2 = closed_form(name, T_IN)
+    lv = LAWS[kind](T_IN)
+    v, d1, d2 = closed_form(kind, T_IN)
     for got, want in ((lv.value, v), (lv.d1, d1), (lv.d2, d2)):
         np.testing.assert_allclose(got, want, rtol=1e-14, atol=1e-14)
 
 
-@pytest.mark.parametrize("name", list(LAWS))
-def test_law_derivatives_match_central_differences(name: str) -> None:
-    """d1 from 5-point differences of value, d2 from 5-point differences of d1.
+def off_the_kinks(law: Law, t: np.ndarray, margin: float) -> np.ndarray:
+    """The times of t farther than margin from the cycle's ends and the law's switches
+    (where a step's acceleration may jump)."""
+    kinks = np.array([0.0, law.T, *law.switch_times()])
+    return t[np.min(np.abs(t[:, None] - kinks[None, :]), axis=1) > margin]
+
+
+@pytest.mark.parametrize("kind", list(LawKind))
+def test_law_derivatives_match_central_differences(kind: LawKind) -> None:
+    """d1 from 5-point differences of value, d2 from 5-point differences of d1, for a law of
+    each kind with every term of the general form, away from its step's kinks.
 
     Error of the 5-point formula: h^4/30 max|f^(5)| + ~1.5 eps max|f| / h. With h = 1e-3 the
     largest fifth derivative here is the quintic's delta 720 / T^5 = 67.5, giving 2.3e-12
-    (the cosine ramp's delta (pi / T)^5 / 2 = 14.3 gives less), and rounding (|f| <= 4) adds
-    ~1.3e-12; atol 1e-10 is a safe margin over both.
+    (the cosine ramp's delta (pi / T)^5 / 2 = 14.3 gives less, the trapezoid's segments are
+    quadratics, the sinusoid's 0.3 0.7^5 = 0.05), and rounding (|f| <= 5) adds ~1.7e-12;
+    atol 1e-10 is a safe margin over both.
     """
-    law, h = LAWS[name], 1e-3
-    lv = law(T_IN)
-    np.testing.assert_allclose(d5(lambda s: law(s).value, T_IN, h), lv.d1, rtol=0, atol=1e-10)
-    np.testing.assert_allclose(d5(lambda s: law(s).d1, T_IN, h), lv.d2, rtol=0, atol=1e-10)
+    law, h = law_of(kind), 1e-3
+    t = off_the_kinks(law, T_IN, 3 * h)
+    lv = law(t)
+    np.testing.assert_allclose(d5(lambda s: law(s).value, t, h), lv.d1, rtol=0, atol=1e-10)
+    np.testing.assert_allclose(d5(lambda s: law(s).d1, t, h), lv.d2, rtol=0, atol=1e-10)
 
 
-@pytest.mark.parametrize("name", list(LAWS))
-def test_law_output_shape_follows_t(name: str) -> None:
+@pytest.mark.parametrize("kind", list(LawKind))
+def test_law_output_shape_follows_t(kind: LawKind) -> None:
     """Value and derivatives broadcast to the shape of t, even for constant parts."""
     t = np.zeros((3, 4))
-    lv = LAWS[name](t)
-    assert lv.value.shape == lv.d1.shape == lv.d2.shape == (3, 4)
+    for law in (LAWS[kind], law_of(kind)):
+        lv = law(t)
+        assert lv.value.shape == lv.d1.shape == lv.d2.shape == (3, 4)
+
+
+@pytest.mark.parametrize("kind", list(LawKind))
+def test_every_step_rises_from_0_to_1_and_holds(kind: LawKind) -> None:
+    """The step a kind's delta travels starts at 0 and ends at 1 at rest, holds outside
+    [0, 1], rises monotonically, and its s' and s'' are the derivatives of s and s': their
+    trapezoidal integrals over [0, 1] are s(1) - s(0) = 1 and s'(1) - s'(0) = 0, to the
+    rule's error h^2 max|s^(3)| / 12 = 5e-10 (h = 1e-5, |s^(3)| <= 60: the quintic's) and,
+    where s'' jumps (the trapezoid's switches, the cosine's ends), a cell's jump times h,
+    below 1e-4."""
+    law = Law(delta=1.0, T=1.0, kind=kind, ramp=0.25)
+    outside = np.array([-3.0, -1e-3, 1.0 + 1e-3, 4.0])
+    s, ds, dds = law.step(outside)
+    np.testing.assert_array_equal(s, [0.0, 0.0, 1.0, 1.0])
+    np.testing.assert_array_equal(ds, 0.0)
+    np.testing.assert_array_equal(dds, 0.0)
+    tau = np.linspace(0.0, 1.0, 100001)
+    s, ds, dds = law.step(tau)
+    assert s[0] == 0.0 and s[-1] == 1.0
+    assert abs(ds[0]) < 1e-15 and abs(ds[-1]) < 1e-15
+    assert np.all(np.diff(s) >= 0.0) and np.all(ds >= -1e-15)
+    assert np.trapezoid(ds, tau) == pytest.approx(1.0, abs=1e-8)
+    assert np.trapezoid(dds, tau) == pytest.approx(0.0, abs=1e-4)
 
 
 def test_quintic_step_endpoints_and_midpoint() -> None:
@@ -286,22 +344,28 @@ def test_cosine_ramp_peak_rate_and_midpoint() -> None:
     assert float(np.max(law(t).d1)) == pytest.approx(3.0 * np.pi / 4.0, rel=1e-12)
 
 
-@pytest.mark.parametrize("name", list(LAWS))
-def test_compiled_law_eval_matches_the_law(name: str) -> None:
+@pytest.mark.parametrize("kind", list(LawKind))
+def test_compiled_law_eval_matches_the_law(kind: LawKind) -> None:
     """law_eval compiled by numba (as the dynamics core compiles it) agrees with the NumPy
-    law at times before, inside and after the cycle, to rounding."""
+    law at times before, inside and after the cycle and on its switches, to rounding; every
+    step but the quintic's (constant, linear and sinusoid laws' delta travels it too) is that
+    same formula applied element by element, bit for bit."""
     from numba import njit
 
     import creatio.dynamics.jit  # noqa: F401  (registers the kernels law_eval calls)
 
     compiled = njit(law_eval)
-    law = LAWS[name]
-    times = np.array([-0.5, 0.0, 0.37, 1.0, 1.11, 1.99, 2.0, 2.5, 7.0])
-    lv = law(times)
-    for i, t in enumerate(times):
-        got = compiled(law.coefficients(), float(t))
-        np.testing.assert_allclose(got, (lv.value[i], lv.d1[i], lv.d2[i]), rtol=1e-13,
-                                   atol=1e-14)
+    times = np.array([-0.5, 0.0, 0.37, 0.5, 1.0, 1.11, 1.5, 1.99, 2.0, 2.5, 7.0])
+    for law in (LAWS[kind], law_of(kind)):
+        lv = law(times)
+        got = np.array([compiled(law.coefficients(), float(t)) for t in times])
+        np.testing.assert_allclose(got, np.stack([lv.value, lv.d1, lv.d2], axis=1),
+                                   rtol=1e-13, atol=1e-14)
+        if KIND_CODES[kind] not in QUINTIC_CODES:
+            tau = np.linspace(-0.5, 1.5, 2001)
+            step = np.stack(law.step(tau), axis=1)
+            unit = np.array([compiled(unit_coefficients(kind, law.ramp), float(x)) for x in tau])
+            assert np.array_equal(step.view(np.uint64), unit.view(np.uint64))
 
 
 # ------------------------------------------------------------------------------ trapezoid

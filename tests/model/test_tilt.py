@@ -71,12 +71,12 @@ def test_a_frictionless_sphere_slides_down_a_tilted_flat_membrane(beta_deg: floa
                            f"sphere.psi_deg={psi_deg}", "study.duration=0.3",
                            "solver.output_interval=0.05"]).obj
     res = simulate(cfg.sphere_problem(0.0005))
-    assert res.status == "ok" and res.t[-1] == pytest.approx(0.3)
+    assert res.counts.status == "ok" and res.histories.t[-1] == pytest.approx(0.3)
     beta, psi = math.radians(beta_deg), math.radians(psi_deg)
-    slide = 0.5 * 9.81 * math.sin(beta) * res.t[:, None] ** 2
+    slide = 0.5 * 9.81 * math.sin(beta) * res.histories.t[:, None] ** 2
     expected = slide * np.array([math.cos(psi), math.sin(psi), 0.0])
-    np.testing.assert_allclose(res.X - res.X[0], expected, rtol=0.0, atol=1e-13)
-    np.testing.assert_allclose(res.N, 9.81 * math.cos(beta), rtol=1e-13)
+    np.testing.assert_allclose(res.histories.X - res.histories.X[0], expected, rtol=0.0, atol=1e-13)
+    np.testing.assert_allclose(res.histories.N, 9.81 * math.cos(beta), rtol=1e-13)
 
 
 def test_the_energy_residual_falls_at_fourth_order_under_tilt() -> None:

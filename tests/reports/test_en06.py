@@ -104,3 +104,28 @@ def test_answer_sections_and_figure(report: tuple[dict[str, Any], dict, dict]) -
     assert paths["tolerances"].stat().st_size > 10_000
     assert list(s)[:1] == ["study"] and list(s).index("tilt_check") < list(s).index(
         "tolerances")
+
+
+@pytest.mark.long
+def test_rib_part_reaches_the_report(tmp_path) -> None:  # type: ignore[no-untyped-def]
+    """The rib part through the study's own entry (study.ribs at a small size): en06.json's
+    ``ribs`` is the section of its dataset, the answer names the fewest ribs within spec, the
+    refused count's reason names the bound, and both figures are written and linked."""
+    from creatio.reports.en06_ribs import ribs_section
+    from creatio.studies.en06 import run
+
+    cfg = resolve("en06", ["study.ribs.counts=[18,36]", "study.ribs.seeds=3",
+                           "study.ribs.errors_N=24"]).obj
+    ds = run(cfg, "ribs").copy()
+    ds.attrs.update({"study": "en06", "title": "EN-06 test", "config_sha256": "0" * 64})
+    paths = write_report([write_dataset(ds, tmp_path / "en06_ribs.nc")], tmp_path / "reports")
+    s = json.loads(paths["json"].read_text())
+    assert s["ribs"] == json.loads(json.dumps(ribs_section(ds)))
+    assert [c["N"] for c in s["ribs"]["cases"]] == [18, 36]
+    assert "2 Ka = 12" in s["ribs"]["refused"][0]["reason"]
+    md = paths["md"].read_text()
+    for name in ("en06_ribs_transport.png", "en06_rib_errors.png"):
+        assert (tmp_path / "reports" / name).stat().st_size > 10_000
+        assert f"({name})" in md
+    fewest = s["ribs"]["smallest_N_within_spec"]
+    assert (f"{fewest} ribs are the fewest" if fewest else "no rib count") in md

@@ -127,7 +127,7 @@ def test_the_recorded_path_is_the_runs_own(control):
     res = simulate(nominal.replace(motion=Motion(motion.phi_r, law, motion.gamma)))
     p = [str(x) for x in src.path.values].index("quintic")
     k = np.rint(src.time.values / base.solver.dt).astype(int)
-    np.testing.assert_allclose(src.path_centre.values[p], res.X[k], rtol=0, atol=1e-12)
+    np.testing.assert_allclose(src.path_centre.values[p], res.histories.X[k], rtol=0, atol=1e-12)
     np.testing.assert_allclose(src.path_phase_a.values[p], np.degrees(law(src.time.values).value),
                                rtol=0, atol=1e-9)
 

@@ -135,7 +135,7 @@ def test_default_run_b_kappa_is_the_cavity_bottom_curvature(en02):
     # The sphere starts at rest at the cavity bottom, the curvature maximum of the surface.
     res = simulate(en02.sphere_problem().replace(energy=False))
     expected = en02.sphere.b * _bottom_curvature(en02)
-    assert res.max_b_kappa == pytest.approx(expected, rel=1e-12)
+    assert res.extrema.max_b_kappa == pytest.approx(expected, rel=1e-12)
     assert bd.bottom_b_kappa(en02) == pytest.approx(expected, rel=1e-12)
 
 
@@ -194,9 +194,9 @@ def test_t_axis_failures(t_axis, en02):
 def test_contact_lost_stops_where_n_crosses_zero(cfg):
     point = bd.evaluate(cfg, "T", 6.0)
     res = point.result
-    assert point.status == res.status == "contact_lost"
-    assert res.N[-1] <= 0.0 < res.N[-2]
-    assert res.t[-1] == pytest.approx(res.stop_time)
+    assert point.status == res.counts.status == "contact_lost"
+    assert res.histories.N[-1] <= 0.0 < res.histories.N[-2]
+    assert res.histories.t[-1] == pytest.approx(res.counts.stop_time)
 
 
 def test_mu_refusal_threshold_is_the_step_limit(mu_axis, cfg):

@@ -96,9 +96,10 @@ def test_no_equilibrium_is_a_status_and_nothing_runs(en02_problem, gamma_deg) ->
     eq = _eq(gamma_deg)
     assert not eq.acceptable and eq.reason
     res = simulate(_inclined(en02_problem, gamma_deg))
-    assert res.status == "no_equilibrium" and res.steps == 0 and res.t.size == 0
-    assert res.equilibrium_message == eq.reason and not res.carried
-    assert math.isnan(res.min_N) and math.isnan(res.max_energy_residual)
+    assert res.counts.status == "no_equilibrium" and res.counts.steps == 0
+    assert res.histories.t.size == 0
+    assert res.counts.equilibrium_message == eq.reason and not res.carried
+    assert math.isnan(res.extrema.min_N) and math.isnan(res.extrema.max_energy_residual)
 
 
 def test_en02g_at_zero_inclination_is_en02_bit_for_bit(en02_problem) -> None:
@@ -107,8 +108,9 @@ def test_en02g_at_zero_inclination_is_en02_bit_for_bit(en02_problem) -> None:
     a = simulate(en02_problem)
     b = simulate(_inclined(en02_problem, 0.0))
     for name in ("X", "R", "alpha", "V", "N", "f", "omega", "Q", "energy_residual"):
-        np.testing.assert_array_equal(getattr(a, name), getattr(b, name))
-    assert (a.min_N, a.max_slip_speed) == (b.min_N, b.max_slip_speed)
+        np.testing.assert_array_equal(getattr(a.histories, name), getattr(b.histories, name))
+    assert a.extrema.min_N == b.extrema.min_N
+    assert a.extrema.max_slip_speed == b.extrema.max_slip_speed
 
 
 def test_cell_offsets_follow_the_moving_cavity() -> None:
@@ -134,14 +136,16 @@ def test_a_short_cycle_leaves_its_cavity_yet_ends_ok(en02_problem) -> None:
     assert simulate(en02_problem).carried
     fast = en02_problem.replace(phi_a=Law(0.0, 0.0, 12 * math.pi, 6.9, 0.0, 0.0), t_end=6.9)
     res = simulate(fast)
-    assert res.status == "ok" and not res.carried
-    assert res.left_cavity_time == pytest.approx(4.272, abs=1e-9)
-    inside = (np.abs(res.cell_u) < math.pi / 2) & (np.abs(res.cell_v) < math.pi / 2)
-    assert inside[res.t < 4.272].all() and not inside[(res.t > 4.25) & (res.t < 4.45)].any()
-    assert np.abs(res.cell_u[~inside]).min() >= math.pi / 2  # out over the radial edge
+    h = res.histories
+    assert res.counts.status == "ok" and not res.carried
+    assert res.events.left_cavity_time == pytest.approx(4.272, abs=1e-9)
+    inside = (np.abs(h.cell_u) < math.pi / 2) & (np.abs(h.cell_v) < math.pi / 2)
+    assert inside[h.t < 4.272].all() and not inside[(h.t > 4.25) & (h.t < 4.45)].any()
+    assert np.abs(h.cell_u[~inside]).min() >= math.pi / 2  # out over the radial edge
     stop = simulate(fast.replace(stop_on_leaving_cavity=True))
-    assert stop.status == "left_cavity" and stop.stop_time == res.left_cavity_time
-    np.testing.assert_array_equal(stop.X[:-1], res.X[:len(stop.t) - 1])
+    assert stop.counts.status == "left_cavity"
+    assert stop.counts.stop_time == res.events.left_cavity_time
+    np.testing.assert_array_equal(stop.histories.X[:-1], h.X[:len(stop.histories.t) - 1])
 
 
 def test_en02g_study_dataset_and_report(tmp_path) -> None:

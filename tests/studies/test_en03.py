@@ -90,73 +90,77 @@ def test_equations_of_motion_against_high_order_differences(en02_problem) -> Non
         gamma=Law(0.2, 0.0, 0.05, 2.0, 0.02, 1.7), R=0.45, alpha=0.5, Rdot=0.02, alphadot=0.03,
         omega=(0.5, -1.0, 0.5), t_end=2.0, dt=h, interval=h)
     res = simulate(p)
-    assert res.status == "ok" and res.max_slip_speed > 0.1
-    assert np.abs(res.theta_rate).max() > 0.01  # the structure really turns
+    r = res.histories
+    assert res.counts.status == "ok" and res.extrema.max_slip_speed > 0.1
+    assert np.abs(r.theta_rate).max() > 0.01  # the structure really turns
     inertia = p.model.sphere.inertia
-    W = np.stack([_rz(th) @ x for th, x in zip(res.theta, res.X, strict=True)])
+    W = np.stack([_rz(th) @ x for th, x in zip(r.theta, r.X, strict=True)])
     # the 5-point stencils' truncation error is largest in the early slip transient (the slip
     # relaxes at ~1000 1/s, h = 0.25 ms): a few 1e-7 relative there
     for i in (20, 2800, 6000):
-        n_s = centre_kinematics(p.model.surface, p.model.motion, p.model.sphere.b, res.R[i],
-                                res.alpha[i], res.t[i])["n"]
-        Rz = _rz(res.theta[i])
-        n, f = Rz @ n_s, Rz @ res.f[i]
+        n_s = centre_kinematics(p.model.surface, p.model.motion, p.model.sphere.b, r.R[i],
+                                r.alpha[i], r.t[i])["n"]
+        Rz = _rz(r.theta[i])
+        n, f = Rz @ n_s, Rz @ r.f[i]
         acc = (-W[i - 2] + 16 * W[i - 1] - 30 * W[i] + 16 * W[i + 1] - W[i + 2]) / (12 * h * h)
         m = p.model.sphere.m
-        np.testing.assert_allclose(m * acc, m * G - P * n + res.N[i] * n + f, atol=2e-6)
-        dTh = (res.theta_rate[i - 2] - 8 * res.theta_rate[i - 1] + 8 * res.theta_rate[i + 1]
-               - res.theta_rate[i + 2]) / (12 * h)
-        c = res.X[i] - p.model.sphere.b * n_s  # contact point, structure frame
-        torque = -np.cross(c, res.N[i] * n_s + res.f[i] - P * n_s)[2]
+        np.testing.assert_allclose(m * acc, m * G - P * n + r.N[i] * n + f, atol=2e-6)
+        dTh = (r.theta_rate[i - 2] - 8 * r.theta_rate[i - 1] + 8 * r.theta_rate[i + 1]
+               - r.theta_rate[i + 2]) / (12 * h)
+        c = r.X[i] - p.model.sphere.b * n_s  # contact point, structure frame
+        torque = -np.cross(c, r.N[i] * n_s + r.f[i] - P * n_s)[2]
         assert I_s * dTh == pytest.approx(torque, rel=1e-5)
-        dw = (res.omega[i - 2] - 8 * res.omega[i - 1] + 8 * res.omega[i + 1]
-              - res.omega[i + 2]) / (12 * h)
+        dw = (r.omega[i - 2] - 8 * r.omega[i - 1] + 8 * r.omega[i + 1]
+              - r.omega[i + 2]) / (12 * h)
         np.testing.assert_allclose(inertia * dw, np.cross(-p.model.sphere.b * n, f), rtol=1e-5,
                                    atol=1e-9)
-    hz = res.hz_structure + res.hz_orbital + res.hz_spin
-    assert np.abs(hz - hz[0]).max() == pytest.approx(res.max_hz_drift, rel=0.5, abs=1e-15)
-    assert res.max_hz_drift < 1e-12 * max(1.0, res.max_structure_momentum * 1e3)
+    hz = r.hz_structure + r.hz_orbital + r.hz_spin
+    assert np.abs(hz - hz[0]).max() == pytest.approx(res.extrema.max_hz_drift, rel=0.5, abs=1e-15)
+    assert res.extrema.max_hz_drift < 1e-12 * max(1.0, res.extrema.max_structure_momentum * 1e3)
 
 
 def test_en03_defaults_conserve_hz_and_energy_to_rounding(en03_pair) -> None:
     res, half = en03_pair
-    assert res.status == "ok" and res.carried
-    assert res.max_structure_momentum == pytest.approx(0.1078, rel=1e-3)
-    assert res.max_hz_drift < 2e-14  # 4.4e-15 measured: rounding, scale 0.108 kg m^2/s
-    assert res.max_energy_residual < 2e-14  # 4.1e-15 J
-    assert half.max_hz_drift < 2e-14 and half.max_energy_residual < 2e-14
-    assert np.abs(res.X - half.X).max() < 1e-12  # timestep difference 6.6e-14 m
+    h = res.histories
+    assert res.counts.status == "ok" and res.carried
+    assert res.extrema.max_structure_momentum == pytest.approx(0.1078, rel=1e-3)
+    assert res.extrema.max_hz_drift < 2e-14  # 4.4e-15 measured: rounding, scale 0.108 kg m^2/s
+    assert res.extrema.max_energy_residual < 2e-14  # 4.1e-15 J
+    assert half.extrema.max_hz_drift < 2e-14 and half.extrema.max_energy_residual < 2e-14
+    assert np.abs(h.X - half.histories.X).max() < 1e-12  # timestep difference 6.6e-14 m
     # the structure turns against the sphere; the point-mass estimate (centre radius 1.11 m)
-    relative = res.azimuth[-1] - res.azimuth[0]
+    relative = h.azimuth[-1] - h.azimuth[0]
     assert math.degrees(relative) == pytest.approx(-360.0, abs=1e-5)
-    estimate = point_mass_rotation(1.0, float(np.hypot(*res.X[0, :2])), 10.0, relative)
+    estimate = point_mass_rotation(1.0, float(np.hypot(*h.X[0, :2])), 10.0, relative)
     assert math.degrees(estimate) == pytest.approx(39.49, abs=0.01)
-    assert math.degrees(res.theta[-1]) == pytest.approx(math.degrees(estimate), abs=0.03)
-    world = res.world_azimuth[-1] - res.world_azimuth[0]
-    assert world == pytest.approx(relative + res.theta[-1], abs=1e-12)
+    assert math.degrees(h.theta[-1]) == pytest.approx(math.degrees(estimate), abs=0.03)
+    world = h.world_azimuth[-1] - h.world_azimuth[0]
+    assert world == pytest.approx(relative + h.theta[-1], abs=1e-12)
 
 
 def test_large_inertia_is_en02_to_its_timestep_difference(en02_problem, en03_pair) -> None:
     fixed = simulate(en02_problem)
+    hf = fixed.histories
     fixed_half = simulate(en02_problem.replace(dt=0.001))
-    step_difference = np.abs(fixed.X - fixed_half.X).max()
+    step_difference = np.abs(hf.X - fixed_half.histories.X).max()
     big = simulate(en02_problem.replace(inertia=1e12))
-    assert np.abs(big.X - fixed.X).max() <= step_difference  # 1.2e-14 vs 7.1e-14 m
-    assert abs(big.theta[-1]) < 1e-11
+    assert np.abs(big.histories.X - hf.X).max() <= step_difference  # 1.2e-14 vs 7.1e-14 m
+    assert abs(big.histories.theta[-1]) < 1e-11
     # the structure path on a fixed structure (1 / I_s = 0 exactly) with a zero preload
     # differs from the fixed path only by the order of its operations
     same = simulate(en02_problem.replace(confinement="normal", force=0.0))
-    assert same.structure_free and np.all(same.theta == 0.0)
-    assert np.abs(same.X - fixed.X).max() < 1e-13
+    assert same.counts.structure_free and np.all(same.histories.theta == 0.0)
+    assert np.abs(same.histories.X - hf.X).max() < 1e-13
 
 
 def test_frictionless_leaves_the_spin_at_zero(en03) -> None:
     res = simulate(en03.replace(mu=0.0, rotation=True, t_end=30.0))
-    assert res.rotation_integrated and res.structure_free
-    assert np.all(res.omega == 0.0) and np.all(res.cumulative_spin == 0.0)
-    assert np.all(res.hz_spin == 0.0)
-    assert np.abs(res.theta).max() > 1e-3  # the normal force alone turns the structure
-    assert res.max_hz_drift < 1e-14 and res.max_energy_residual < 1e-13
+    h = res.histories
+    assert res.counts.rotation_integrated and res.counts.structure_free
+    assert np.all(h.omega == 0.0) and np.all(h.cumulative_spin == 0.0)
+    assert np.all(h.hz_spin == 0.0)
+    assert np.abs(h.theta).max() > 1e-3  # the normal force alone turns the structure
+    assert res.extrema.max_hz_drift < 1e-14 and res.extrema.max_energy_residual < 1e-13
 
 
 def test_point_mass_estimate_approached_as_the_cavity_shrinks_and_stiffens(en03) -> None:
@@ -168,12 +172,13 @@ def test_point_mass_estimate_approached_as_the_cavity_shrinks_and_stiffens(en03)
     for s in (1.0, 1 / 3, 1 / 9):
         p = en03.replace(A=0.18 * s, b=0.12 * s, g=9.81 / s**2, mu=0.0)
         res = simulate(p)
-        assert res.status == "ok" and res.carried
-        relative = res.azimuth[-1] - res.azimuth[0]
-        rho = np.hypot(res.X[:, 0], res.X[:, 1])
+        h = res.histories
+        assert res.counts.status == "ok" and res.carried
+        relative = h.azimuth[-1] - h.azimuth[0]
+        rho = np.hypot(h.X[:, 0], h.X[:, 1])
         estimate = point_mass_rotation(p.model.sphere.m, float(rho[0]), p.model.structure.inertia,
                                        relative)
-        diffs.append(abs(res.theta[-1] - estimate) / abs(estimate))
+        diffs.append(abs(h.theta[-1] - estimate) / abs(estimate))
         excursions.append(np.abs(rho - rho[0]).max())
     assert diffs[0] < 3e-4  # 2.6e-4 at the notebook's cavity
     for k in (1, 2):
@@ -210,12 +215,12 @@ def test_every_integrator_runs_the_structure(en03, method) -> None:
     short = en03.replace(inertia=1.0, t_end=20.0)
     ref = simulate(short.replace(dt=0.001))
     res = simulate(short.replace(method=method, rtol=1e-10, atol=1e-12))
-    assert res.status == "ok" and res.t.size == ref.t.size
-    np.testing.assert_allclose(res.theta, ref.theta, rtol=0, atol=1e-8)
-    assert np.abs(res.X - ref.X).max() < 1e-8
-    assert res.max_hz_drift < 1e-9
+    assert res.counts.status == "ok" and res.histories.t.size == ref.histories.t.size
+    np.testing.assert_allclose(res.histories.theta, ref.histories.theta, rtol=0, atol=1e-8)
+    assert np.abs(res.histories.X - ref.histories.X).max() < 1e-8
+    assert res.extrema.max_hz_drift < 1e-9
     if method == "radau5":
-        assert res.jacobians >= 1 and res.steps < ref.steps / 10
+        assert res.counts.jacobians >= 1 and res.counts.steps < ref.counts.steps / 10
 
 
 def test_en03_study_dataset_and_report(tmp_path) -> None:

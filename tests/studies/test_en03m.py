@@ -31,11 +31,11 @@ def _micro(p: SphereProblem, kind: str, P: float, T: float, I_s: float = 10.0
 def test_base_pull_closes_the_energy_balance_like_gravity(en02_problem) -> None:
     """base: F_c has the potential P z_X, so E - E0 = W_surface - D_friction, to rounding."""
     res = simulate(_micro(en02_problem, "base", 0.5, 30.0))
-    assert res.status == "ok" and res.carried
-    assert np.abs(res.energy - res.energy[0]).max() > 0.1
-    assert res.max_energy_residual < 1e-12  # 5.3e-14 J
-    assert np.all(res.confinement_work == 0.0)  # no preload: no confinement work
-    assert res.max_hz_drift < 1e-13
+    assert res.counts.status == "ok" and res.carried
+    assert np.abs(res.histories.energy - res.histories.energy[0]).max() > 0.1
+    assert res.extrema.max_energy_residual < 1e-12  # 5.3e-14 J
+    assert np.all(res.histories.confinement_work == 0.0)  # no preload: no confinement work
+    assert res.extrema.max_hz_drift < 1e-13
 
 
 def test_normal_preload_work_closes_the_energy_balance(en02_problem) -> None:
@@ -43,26 +43,29 @@ def test_normal_preload_work_closes_the_energy_balance(en02_problem) -> None:
     -P n . c_t; the residual is the scheme's error (4th order), W_confine is O(1 J)."""
     p = _micro(en02_problem, "normal", 5.0, 30.0)
     res = simulate(p)
+    h = res.histories
     half = simulate(p.replace(dt=0.001))
-    assert res.status == "ok"
-    without = res.energy - res.energy[0] - res.surface_work + res.friction_dissipation
-    np.testing.assert_allclose(res.energy_residual, without - res.confinement_work, atol=1e-14)
-    assert np.abs(res.confinement_work).max() > 1.0
-    assert res.max_energy_residual < 1e-7 and half.max_energy_residual < 1e-8
-    assert res.max_energy_residual / half.max_energy_residual > 10.0  # ~2^4
+    assert res.counts.status == "ok"
+    without = h.energy - h.energy[0] - h.surface_work + h.friction_dissipation
+    np.testing.assert_allclose(h.energy_residual, without - h.confinement_work, atol=1e-14)
+    assert np.abs(h.confinement_work).max() > 1.0
+    assert res.extrema.max_energy_residual < 1e-7 and half.extrema.max_energy_residual < 1e-8
+    assert res.extrema.max_energy_residual / half.extrema.max_energy_residual > 10.0  # ~2^4
     # the preload's reaction acts on the structure: H_z stays conserved to the same order
-    assert res.max_hz_drift < 1e-6 and res.max_hz_drift / half.max_hz_drift > 10.0
+    drift, drift_half = res.extrema.max_hz_drift, half.extrema.max_hz_drift
+    assert drift < 1e-6 and drift / drift_half > 10.0
 
 
 def test_base_at_m_g_on_a_fixed_structure_is_en02(en02_problem) -> None:
     en02 = simulate(en02_problem)
     base = simulate(en02_problem.replace(g=0.0, confinement="base", force=9.81))
-    assert not base.structure_free  # a fixed structure and a pull along -z: EN-02's path
+    assert not base.counts.structure_free  # a fixed structure and a pull along -z: EN-02's path
     for name in ("X", "N", "f", "omega", "energy", "energy_residual"):
-        np.testing.assert_array_equal(getattr(base, name), getattr(en02, name))
+        np.testing.assert_array_equal(getattr(base.histories, name),
+                                      getattr(en02.histories, name))
     # the same through the structure path (I_s = inf, so 1 / I_s = 0): to rounding
     path = simulate(en02_problem.replace(confinement="normal", force=0.0))
-    assert np.abs(path.X - en02.X).max() < 1e-13
+    assert np.abs(path.histories.X - en02.histories.X).max() < 1e-13
 
 
 def test_the_normal_preload_does_not_carry(en02_problem) -> None:
@@ -73,8 +76,8 @@ def test_the_normal_preload_does_not_carry(en02_problem) -> None:
         limit = stability_limit(p)
         p = p.replace(dt=p.solver.dt / math.ceil(p.solver.dt / limit))
         res = simulate(p)
-        assert res.status == "left_cavity" and 20.0 < res.stop_time < 21.0
-        assert abs(math.degrees(res.azimuth[-1] - res.azimuth[0])) < 4.0
+        assert res.counts.status == "left_cavity" and 20.0 < res.counts.stop_time < 21.0
+        assert abs(math.degrees(res.histories.azimuth[-1] - res.histories.azimuth[0])) < 4.0
 
 
 def test_search_brackets_the_smallest_carrying_force() -> None:

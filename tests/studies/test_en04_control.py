@@ -68,12 +68,12 @@ def test_arrival_rule_on_the_histories(cfg) -> None:
     res = simulate(nominal.replace(control=ctl))
     goal, tol = math.radians(c.theta_goal_deg), math.radians(c.arrival_tol_deg)
     m = measure(res, goal, tol, float(base.geometry.Ka), ctl)
-    theta = res.alpha - res.alpha[0]
+    theta = res.histories.alpha - res.histories.alpha[0]
     inside = np.abs(theta - goal) <= tol
     first = np.flatnonzero(inside)[0]
-    assert m.arrival == res.t[first] and not inside[first - 1]
+    assert m.arrival == res.histories.t[first] and not inside[first - 1]
     last_out = np.flatnonzero(~inside)[-1]
-    assert m.settling == res.t[last_out + 1]
+    assert m.settling == res.histories.t[last_out + 1]
     assert m.overshoot == pytest.approx(math.degrees(max(0.0, np.max(goal - theta))), rel=1e-12)
     assert m.carried and m.status == "ok"
     assert m.final_error == pytest.approx(math.degrees(theta[-1] - goal), rel=1e-12)
@@ -98,9 +98,9 @@ def test_controller_beats_the_quintic_boundary(cfg) -> None:
         law = Law.quintic(motion.phi_a.phi0, motion.phi_a.delta, T)
         return simulate(nominal.replace(motion=Motion(motion.phi_r, law, motion.gamma)))
 
-    assert quintic(7.0).carried and quintic(7.0).status == "ok"
+    assert quintic(7.0).carried and quintic(7.0).counts.status == "ok"
     lost = quintic(6.5)
-    assert not (lost.carried and lost.status == "ok")
+    assert not (lost.carried and lost.counts.status == "ok")
     ctl = controller(c, nominal, en04.closed_forms(base).roll_alpha ** 2,
                      ControllerPoint(2.0, 20.0, 4.0, 20.0))
     res = simulate(nominal.replace(control=ctl))
@@ -119,9 +119,9 @@ def test_mass_does_not_change_the_closed_loop(cfg) -> None:
     runs = [simulate(nominal.replace(control=ctl, m=nominal.model.sphere.m * f))
             for f in (0.5, 1.0, 2.0)]
     for r in runs[::2]:
-        assert np.max(np.abs(r.alpha - runs[1].alpha)) < 1e-10
-        assert np.max(np.abs(r.phi_a - runs[1].phi_a)) < 1e-9
-    assert runs[2].min_N == pytest.approx(4.0 * runs[0].min_N, rel=1e-9)
+        assert np.max(np.abs(r.histories.alpha - runs[1].histories.alpha)) < 1e-10
+        assert np.max(np.abs(r.histories.phi_a - runs[1].histories.phi_a)) < 1e-9
+    assert runs[2].extrema.min_N == pytest.approx(4.0 * runs[0].extrema.min_N, rel=1e-9)
 
 
 def test_actuation_figures_along_a_controlled_run_against_its_closed_forms(cfg) -> None:
@@ -143,6 +143,7 @@ def test_actuation_figures_along_a_controlled_run_against_its_closed_forms(cfg) 
     ctl = controller(c, nominal, en04.closed_forms(base).roll_alpha ** 2,
                      ControllerPoint(2.0, 20.0, 4.0, 20.0))
     res = simulate(nominal.replace(control=ctl))
+    h = res.histories
     surface = base.geometry.surface()
     rule = act.quadrature(surface, 23, 15)
     settings = DemandSettings()
@@ -151,16 +152,17 @@ def test_actuation_figures_along_a_controlled_run_against_its_closed_forms(cfg) 
                        c.path_interval)
     f = d.figures
     A, R0, dR = surface.A, surface.R0, surface.dR
-    u, _, _ = ctl.acceleration(Ka, res.alpha, res.alphadot, res.phi_a, res.phi_a_rate)
-    rate = res.phi_a_rate
+    u, _, _ = ctl.acceleration(Ka, h.alpha, h.alphadot, h.phi_a, h.phi_a_rate)
+    rate = h.phi_a_rate
     K = settings.sigma * math.pi * A * A * (R0 * dR + 0.5 * dR * dR) * rate**2 / 4.0
     # the maxima lie between the 2-ms steps: refined there, they are the maxima over the same
     # run recorded every 0.5 ms to 5e-6 (what those samples still miss, 1/16 of the 2-ms
     # samples' 4e-5, plus the runs' truncation difference, ~1e-9)
     quarter = simulate(nominal.replace(control=ctl, dt=base.solver.dt / 4.0,
                                        interval=base.solver.dt / 4.0))
-    r4 = quarter.phi_a_rate
-    u4, _, _ = ctl.acceleration(Ka, quarter.alpha, quarter.alphadot, quarter.phi_a, r4)
+    q = quarter.histories
+    r4 = q.phi_a_rate
+    u4, _, _ = ctl.acceleration(Ka, q.alpha, q.alphadot, q.phi_a, r4)
     c_K = np.max(K) / np.max(rate**2)
     assert f["K_m_max"] == pytest.approx(c_K * np.max(r4**2), rel=5e-6)
     assert abs(np.max(K) / (c_K * np.max(r4**2)) - 1.0) > 2e-5  # the 2-ms samples miss it
@@ -168,11 +170,11 @@ def test_actuation_figures_along_a_controlled_run_against_its_closed_forms(cfg) 
     assert f["max_W_tt"] == pytest.approx(A * np.max(np.sqrt(r4**4 + u4**2)), rel=5e-6)
     assert f["bandwidth"] == pytest.approx(np.max(np.abs(r4)) / (2.0 * math.pi), rel=5e-6)
     assert f["stroke"] == pytest.approx(2.0 * A, rel=1e-6)
-    motion = act.sampled_motion(nominal.model.motion, res.t, res.phi_a, rate, u)
-    mi = act.membrane_integrals(surface, motion, res.t, rule, settings.sigma, settings.c_d, g)
-    P = (act.load_power(surface, motion, res.t, res.R, res.alpha, res.N, res.f) + mi.inertia
+    motion = act.sampled_motion(nominal.model.motion, h.t, h.phi_a, rate, u)
+    mi = act.membrane_integrals(surface, motion, h.t, rule, settings.sigma, settings.c_d, g)
+    P = (act.load_power(surface, motion, h.t, h.R, h.alpha, h.N, h.f) + mi.inertia
          + mi.gravity + mi.damping)
     assert f["P_actuator_peak"] == pytest.approx(np.max(np.abs(P)), rel=1e-12)
-    work = res.surface_work[-1] - res.surface_work[0] + K[-1] - K[0]
+    work = h.surface_work[-1] - h.surface_work[0] + K[-1] - K[0]
     assert f["E_actuator"] == pytest.approx(work, rel=5e-5)
     assert f["K_m_closed_form_rel_error"] < 1e-12

@@ -62,8 +62,8 @@ def test_energy_residual_converges_at_rk4_order(cfg) -> None:
     residual = []
     for dt in (0.002, 0.001, 0.0005):
         res = simulate(cfg.sphere_problem().replace(dt=dt))
-        assert res.status == "ok"
-        residual.append(res.max_energy_residual)
+        assert res.counts.status == "ok"
+        residual.append(res.extrema.max_energy_residual)
     ratios = [a / b for a, b in zip(residual[:-1], residual[1:], strict=True)]
     assert 12.0 < ratios[-1] < 24.0 and ratios[-1] < ratios[0]
     assert residual[0] < 1e-6  # a millionth of a joule against ~1 J of mechanical energy

@@ -208,12 +208,13 @@ def test_harness_measures_the_native_error_on_the_same_solution(tiny) -> None:
     assert evidence["check_adaptive_max_diff_m"] < 1e-12
     assert evidence["check_fixed_max_diff_m"] < 1e-12
     native = simulate(base.replace(method="dopri5", rtol=1e-6, atol=1e-8))
-    states = np.zeros((native.t.size, base.initial_state(True, False).size))
-    states[:, 0] = native.R
-    states[:, 1] = native.alpha
-    X = centre_grid(base, native.t, states, False)
-    assert wp.errors(X, ref) == pytest.approx(wp.errors(native.X, ref), rel=1e-9, abs=1e-15)
-    assert 0 < wp.errors(native.X, ref)[0] < 1e-6
+    h = native.histories
+    states = np.zeros((h.t.size, base.initial_state(True, False).size))
+    states[:, 0] = h.R
+    states[:, 1] = h.alpha
+    X = centre_grid(base, h.t, states, False)
+    assert wp.errors(X, ref) == pytest.approx(wp.errors(h.X, ref), rel=1e-9, abs=1e-15)
+    assert 0 < wp.errors(h.X, ref)[0] < 1e-6
     assert wp.errors(X[:-1], ref) == (math.inf, math.inf)
 
 
@@ -379,12 +380,12 @@ def test_cvode_harness_measures_the_native_error_on_the_same_solution(tiny) -> N
     native = simulate(base.replace(method="radau5", rtol=1e-11, atol=1e-13))
     theirs = solve_peer(base, "CVODE", 1e-11, 1e-13)
     assert theirs.status == "ok" and theirs.steps == -1 and theirs.rhs_evals > 0
-    np.testing.assert_array_equal(theirs.t, native.t)
+    np.testing.assert_array_equal(theirs.t, native.histories.t)
     np.testing.assert_array_equal(theirs.y[0], base.initial_state(True, False))
-    np.testing.assert_allclose(theirs.y[:, 0], native.R, rtol=0, atol=1e-8)
-    np.testing.assert_allclose(theirs.y[:, 1], native.alpha, rtol=0, atol=1e-8)
+    np.testing.assert_allclose(theirs.y[:, 0], native.histories.R, rtol=0, atol=1e-8)
+    np.testing.assert_allclose(theirs.y[:, 1], native.histories.alpha, rtol=0, atol=1e-8)
     X = centre_grid(base, theirs.t, theirs.y, False)
-    np.testing.assert_allclose(X, native.X, rtol=0, atol=1e-8)
+    np.testing.assert_allclose(X, native.histories.X, rtol=0, atol=1e-8)
     setting = wp.Setting("peer", wp.peer_label("CVODE"), "CVODE", "rtol", 1e-8)
     run = wp.prepare_peer(base, setting, ref, tiny.obj.study)
     again = solve_peer(base, "CVODE", 1e-8, 1e-8 * tiny.obj.study.atol_ratio)

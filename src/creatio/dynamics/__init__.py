@@ -5,7 +5,9 @@ Output and Events of the run) is integrated by :func:`simulate`, one compiled lo
 (creatio.dynamics.solvers.driver) running any registered method
 (creatio.dynamics.solvers.METHODS: fixed-step RK4, the notebook's reference; the adaptive
 pairs dopri5 and dop853; the L-stable radau5 and rodas4). The friction stability limit of a
-fixed-step explicit scheme (:func:`stability_limit`, :func:`check_stable`) is enforced.
+fixed-step explicit scheme (:func:`stability_limit`, :func:`check_stable`) is enforced. Its
+SimulationResult holds named records: ``res.histories``, ``res.extrema``, ``res.counts``,
+``res.events``.
 
 Importing this package compiles nothing: the compiler loads with the first
 :func:`simulate` call, so validation and planning can build problems without it.
@@ -16,7 +18,11 @@ from __future__ import annotations
 from typing import TYPE_CHECKING
 
 from creatio.dynamics.problem import (
+    Counts,
+    EventLog,
     Events,
+    Extrema,
+    Histories,
     Model,
     Output,
     SimulationResult,
@@ -37,7 +43,11 @@ if TYPE_CHECKING:
 
 __all__ = [
     "METHODS",
+    "Counts",
+    "EventLog",
     "Events",
+    "Extrema",
+    "Histories",
     "Model",
     "Output",
     "SimulationResult",

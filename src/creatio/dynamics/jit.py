@@ -263,7 +263,7 @@ def inlined(fn):  # type: ignore[no-untyped-def]
 for _fn in (laws.law_eval, laws.trapezoid_scalar, *offset.SCALAR_KERNELS, *sphere.SCALAR_KERNELS,
             *cavity.SCALAR_KERNELS, *structure.SCALAR_KERNELS, *flight.SCALAR_KERNELS,
             *control.SCALAR_KERNELS):
-    if _fn is offset.offset_jets or _fn is laws.law_eval:
+    if _fn in offset.INLINED_KERNELS or _fn is laws.law_eval:
         inlined(_fn)
     else:
         register_jitable(inline="never", forceinline=False)(_fn)

@@ -41,7 +41,7 @@ __all__ = [
     "NEXT", "NF", "NFL", "NFX", "NLAWS", "NPAR", "NQ", "NROT", "NSTRUCT", "P_A", "P_B", "P_DR",
     "P_EPS", "P_G", "P_GX", "P_GY", "P_I", "P_INV_IS", "P_IS", "P_K", "P_KA", "P_M", "P_MCAV",
     "P_MU", "P_NCAV",
-    "P_PRELOAD", "P_R0", "P_STOP_LEAVE", "SCALAR_KERNELS", "ST_RATE", "ST_THETA",
+    "P_PRELOAD", "P_R0", "P_SKIN", "P_STOP_LEAVE", "SCALAR_KERNELS", "ST_RATE", "ST_THETA",
     "C_ALPHA0", "C_DELTA_MAX", "C_GOAL", "C_K_OMEGA", "C_K_THETA", "C_OMEGA_MAX", "C_OMEGA_N",
     "C_U_MAX", "C_ZETA", "CT_PHI", "CT_RATE", "LAW_CONTROL", "NCTL", "NCTLS", "control_start",
     "state_size", "structure_start", "X_FLIGHT_GAP", "X_FOOT_A", "X_FOOT_R", "X_MAX_GAP",
@@ -121,6 +121,10 @@ NFL = 4
 (P_R0, P_DR, P_K, P_A, P_KA, P_M, P_B, P_G, P_MU, P_EPS, P_I, P_NCAV, P_MCAV, P_IS, P_INV_IS,
  P_PRELOAD, P_STOP_LEAVE, P_GX, P_GY) = range(19)
 NPAR = 19
+#: On a rib surface (docs/model.md s.14.4) the parameter tuple holds one more element after
+#: the NPAR parameters: the skin's spline table (creatio.model.ribs.skin_table), which makes
+#: the surface kind a compile-time property of the tuple's type (creatio.dynamics.surface).
+P_SKIN = NPAR
 
 # ------------------------------------------------------------------------- law matrix
 #: Rows of the law matrix: the radial phase, the angular phase, the inclination (each a

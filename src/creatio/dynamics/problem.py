@@ -12,6 +12,10 @@ estimated without numba (validation and workflow planning use it), and creatio.d
 * :class:`Output`, what is recorded: the span and grid, rotation and energy bookkeeping;
 * :class:`Events`, what a run does at contact loss (flight) and at leaving its cavity.
 
+Its :class:`SimulationResult` is split the same way: the sampled :class:`Histories`, the
+all-step :class:`Extrema`, the :class:`Counts` (status and cost) and the :class:`EventLog`
+(the cavity left, the flights).
+
 The same problem describes the fixed structure of EN-02 (s.4), an equilibrium start on the
 inclined family (s.8), a structure free to yaw (s.9), a confining force (s.10) and flight
 (s.11).
@@ -72,7 +76,7 @@ from creatio.model.control import Controller
 from creatio.model.equilibrium import Equilibrium, static_equilibrium
 from creatio.model.laws import NLAW, Law
 from creatio.model.numerics import steps_in
-from creatio.model.offset import offset_jets
+from creatio.model.offset import offset_jets, offset_jets_skin
 from creatio.model.structure import CONFINEMENTS, inverse_inertia
 from creatio.model.surface import Motion, Surface
 
@@ -80,7 +84,11 @@ __all__ = [
     "MAX_IMPACT_CAP",
     "MAX_RHS_EVALS",
     "PROGRESS_INTERVAL",
+    "Counts",
+    "EventLog",
     "Events",
+    "Extrema",
+    "Histories",
     "Model",
     "Output",
     "SimulationResult",
@@ -402,6 +410,10 @@ class SphereProblem:
         if self.model.control is not None and self.structure_free:
             raise ValueError("the controlled phase needs the fixed structure and no normal "
                              "preload")
+        if self.model.surface.ribs is not None and (ev.flight or start.equilibrium):
+            raise ValueError(f"ribs = {self.model.surface.ribs.N} (a rib surface) needs no "
+                             "flight and no equilibrium start: their foot-point and "
+                             "equilibrium searches solve on the ideal surface")
         if not ev.flight:
             if start.height > 0.0:
                 raise ValueError(f"height = {start.height} m (a dropped start) needs flight")
@@ -510,13 +522,17 @@ class SphereProblem:
         """Whether phi_a is the controlled state of docs/model.md s.12.2."""
         return self.model.control is not None
 
-    def run_parameters(self) -> NDArray[np.float64]:
-        """The parameter vector the driver receives: :meth:`parameter_vector`, followed on
-        the controlled path by the controller's row (creatio.dynamics.layout C_*)."""
+    def run_parameters(self) -> NDArray[np.float64] | tuple[NDArray[np.float64],
+                                                             NDArray[np.float64]]:
+        """The parameters the driver receives: :meth:`parameter_vector`, followed on the
+        controlled path by the controller's row (creatio.dynamics.layout C_*); on a rib
+        surface the pair (that vector, the skin's spline table), which selects the rib
+        surface's specialisations (creatio.dynamics.surface)."""
         p = self.parameter_vector()
-        if self.model.control is None:
-            return p
-        return np.concatenate([p, self.model.control.coefficients()])
+        if self.model.control is not None:
+            p = np.concatenate([p, self.model.control.coefficients()])
+        table = self.model.surface.skin_table
+        return p if table is None else (p, table)
 
     def initial_state(self, rotation: bool, energy: bool) -> NDArray[np.float64]:
         """Initial state vector for the given specialisation (identity orientation, zero sums),
@@ -570,13 +586,17 @@ def _replace(record: Any, changes: dict[str, Any]) -> Any:
 
 
 @dataclass(frozen=True)
-class SimulationResult:
-    """Sampled histories (world frame, SI units) and all-step extrema of one sphere run."""
+class Histories:
+    """The sampled histories of a run, one row per output time (world frame, SI units; a
+    stopped run's last row is its stop). The structure's (docs/model.md s.9-10) are NaN off
+    the structure path, where world_azimuth is azimuth; the control's (s.12.2) are NaN off
+    the controlled path."""
 
     t: NDArray[np.float64]
     X: NDArray[np.float64]
     R: NDArray[np.float64]
     alpha: NDArray[np.float64]
+    alphadot: NDArray[np.float64]
     V: NDArray[np.float64]
     speed: NDArray[np.float64]
     N: NDArray[np.float64]
@@ -595,60 +615,99 @@ class SimulationResult:
     friction_dissipation: NDArray[np.float64]
     energy_residual: NDArray[np.float64]
     cavity_R: NDArray[np.float64]
-    min_N: float
-    max_N: float
-    max_slip_speed: float
-    max_energy_residual: float
-    max_cavity_tracking_error: float
-    min_edge_clearance: float
-    max_b_kappa: float
-    status: str
-    stop_time: float
-    steps: int
-    rhs_evals: int
-    rotation_integrated: bool
-    energy_integrated: bool
-    dt: float
-    stability_limit: float
-    warnings: list[str] = field(default_factory=list)
-    method: str = "rk4"
-    rejected_steps: int = 0
-    jacobians: int = 0
-    lu_factorisations: int = 0
-    newton_iterations: int = 0
-    cell_u: NDArray[np.float64] = field(default_factory=lambda: np.empty(0))
-    cell_v: NDArray[np.float64] = field(default_factory=lambda: np.empty(0))
-    theta: NDArray[np.float64] = field(default_factory=lambda: np.empty(0))
-    theta_rate: NDArray[np.float64] = field(default_factory=lambda: np.empty(0))
-    hz_structure: NDArray[np.float64] = field(default_factory=lambda: np.empty(0))
-    hz_orbital: NDArray[np.float64] = field(default_factory=lambda: np.empty(0))
-    hz_spin: NDArray[np.float64] = field(default_factory=lambda: np.empty(0))
-    confinement_work: NDArray[np.float64] = field(default_factory=lambda: np.empty(0))
-    world_azimuth: NDArray[np.float64] = field(default_factory=lambda: np.empty(0))
-    left_cavity_time: float = math.nan
+    cell_u: NDArray[np.float64]
+    cell_v: NDArray[np.float64]
+    # the structure
+    theta: NDArray[np.float64]
+    theta_rate: NDArray[np.float64]
+    hz_structure: NDArray[np.float64]
+    hz_orbital: NDArray[np.float64]
+    hz_spin: NDArray[np.float64]
+    confinement_work: NDArray[np.float64]
+    world_azimuth: NDArray[np.float64]
+    # the control: the angular phase and its rate
+    phi_a: NDArray[np.float64]
+    phi_a_rate: NDArray[np.float64]
+
+
+@dataclass(frozen=True)
+class Extrema:
+    """Extrema of a run over every integration step, not only the sampled rows (NaN: not
+    measured, as the structure's off the structure path and all of them in a run not run)."""
+
+    min_N: float = math.nan
+    max_N: float = math.nan
+    max_slip_speed: float = math.nan
+    max_energy_residual: float = math.nan
+    max_cavity_tracking_error: float = math.nan
+    min_edge_clearance: float = math.nan
+    max_b_kappa: float = math.nan
+    # the structure (max_hz_drift and max_structure_momentum on a free structure only)
     max_hz_drift: float = math.nan
     max_structure_momentum: float = math.nan
     max_structure_rate: float = math.nan
     max_contact_radius: float = math.nan
-    structure_free: bool = False
+
+
+@dataclass(frozen=True)
+class Counts:
+    """How a run went and what it cost: the method, step and stability limit it ran with,
+    which parts of the state it integrated, the start point it took (and why an equilibrium
+    start was refused), its status and stop time, its steps, evaluations and the implicit
+    methods' linear algebra, and its warnings."""
+
+    method: str
+    dt: float
+    stability_limit: float
+    rotation_integrated: bool
+    energy_integrated: bool
+    structure_free: bool
+    status: str
+    stop_time: float
+    steps: int
+    rhs_evals: int
+    rejected_steps: int = 0
+    jacobians: int = 0
+    lu_factorisations: int = 0
+    newton_iterations: int = 0
+    warnings: list[str] = field(default_factory=list)
     start_R: float = math.nan
     start_alpha: float = math.nan
     equilibrium_message: str = ""
+
+
+@dataclass(frozen=True)
+class EventLog:
+    """What happened at a run's events: when the contact point left its starting cavity's
+    cell (NaN: never, docs/model.md s.8.2), and with flight on (s.11) the event table
+    (creatio.dynamics.layout EV_* columns), the largest gap reached in flight and whether the
+    run ended in flight."""
+
+    left_cavity_time: float = math.nan
     flight: bool = False
-    events: NDArray[np.float64] = field(default_factory=lambda: np.empty((0, NEV)))
+    table: NDArray[np.float64] = field(default_factory=lambda: np.empty((0, NEV)))
     max_flight_height: float = math.nan
     ends_in_flight: bool = False
-    #: the angular phase, its rate (controlled path only, else NaN) and the contact's
-    #: angular rate alphadot at each row (docs/model.md s.12.2)
-    phi_a: NDArray[np.float64] = field(default_factory=lambda: np.empty(0))
-    phi_a_rate: NDArray[np.float64] = field(default_factory=lambda: np.empty(0))
-    alphadot: NDArray[np.float64] = field(default_factory=lambda: np.empty(0))
+
+
+@dataclass(frozen=True)
+class SimulationResult:
+    """One sphere run's result, split the way a problem is: its sampled :class:`Histories`,
+    its all-step :class:`Extrema`, its :class:`Counts` (status, cost, what ran) and its
+    :class:`EventLog` (cavity, flight). A study reads the record it needs:
+    ``res.histories.R``, ``res.extrema.min_N``, ``res.counts.steps``."""
+
+    histories: Histories
+    extrema: Extrema
+    counts: Counts
+    events: EventLog
 
     @property
     def carried(self) -> bool:
         """Whether the contact point never left its starting cavity's cell (docs/model.md
         s.8.2) over the steps that ran."""
-        return math.isnan(self.left_cavity_time) and self.status != "no_equilibrium"
+        return (math.isnan(self.events.left_cavity_time)
+                and self.counts.status != "no_equilibrium")
 
 
 def _start_jets(problem: SphereProblem) -> tuple:
@@ -659,6 +718,9 @@ def _start_jets(problem: SphereProblem) -> tuple:
     pa, pa1, pa2 = motion.phi_a.scalar(0.0)
     gm, g1, g2 = motion.gamma.scalar(0.0)
     R, alpha = problem.start_point
+    if surface.skin_table is not None:
+        return offset_jets_skin(R, alpha, surface.R0, model.k, surface.A, model.sphere.b, pr,
+                                pr1, pr2, pa, pa1, pa2, gm, g1, g2, surface.skin_table)
     return offset_jets(R, alpha, surface.R0, model.k, surface.A, float(surface.Ka),
                        model.sphere.b, pr, pr1, pr2, pa, pa1, pa2, gm, g1, g2)
 

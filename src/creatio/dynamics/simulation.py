@@ -64,6 +64,10 @@ from creatio.dynamics.layout import (
     X_MAX_GAP,
 )
 from creatio.dynamics.problem import (
+    Counts,
+    EventLog,
+    Extrema,
+    Histories,
     SimulationResult,
     SphereProblem,
     check_stable,
@@ -78,6 +82,48 @@ from creatio.model import sphere as contact
 from creatio.model.numerics import steps_in
 
 __all__ = ["collapse_cause", "compiled_call", "simulate"]
+
+#: Where each of :class:`Histories` sits in the driver's history table: its first column and
+#: its width (creatio.dynamics.layout COL_*).
+_COLUMNS: dict[str, tuple[int, int]] = {
+    "t": (COL_T, 1),
+    "X": (COL_X, 3),
+    "R": (COL_R, 1),
+    "alpha": (COL_ALPHA, 1),
+    "alphadot": (COL_ALPHADOT, 1),
+    "V": (COL_V, 3),
+    "speed": (COL_SPEED, 1),
+    "N": (COL_N, 1),
+    "f": (COL_F, 3),
+    "slip_speed": (COL_SLIP, 1),
+    "omega": (COL_OMEGA, 3),
+    "spin_rate": (COL_SPIN_RATE, 1),
+    "cumulative_spin": (COL_SPIN, 1),
+    "Q": (COL_Q, 4),
+    "marker": (COL_MARKER, 3),
+    "azimuth": (COL_AZIMUTH, 1),
+    "kinetic": (COL_KINETIC, 1),
+    "potential": (COL_POTENTIAL, 1),
+    "energy": (COL_ENERGY, 1),
+    "surface_work": (COL_WORK, 1),
+    "friction_dissipation": (COL_DISSIPATION, 1),
+    "energy_residual": (COL_RESIDUAL, 1),
+    "cavity_R": (COL_CAVITY_R, 1),
+    "cell_u": (COL_CELL_U, 1),
+    "cell_v": (COL_CELL_V, 1),
+    "theta": (COL_THETA, 1),
+    "theta_rate": (COL_THETA_RATE, 1),
+    "hz_structure": (COL_HZ_STRUCTURE, 1),
+    "hz_orbital": (COL_HZ_ORBITAL, 1),
+    "hz_spin": (COL_HZ_SPIN, 1),
+    "confinement_work": (COL_CONFINE, 1),
+    "world_azimuth": (COL_WORLD_AZIMUTH, 1),
+    "phi_a": (COL_PHI_A, 1),
+    "phi_a_rate": (COL_PHI_A_RATE, 1),
+}
+#: The histories recorded on the structure path only (NaN off it).
+_STRUCTURE = ("theta", "theta_rate", "hz_structure", "hz_orbital", "hz_spin",
+              "confinement_work")
 
 
 def _run_arguments(problem: SphereProblem) -> tuple[tuple, dict]:
@@ -199,81 +245,60 @@ def simulate(problem: SphereProblem) -> SimulationResult:
             )
     h = out[:rows]
     nan = np.full(rows, math.nan)
-
-    def structure_column(col: int) -> np.ndarray:
-        return h[:, col].copy() if free else nan.copy()
-
+    histories = {name: _column(h, col, width) for name, (col, width) in _COLUMNS.items()}
+    if not free:  # the structure's histories are NaN off its path, the world frame its own
+        histories.update({name: nan.copy() for name in _STRUCTURE})
+        histories["world_azimuth"] = h[:, COL_AZIMUTH].copy()
     fixed = math.isinf(problem.model.structure.inertia)
     start_R, start_alpha = problem.start_point
     return SimulationResult(
-        t=h[:, COL_T].copy(),
-        X=h[:, COL_X : COL_X + 3].copy(),
-        R=h[:, COL_R].copy(),
-        alpha=h[:, COL_ALPHA].copy(),
-        V=h[:, COL_V : COL_V + 3].copy(),
-        speed=h[:, COL_SPEED].copy(),
-        N=h[:, COL_N].copy(),
-        f=h[:, COL_F : COL_F + 3].copy(),
-        slip_speed=h[:, COL_SLIP].copy(),
-        omega=h[:, COL_OMEGA : COL_OMEGA + 3].copy(),
-        spin_rate=h[:, COL_SPIN_RATE].copy(),
-        cumulative_spin=h[:, COL_SPIN].copy(),
-        Q=h[:, COL_Q : COL_Q + 4].copy(),
-        marker=h[:, COL_MARKER : COL_MARKER + 3].copy(),
-        azimuth=h[:, COL_AZIMUTH].copy(),
-        kinetic=h[:, COL_KINETIC].copy(),
-        potential=h[:, COL_POTENTIAL].copy(),
-        energy=h[:, COL_ENERGY].copy(),
-        surface_work=h[:, COL_WORK].copy(),
-        friction_dissipation=h[:, COL_DISSIPATION].copy(),
-        energy_residual=h[:, COL_RESIDUAL].copy(),
-        cavity_R=h[:, COL_CAVITY_R].copy(),
-        min_N=float(min_n),
-        max_N=float(max_n),
-        max_slip_speed=float(max_slip),
-        max_energy_residual=float(max_res),
-        max_cavity_tracking_error=float(max_track),
-        min_edge_clearance=float(min_clear),
-        max_b_kappa=float(max_bk),
-        status=st.NAMES[status],
-        stop_time=float(stop_time),
-        steps=int(steps),
-        rhs_evals=int(evals),
-        rotation_integrated=rot,
-        energy_integrated=en,
-        dt=sv.dt,
-        stability_limit=limit,
-        warnings=warnings,
-        method=sv.method,
-        rejected_steps=int(rejected),
-        jacobians=int(jacobians),
-        lu_factorisations=int(factorisations),
-        newton_iterations=int(newton),
-        cell_u=h[:, COL_CELL_U].copy(),
-        cell_v=h[:, COL_CELL_V].copy(),
-        theta=structure_column(COL_THETA),
-        theta_rate=structure_column(COL_THETA_RATE),
-        hz_structure=structure_column(COL_HZ_STRUCTURE),
-        hz_orbital=structure_column(COL_HZ_ORBITAL),
-        hz_spin=structure_column(COL_HZ_SPIN),
-        confinement_work=structure_column(COL_CONFINE),
-        world_azimuth=(h[:, COL_WORLD_AZIMUTH].copy() if free else h[:, COL_AZIMUTH].copy()),
-        left_cavity_time=float(ext[E_LEFT]),
-        max_hz_drift=float(ext[E_MAX_HZ_DRIFT]) if free and not fixed else math.nan,
-        max_structure_momentum=float(ext[E_MAX_IS_THETA]) if free and not fixed else math.nan,
-        max_structure_rate=float(ext[E_MAX_THETA_RATE]) if free else math.nan,
-        max_contact_radius=max_rho,
-        structure_free=free,
-        start_R=float(start_R),
-        start_alpha=float(start_alpha),
-        flight=problem.events.flight,
-        events=events,
-        max_flight_height=max_height,
-        ends_in_flight=in_flight,
-        phi_a=h[:, COL_PHI_A].copy(),
-        phi_a_rate=h[:, COL_PHI_A_RATE].copy(),
-        alphadot=h[:, COL_ALPHADOT].copy(),
+        histories=Histories(**histories),
+        extrema=Extrema(
+            min_N=float(min_n),
+            max_N=float(max_n),
+            max_slip_speed=float(max_slip),
+            max_energy_residual=float(max_res),
+            max_cavity_tracking_error=float(max_track),
+            min_edge_clearance=float(min_clear),
+            max_b_kappa=float(max_bk),
+            max_hz_drift=float(ext[E_MAX_HZ_DRIFT]) if free and not fixed else math.nan,
+            max_structure_momentum=(float(ext[E_MAX_IS_THETA]) if free and not fixed
+                                    else math.nan),
+            max_structure_rate=float(ext[E_MAX_THETA_RATE]) if free else math.nan,
+            max_contact_radius=max_rho,
+        ),
+        counts=Counts(
+            method=sv.method,
+            dt=sv.dt,
+            stability_limit=limit,
+            rotation_integrated=rot,
+            energy_integrated=en,
+            structure_free=free,
+            status=st.NAMES[status],
+            stop_time=float(stop_time),
+            steps=int(steps),
+            rhs_evals=int(evals),
+            rejected_steps=int(rejected),
+            jacobians=int(jacobians),
+            lu_factorisations=int(factorisations),
+            newton_iterations=int(newton),
+            warnings=warnings,
+            start_R=float(start_R),
+            start_alpha=float(start_alpha),
+        ),
+        events=EventLog(
+            left_cavity_time=float(ext[E_LEFT]),
+            flight=problem.events.flight,
+            table=events,
+            max_flight_height=max_height,
+            ends_in_flight=in_flight,
+        ),
     )
+
+
+def _column(h: np.ndarray, col: int, width: int) -> np.ndarray:
+    """A copy of one history of the driver's table: column col, or width columns from it."""
+    return h[:, col].copy() if width == 1 else h[:, col : col + width].copy()
 
 
 def collapse_cause(problem: SphereProblem) -> str:
@@ -297,19 +322,22 @@ def collapse_cause(problem: SphereProblem) -> str:
 
 def _no_equilibrium(problem: SphereProblem, reason: str) -> SimulationResult:
     """The result of a run that was not run: no acceptable equilibrium start (s.8.1)."""
-    empty = np.empty(0)
-    vec = np.empty((0, 3))
-    nan = math.nan
     return SimulationResult(
-        t=empty, X=vec, R=empty, alpha=empty, V=vec, speed=empty, N=empty, f=vec,
-        slip_speed=empty, omega=vec, spin_rate=empty, cumulative_spin=empty,
-        Q=np.empty((0, 4)), marker=vec, azimuth=empty, kinetic=empty, potential=empty,
-        energy=empty, surface_work=empty, friction_dissipation=empty, energy_residual=empty,
-        cavity_R=empty, min_N=nan, max_N=nan, max_slip_speed=nan, max_energy_residual=nan,
-        max_cavity_tracking_error=nan, min_edge_clearance=nan, max_b_kappa=nan,
-        status=st.NAMES[st.NO_EQUILIBRIUM], stop_time=0.0, steps=0, rhs_evals=0,
-        rotation_integrated=problem.rotation_integrated,
-        energy_integrated=bool(problem.output.energy), dt=problem.solver.dt,
-        stability_limit=stability_limit(problem), method=problem.solver.method,
-        structure_free=problem.structure_free, equilibrium_message=reason,
-    )  # fmt: skip
+        histories=Histories(**{name: np.empty((0,) if width == 1 else (0, width))
+                               for name, (_, width) in _COLUMNS.items()}),
+        extrema=Extrema(),
+        counts=Counts(
+            method=problem.solver.method,
+            dt=problem.solver.dt,
+            stability_limit=stability_limit(problem),
+            rotation_integrated=problem.rotation_integrated,
+            energy_integrated=bool(problem.output.energy),
+            structure_free=problem.structure_free,
+            status=st.NAMES[st.NO_EQUILIBRIUM],
+            stop_time=0.0,
+            steps=0,
+            rhs_evals=0,
+            equilibrium_message=reason,
+        ),
+        events=EventLog(),
+    )

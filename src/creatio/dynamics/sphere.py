@@ -5,7 +5,9 @@ also yields every diagnostic (normal reaction, slip, energy, stop conditions, ex
 curvature), so extrema are taken over all integration steps at no extra cost. Rotation and
 energy bookkeeping are compile-time specialisations (literal flags), so switching them off
 removes their work instead of branching around it. The formulas themselves are those of
-creatio.model (offset jets, contact closed forms, cavity radius and cell), compiled here.
+creatio.model (offset jets, contact closed forms, cavity radius and cell), compiled here; the
+rotation and energy blocks' rates are one tail shared with the structure path
+(creatio.dynamics.structure.rotation_energy_rates).
 
 The structure path (a structure free to yaw, or the normal preload: docs/model.md s.9-10) is
 a third literal flag, ``free``: :func:`rhs_of` resolves it at compile time to this module's
@@ -137,14 +139,13 @@ from creatio.dynamics.layout import (
     state_size,
     structure_start,
 )
-from creatio.dynamics.structure import rhs_structure
-from creatio.dynamics.surface import surface, surface_with_phase
+from creatio.dynamics.structure import rhs_structure, rotation_energy_rates
+from creatio.dynamics.surface import surface, surface_with_phase, with_skin
 from creatio.model.cavity import cavity_cell_offsets, cavity_radius, in_cavity_cell
 from creatio.model.control import servo
 from creatio.model.laws import NLAW
 from creatio.model.sphere import (
     acceleration_at_fixed_rates,
-    attitude_rates,
     centre_tangents,
     max_curvature_times_b,
     normal_reaction,
@@ -323,22 +324,9 @@ def rhs_on(sf: tuple, y: np.ndarray, dy: np.ndarray, pp: tuple, rot: bool, en: b
     dy[Y_R] = Rd
     dy[Y_ALPHA] = ad
     dy[Y_RDOT], dy[Y_ALPHADOT] = tangent_coordinates(xR1, xR2, xR3, xa1, xa2, xa3, r1, r2, r3)
-    if rot:
-        # I domega/dt = (-b n) x f, rotated back to the world frame
-        s = -b / pp[P_I]
-        d1 = s * (n2 * f3 - n3 * f2)
-        d2 = s * (n3 * f1 - n1 * f3)
-        dy[Y_OMEGA] = d1 * ca - d2 * sa
-        dy[Y_OMEGA + 1] = d1 * sa + d2 * ca
-        dy[Y_OMEGA + 2] = s * (n1 * f2 - n2 * f1)
-        # dQ/dt = 1/2 (0, omega) * Q, world-frame omega; the spin integrates |omega|
-        dy[Y_Q], dy[Y_Q + 1], dy[Y_Q + 2], dy[Y_Q + 3], dy[Y_SPIN] = attitude_rates(
-            y[Y_Q], y[Y_Q + 1], y[Y_Q + 2], y[Y_Q + 3], y[Y_OMEGA], y[Y_OMEGA + 1],
-            y[Y_OMEGA + 2])
-    if en:
-        ie = energy_start(rot)
-        dy[ie + EN_WORK] = (N * n1 + f1) * ct1 + (N * n3 + f3) * ct3
-        dy[ie + EN_DISSIPATION] = -(f1 * vs1 + f2 * vs2 + f3 * vs3)
+    # omega turned from the rotating frame at alpha back to the world
+    rotation_energy_rates(dy, y, pp, rot, en, N, n1, n2, n3, f1, f2, f3, vs1, vs2, vs3, ct1,
+                          ct3, ca, sa)
     bk = 0.0
     if diag:
         bk = max_curvature_times_b(rho, z, n1, n2, n3, b)
@@ -416,6 +404,10 @@ def _pack_run(ctl, p, lawc):
     controller's row, which selects that path in the right-hand side)."""
     if not isinstance(ctl, types.BooleanLiteral):
         return None
+    if isinstance(p, types.BaseTuple):  # a rib surface: (parameter vector, skin table)
+        if ctl.literal_value:
+            return lambda ctl, p, lawc: with_skin(pack_controlled(p[0], lawc), p[1])
+        return lambda ctl, p, lawc: with_skin(pack(p[0], lawc), p[1])
     if ctl.literal_value:
         return lambda ctl, p, lawc: pack_controlled(p, lawc)
     return lambda ctl, p, lawc: pack(p, lawc)

@@ -11,7 +11,9 @@ is turned back by the same angle (docs/model.md s.9.2, project choice). The 4 x 
 State: the layout of creatio.dynamics.layout, with the energy block [surface work, friction
 dissipation, confinement work] and the structure block [theta, Theta] last. The diagnostics
 tuple is that of creatio.dynamics.sphere.rhs, with V the centre's velocity relative to the
-structure.
+structure. The rotation and energy blocks' rates are :func:`rotation_energy_rates`, the one
+tail of both right-hand sides (the fixed structure's turns omega by alpha, this one by
+theta + alpha), written here because creatio.dynamics.sphere imports this module.
 """
 
 from __future__ import annotations
@@ -57,7 +59,7 @@ from creatio.model.sphere import (
 )
 from creatio.model.structure import confinement_power, free_structure_solve
 
-__all__ = ["rhs_structure", "rhs_structure_on"]
+__all__ = ["rhs_structure", "rhs_structure_on", "rotation_energy_rates"]
 
 
 def rhs_structure(t, y, dy, pp, lc, rot, en, diag):
@@ -155,14 +157,38 @@ def rhs_structure_on(sf: tuple, y: np.ndarray, dy: np.ndarray, pp: tuple, rot: b
     dy[Y_R] = Rd
     dy[Y_ALPHA] = ad
     dy[Y_RDOT], dy[Y_ALPHADOT] = tangent_coordinates(xR1, xR2, xR3, xa1, xa2, xa3, r1, r2, r3)
+    # omega turned from the rotating frame to the world by theta + a
+    rotation_energy_rates(dy, y, pp, rot, en, N, n1, n2, n3, f1, f2, f3, vs1, vs2, vs3, ct1,
+                          ct3, ca, sa)
+    if en:
+        dy[energy_start(rot) + EN_CONFINE] = confinement_power(P, n1, n3, ct1, ct3)
+    dy[iy + ST_THETA] = Th
+    dy[iy + ST_RATE] = thdd
+    bk = 0.0
+    if diag:
+        bk = max_curvature_times_b(rho, z, n1, n2, n3, b)
+    return N, math.sqrt(slip2), X1, X2, Z[0], V1, V2, V3, f1, f2, f3, pr, gm, bk, pa
+
+
+@inlined
+def rotation_energy_rates(dy: np.ndarray, y: np.ndarray, pp: tuple, rot: bool, en: bool,
+                          N: float, n1: float, n2: float, n3: float, f1: float, f2: float,
+                          f3: float, vs1: float, vs2: float, vs3: float, ct1: float,
+                          ct3: float, ca: float, sa: float) -> None:
+    """Write the rotation block's rates (I domega/dt = (-b n) x f, turned from the rotating
+    frame to the world by the angle of cosine ca and sine sa; the attitude and the spin) and
+    the energy block's (surface work, friction dissipation) into dy: the one tail of both
+    right-hand sides (creatio.dynamics.sphere.rhs_on at alpha, :func:`rhs_structure_on` at
+    theta + alpha), from the normal n, the reaction N, the friction f, the slip v_s and the
+    membrane velocity c_t (rho and z components) at the contact."""
     if rot:
-        # I domega/dt = (-b n) x f, turned from the rotating frame to the world by theta + a
-        s = -b / pp[P_I]
+        s = -pp[P_B] / pp[P_I]
         d1 = s * (n2 * f3 - n3 * f2)
         d2 = s * (n3 * f1 - n1 * f3)
         dy[Y_OMEGA] = d1 * ca - d2 * sa
         dy[Y_OMEGA + 1] = d1 * sa + d2 * ca
         dy[Y_OMEGA + 2] = s * (n1 * f2 - n2 * f1)
+        # dQ/dt = 1/2 (0, omega) * Q, world-frame omega; the spin integrates |omega|
         dy[Y_Q], dy[Y_Q + 1], dy[Y_Q + 2], dy[Y_Q + 3], dy[Y_SPIN] = attitude_rates(
             y[Y_Q], y[Y_Q + 1], y[Y_Q + 2], y[Y_Q + 3], y[Y_OMEGA], y[Y_OMEGA + 1],
             y[Y_OMEGA + 2])
@@ -170,10 +196,3 @@ def rhs_structure_on(sf: tuple, y: np.ndarray, dy: np.ndarray, pp: tuple, rot: b
         ie = energy_start(rot)
         dy[ie + EN_WORK] = (N * n1 + f1) * ct1 + (N * n3 + f3) * ct3
         dy[ie + EN_DISSIPATION] = -(f1 * vs1 + f2 * vs2 + f3 * vs3)
-        dy[ie + EN_CONFINE] = confinement_power(P, n1, n3, ct1, ct3)
-    dy[iy + ST_THETA] = Th
-    dy[iy + ST_RATE] = thdd
-    bk = 0.0
-    if diag:
-        bk = max_curvature_times_b(rho, z, n1, n2, n3, b)
-    return N, math.sqrt(slip2), X1, X2, Z[0], V1, V2, V3, f1, f2, f3, pr, gm, bk, pa

@@ -22,9 +22,11 @@ at three times). The kinds of docs/model.md s.2 are the special cases:
 A law's plain-number form is its coefficient vector (:meth:`Law.coefficients`, laid out by
 the L_* indices below): the six coefficients of the general form and the kind's code, which
 says which step delta travels along. :func:`law_eval` evaluates that vector at one time in
-scalar code, which the compiled dynamics core (creatio.dynamics) compiles as it is; a new
-kind is its step here, its code, and the coefficients its config uses
-(creatio.studies.schema).
+scalar code, which the compiled dynamics core (creatio.dynamics) compiles as it is, and
+each step is written once there: the vectorised steps apply that scalar code element by
+element (:func:`step_of`; the quintic's NumPy twin, :func:`quintic_step`, says why it is the
+exception). A new kind is its step in that scalar code, its code, and the coefficients its
+config uses (creatio.studies.schema).
 """
 
 from __future__ import annotations
@@ -47,15 +49,18 @@ __all__ = [
     "L_RATE",
     "L_T",
     "NLAW",
+    "QUINTIC_CODES",
     "Law",
     "LawKind",
     "LawValue",
     "cosine_step",
     "law_eval",
     "quintic_step",
+    "step_of",
     "trapezoid_on_grid",
     "trapezoid_scalar",
     "trapezoid_step",
+    "unit_coefficients",
 ]
 
 
@@ -81,6 +86,8 @@ KIND_CODES: dict[LawKind, int] = {kind: code for code, kind in enumerate(LawKind
 COSINE_RAMP = KIND_CODES[LawKind.cosine_ramp]
 #: The trapezoid's code: delta travels the trapezoid step of ramp fraction L_RAMP.
 TRAPEZOID = KIND_CODES[LawKind.trapezoid]
+#: The codes whose delta travels the quintic step (every kind without a step of its own).
+QUINTIC_CODES = frozenset(KIND_CODES.values()) - {COSINE_RAMP, TRAPEZOID}
 #: How close (in tau) to a switch of the trapezoid a time is taken to be on it.
 SWITCH_TOL = 1e-12
 
@@ -95,7 +102,14 @@ class LawValue:
 
 
 def quintic_step(tau: ArrayLike) -> tuple[NDArray, NDArray, NDArray]:
-    """Return s, ds/dtau, d2s/dtau2 of the quintic smooth step, clamped outside [0, 1]."""
+    """Return s, ds/dtau, d2s/dtau2 of the quintic smooth step, clamped outside [0, 1].
+
+    The one step written twice: here in NumPy and in :func:`law_eval`'s scalar code. The two
+    round s' differently (30 x^2 (1 - x)^2 here, 30 x x (1 - x) (1 - x) there: 44,695 of the
+    120,001 values of EN-01's 1 ms grid differ in their last bit), and the kinematic datasets
+    (EN-01's pattern rate) hold this one's bits while the dynamics datasets hold law_eval's,
+    so deriving either from the other changes one family of datasets in the last bit. The
+    test of law_eval against this function holds them to rounding."""
     tau = np.asarray(tau, dtype=float)
     inside = (tau > 0.0) & (tau < 1.0)
     x = np.clip(tau, 0.0, 1.0)
@@ -108,14 +122,9 @@ def quintic_step(tau: ArrayLike) -> tuple[NDArray, NDArray, NDArray]:
 def cosine_step(tau: ArrayLike) -> tuple[NDArray, NDArray, NDArray]:
     """Return s, ds/dtau, d2s/dtau2 of the cosine step (1 - cos(pi tau)) / 2 on the closed
     interval [0, 1], held outside it. Its second derivative jumps by pi^2 / 2 at both ends;
-    there the ramp's own one-sided value is taken (docs/model.md s.2)."""
-    tau = np.asarray(tau, dtype=float)
-    inside = (tau >= 0.0) & (tau <= 1.0)
-    x = np.pi * np.clip(tau, 0.0, 1.0)
-    s = 0.5 - 0.5 * np.cos(x)
-    ds = np.where(inside, 0.5 * np.pi * np.sin(x), 0.0)
-    dds = np.where(inside, 0.5 * np.pi * np.pi * np.cos(x), 0.0)
-    return s, ds, dds
+    there the ramp's own one-sided value is taken (docs/model.md s.2). Derived from the
+    scalar formula of :func:`law_eval` (:func:`step_of`)."""
+    return step_of(LawKind.cosine_ramp, tau)
 
 
 def trapezoid_scalar(tau: float, r: float) -> tuple[float, float, float]:
@@ -158,9 +167,30 @@ def trapezoid_step(tau: ArrayLike, ramp: float) -> tuple[NDArray, NDArray, NDArr
     mean of its two sides, so a fixed-step Runge-Kutta step that ends on it and the next
     that starts on it make errors of opposite sign that cancel to first order; at tau = 0,
     where a run starts, it is the ramp's own value."""
+    return step_of(LawKind.trapezoid, tau, ramp)
+
+
+def unit_coefficients(kind: LawKind, ramp: float = 0.0) -> tuple[float, ...]:
+    """The coefficient vector of phi(t) = s(t), the bare step of kind (delta 1, T 1, every
+    other term 0; ramp: the trapezoid's fraction), so :func:`law_eval` of it at tau is the
+    step's (s, ds/dtau, d2s/dtau2) at tau, bit for bit."""
+    c = [0.0] * NLAW
+    c[L_DELTA] = 1.0
+    c[L_T] = 1.0
+    c[L_KIND] = float(KIND_CODES[kind])
+    c[L_RAMP] = ramp
+    return tuple(c)
+
+
+def step_of(kind: LawKind, tau: ArrayLike, ramp: float = 0.0
+            ) -> tuple[NDArray, NDArray, NDArray]:
+    """s, ds/dtau, d2s/dtau2 of kind's step at every tau (any shape): the scalar formula of
+    :func:`law_eval`, the one the compiled core runs, applied element by element, so the
+    vectorised step is that formula's and never a second copy of it."""
     tau = np.asarray(tau, dtype=float)
-    out = np.array([trapezoid_scalar(float(x), ramp) for x in tau.ravel()]).reshape(
-        (*tau.shape, 3))
+    c = unit_coefficients(kind, ramp)
+    out = np.array([law_eval(c, x) for x in tau.ravel().tolist()], dtype=float)
+    out = out.reshape((*tau.shape, 3))
     return out[..., 0], out[..., 1], out[..., 2]
 
 
@@ -259,10 +289,12 @@ class Law:
         return law_eval(self.coefficients(), t)
 
     def step(self, tau: ArrayLike) -> tuple[NDArray, NDArray, NDArray]:
-        """s, ds/dtau, d2s/dtau2 of the step this law's delta travels along."""
-        if self.kind is LawKind.trapezoid:
-            return trapezoid_step(tau, self.ramp)
-        return cosine_step(tau) if self.kind is LawKind.cosine_ramp else quintic_step(tau)
+        """s, ds/dtau, d2s/dtau2 of the step this law's delta travels along: the scalar
+        formula of :func:`law_eval` element by element (:func:`step_of`), the quintic's by
+        its NumPy twin :func:`quintic_step` (see there why it has one)."""
+        if KIND_CODES[self.kind] in QUINTIC_CODES:
+            return quintic_step(tau)
+        return step_of(self.kind, tau, self.ramp)
 
     def switch_times(self) -> tuple[float, ...]:
         """The times at which the acceleration jumps (the trapezoid's ramp ends and T)."""

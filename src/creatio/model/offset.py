@@ -18,7 +18,8 @@ from __future__ import annotations
 
 import math
 
-__all__ = ["SCALAR_KERNELS", "offset_jets"]
+__all__ = ["INLINED_KERNELS", "SCALAR_KERNELS", "offset_jets", "offset_jets_of", "offset_jets_skin",
+           "quintic_jet", "skin_jets"]
 
 
 def jmul(x, y):
@@ -156,33 +157,125 @@ def offset_jets(
     g1: float,
     g2: float,
 ) -> tuple:
-    """Jets of c, n and X = c + b n in the rotating frame at (R, alpha).
+    """Jets of c, n and X = c + b n in the rotating frame at (R, alpha) on the ideal surface.
 
     Inputs are the surface constants and the law values (phi_r, phi_a, gamma with their
     first two time derivatives) at the current time. Returns (rho, z, n_rho, n_alpha, n_z,
     P, Q, Z): rho and z are the jets of c = rho e_rho + z e_z, n_* the components of the unit
     normal (values), P, Q, Z the jets of the components of X.
     """
-    u = k * R + pr
     v = Ka * a + pa
-    su = math.sin(u)
-    cu = math.cos(u)
     sv = math.sin(v)
     cv = math.cos(v)
-    sg = math.sin(gm)
-    cg = math.cos(gm)
-    # (R, t) jets of sin u, cos u and (alpha, t) jets of sin v, cos v
-    pr1s = pr1 * pr1
+    # (alpha, t) jets of sin v, cos v: W_alpha = -A Ka sin(u) sin(v)
     pa1s = pa1 * pa1
-    ksq = k * k
     kas = Ka * Ka
-    jsu = (su, k * cu, pr1 * cu, -ksq * su, -k * pr1 * su, pr2 * cu - pr1s * su)
-    jcu = (cu, -k * su, -pr1 * su, -ksq * cu, -k * pr1 * cu, -pr2 * su - pr1s * cu)
     jsv = (sv, Ka * cv, pa1 * cv, -kas * sv, -Ka * pa1 * sv, pa2 * cv - pa1s * sv)
     jcv = (cv, -Ka * sv, -pa1 * sv, -kas * cv, -Ka * pa1 * cv, -pa2 * sv - pa1s * cv)
-    W = jmixed(A, 1.0, jsu, 1.0, jcv)
-    WR = jmixed(A * k, 1.0, jcu, 1.0, jcv)
-    Wa = jmixed(-A * Ka, 1.0, jsu, 1.0, jsv)
+    return offset_jets_of(R, R0, k, A, b, pr, pr1, pr2, jcv, -A * Ka, jsv, gm, g1, g2)
+
+
+def quintic_jet(c0: float, c1: float, c2: float, c3: float, c4: float, c5: float, x: float,
+                inv_h: float) -> tuple:
+    """(S, S_a, S_aa, S_aaa) of S = sum_p c_p x^p at x = (alpha - alpha_j) / h, derivatives in
+    alpha (each x derivative times 1 / h), by Horner."""
+    h2 = inv_h * inv_h
+    return (
+        ((((c5 * x + c4) * x + c3) * x + c2) * x + c1) * x + c0,
+        inv_h * ((((5.0 * c5 * x + 4.0 * c4) * x + 3.0 * c3) * x + 2.0 * c2) * x + c1),
+        h2 * (((20.0 * c5 * x + 12.0 * c4) * x + 6.0 * c3) * x + 2.0 * c2),
+        h2 * inv_h * ((60.0 * c5 * x + 24.0 * c4) * x + 6.0 * c3),
+    )
+
+
+def skin_jets(a: float, pa: float, pa1: float, pa2: float, table) -> tuple:
+    """(alpha, t) jets of the rib skin H = cos(phi_a) S_c - sin(phi_a) S_s and of H_alpha,
+    each (v, a, t, aa, at, tt), from the spline table of creatio.model.ribs.skin_table (row
+    j: the power coefficients of S_c then S_s in x = (alpha - alpha_j) / h on interval j).
+    With G = sin(phi_a) S_c + cos(phi_a) S_s: H_t = -phi_a' G, H_tt = -phi_a'' G - phi_a'^2 H.
+    """
+    n = table.shape[0]
+    inv_h = n / (2.0 * math.pi)
+    q = a * inv_h
+    fj = math.floor(q)
+    x = q - fj
+    j = int(fj) % n
+    # S and its first three alpha derivatives, of S_c (columns 0-5) and S_s (6-11)
+    c = quintic_jet(table[j, 0], table[j, 1], table[j, 2], table[j, 3], table[j, 4],
+                    table[j, 5], x, inv_h)
+    s = quintic_jet(table[j, 6], table[j, 7], table[j, 8], table[j, 9], table[j, 10],
+                    table[j, 11], x, inv_h)
+    cp = math.cos(pa)
+    sp = math.sin(pa)
+    H0 = cp * c[0] - sp * s[0]
+    H1 = cp * c[1] - sp * s[1]
+    H2 = cp * c[2] - sp * s[2]
+    H3 = cp * c[3] - sp * s[3]
+    G0 = sp * c[0] + cp * s[0]
+    G1 = sp * c[1] + cp * s[1]
+    G2 = sp * c[2] + cp * s[2]
+    pa1s = pa1 * pa1
+    jH = (H0, H1, -pa1 * G0, H2, -pa1 * G1, -pa2 * G0 - pa1s * H0)
+    jHa = (H1, H2, -pa1 * G1, H3, -pa1 * G2, -pa2 * G1 - pa1s * H1)
+    return jH, jHa
+
+
+def offset_jets_skin(
+    R: float,
+    a: float,
+    R0: float,
+    k: float,
+    A: float,
+    b: float,
+    pr: float,
+    pr1: float,
+    pr2: float,
+    pa: float,
+    pa1: float,
+    pa2: float,
+    gm: float,
+    g1: float,
+    g2: float,
+    table,
+) -> tuple:
+    """:func:`offset_jets` on a rib surface, W = A sin(u) H(alpha, t) with the spline skin H
+    of the rib table (creatio.model.ribs, docs/model.md s.14.4)."""
+    jH, jHa = skin_jets(a, pa, pa1, pa2, table)
+    return offset_jets_of(R, R0, k, A, b, pr, pr1, pr2, jH, A, jHa, gm, g1, g2)
+
+
+def offset_jets_of(
+    R: float,
+    R0: float,
+    k: float,
+    A: float,
+    b: float,
+    pr: float,
+    pr1: float,
+    pr2: float,
+    jH: tuple,
+    s_a: float,
+    jHa: tuple,
+    gm: float,
+    g1: float,
+    g2: float,
+) -> tuple:
+    """The offset jets of W = A sin(u) H(alpha, t), given the (alpha, t) jets of H (jH) and
+    of W_alpha / (s_a sin u) (jHa, scaled by s_a), each (v, a, t, aa, at, tt): the part of
+    :func:`offset_jets` every surface kind shares (returns the same tuple)."""
+    u = k * R + pr
+    su = math.sin(u)
+    cu = math.cos(u)
+    sg = math.sin(gm)
+    cg = math.cos(gm)
+    # (R, t) jets of sin u, cos u
+    pr1s = pr1 * pr1
+    ksq = k * k
+    jsu = (su, k * cu, pr1 * cu, -ksq * su, -k * pr1 * su, pr2 * cu - pr1s * su)
+    jcu = (cu, -k * su, -pr1 * su, -ksq * cu, -k * pr1 * cu, -pr2 * su - pr1s * cu)
+    W = jmixed(A, 1.0, jsu, 1.0, jH)
+    WR = jmixed(A * k, 1.0, jcu, 1.0, jH)
+    Wa = jmixed(s_a, 1.0, jsu, 1.0, jHa)
     # t jets of cos(gamma), sin(gamma)
     cg1 = -g1 * sg
     cg2 = -g2 * sg - g1 * g1 * cg
@@ -221,4 +314,8 @@ def offset_jets(
 
 
 #: The scalar functions of this module, in dependency order, for the dynamics layer to compile.
-SCALAR_KERNELS = (jmul, jsq, jlin, jscale, jcompose, jmixed, jtmul, offset_jets)
+SCALAR_KERNELS = (jmul, jsq, jlin, jscale, jcompose, jmixed, jtmul, offset_jets_of, offset_jets,
+                  quintic_jet, skin_jets, offset_jets_skin)
+#: Of those, the ones a compiled caller must inline (creatio.dynamics.jit): the offset jets
+#: return 53 numbers, which a call would pass through memory.
+INLINED_KERNELS = (offset_jets_of, offset_jets, offset_jets_skin)

@@ -16,11 +16,13 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from creatio.model.laws import Law, LawValue
+from creatio.model.ribs import Ribs, check_rib_count, skin_jets
 
 __all__ = ["Frame", "Motion", "Surface", "Wave", "inverse", "wavenumber"]
 
@@ -34,13 +36,16 @@ def wavenumber(Kr: int, dR: float) -> float:
 
 @dataclass(frozen=True)
 class Surface:
-    """Static shape parameters: inner radius R0, width dR, amplitude A, cycle counts Kr, Ka."""
+    """Static shape parameters: inner radius R0, width dR, amplitude A, cycle counts Kr, Ka;
+    and ``ribs``: None for the ideal surface, else the ribs whose spline skin it is
+    (creatio.model.ribs, docs/model.md s.14.4)."""
 
     R0: float
     dR: float
     A: float
     Kr: int
     Ka: int
+    ribs: Ribs | None = None
 
     def __post_init__(self) -> None:
         if not self.R0 > 0.0:
@@ -53,6 +58,13 @@ class Surface:
             value = getattr(self, name)
             if int(value) != value or value < 1:
                 raise ValueError(f"{name} must be a positive integer, got {value}")
+        if self.ribs is not None:
+            check_rib_count(self.ribs.N, self.Ka)
+
+    @cached_property
+    def skin_table(self) -> Array | None:
+        """The rib skin's spline table (creatio.model.ribs.skin_table), None when ideal."""
+        return None if self.ribs is None else self.ribs.table(self.Ka)
 
     @property
     def k(self) -> float:
@@ -107,18 +119,33 @@ class Wave:
         v = Ka * alpha + pa_v
         su, cu, sv, cv = np.sin(u), np.cos(u), np.sin(v), np.cos(v)
         r1, r2, a1, a2 = pr_1, pr_2, pa_1, pa_2
-        self.W = A * su * cv
-        self.W_R = A * k * cu * cv
-        self.W_a = -A * Ka * su * sv
-        self.W_t = A * (r1 * cu * cv - a1 * su * sv)
-        self.W_RR = -(k**2) * self.W
-        self.W_aa = -(Ka**2) * self.W
-        self.W_Ra = -A * k * Ka * cu * sv
-        self.W_Rt = A * k * (-r1 * su * cv - a1 * cu * sv)
-        self.W_at = -A * Ka * (r1 * cu * sv + a1 * su * cv)
-        self.W_tt = A * (
-            r2 * cu * cv - a2 * su * sv - (r1**2 + a1**2) * su * cv - 2.0 * r1 * a1 * cu * sv
-        )
+        if surface.ribs is None:
+            self.W = A * su * cv
+            self.W_R = A * k * cu * cv
+            self.W_a = -A * Ka * su * sv
+            self.W_t = A * (r1 * cu * cv - a1 * su * sv)
+            self.W_RR = -(k**2) * self.W
+            self.W_aa = -(Ka**2) * self.W
+            self.W_Ra = -A * k * Ka * cu * sv
+            self.W_Rt = A * k * (-r1 * su * cv - a1 * cu * sv)
+            self.W_at = -A * Ka * (r1 * cu * sv + a1 * su * cv)
+            self.W_tt = A * (
+                r2 * cu * cv - a2 * su * sv - (r1**2 + a1**2) * su * cv - 2.0 * r1 * a1 * cu * sv
+            )
+        else:
+            # the rib skin: W = A sin(u) H(alpha, t) (creatio.model.ribs)
+            H, Ha, Ht, Haa, Hat, Htt, _, _, _ = skin_jets(surface.skin_table, alpha, pa_v, a1,
+                                                          a2)
+            self.W = A * su * H
+            self.W_R = A * k * cu * H
+            self.W_a = A * su * Ha
+            self.W_t = A * (r1 * cu * H + su * Ht)
+            self.W_RR = -(k**2) * self.W
+            self.W_aa = A * su * Haa
+            self.W_Ra = A * k * cu * Ha
+            self.W_Rt = A * k * (-r1 * su * H + cu * Ht)
+            self.W_at = A * (r1 * cu * Ha + su * Hat)
+            self.W_tt = A * (r2 * cu * H - r1**2 * su * H + 2.0 * r1 * cu * Ht + su * Htt)
         self.g, self.dg, self.ddg = g_v, g_1, g_2
         self.sg, self.cg = sg, cg
         self.sa, self.ca = np.sin(alpha), np.cos(alpha)

@@ -7,15 +7,20 @@ written atomically; the registry's report writer derives the report from the dat
 
 from __future__ import annotations
 
+import contextlib
 import logging
+import os
+import sys
+import threading
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
 from creatio.pipeline.config import Resolved, output_root
 
-__all__ = ["compute_dataset", "compute_parts", "run_resolved", "run_study", "write_report"]
+__all__ = ["FIGURES", "compute_dataset", "compute_parts", "draw_after", "figures_after",
+           "run_resolved", "run_study", "write_report"]
 
 log = logging.getLogger("creatio")
 
@@ -59,10 +64,13 @@ def compute_dataset(resolved: Resolved, out: Path, part: str | None = None) -> P
     return out
 
 
-def write_report(study: str, outdir: Path, datasets: Sequence[Path]) -> dict[str, Path]:
+def write_report(study: str, outdir: Path, datasets: Sequence[Path],
+                 later: list[Callable[[], None]] | None = None) -> dict[str, Path]:
     """Derive a study's report files from its datasets (the registry's report writer). A
     sphere study whose own checks are absurd (creatio.pipeline.checks) gets no report:
-    ChecksFailed, one line naming each check."""
+    ChecksFailed, one line naming each check. later: a list that receives the figures a
+    writer leaves for later (creatio.reports.common.figures_later) instead of drawing them;
+    None draws everything now."""
     from creatio.studies import registry
 
     entry = registry.get(study)
@@ -79,11 +87,77 @@ def write_report(study: str, outdir: Path, datasets: Sequence[Path]) -> dict[str
         if problems:
             raise ChecksFailed(f"{study}: the run's own checks are absurd, no report written: "
                                f"{'; '.join(problems)} (bounds: creatio.pipeline.checks)")
+    from creatio.reports.common import figures_later
     from creatio.reports.registry import writer
 
-    paths = writer(study)([Path(p) for p in datasets], outdir)
-    log.info("%s: report %s", study, ", ".join(str(p) for p in paths.values()))
+    queued = len(later) if later is not None else 0
+    with figures_later(later):
+        paths = writer(study)([Path(p) for p in datasets], outdir)
+    follow = " (its figures follow)" if later is not None and len(later) > queued else ""
+    log.info("%s: report %s%s", study, ", ".join(str(p) for p in paths.values()), follow)
     return paths
+
+
+#: The variable that says when `creatio run` draws its report's figures: ``after`` (the
+#: default: the result is said first, the figures are drawn in a process of their own) or
+#: ``now`` (before the command returns: for a script that reads them right after).
+FIGURES = "CREATIO_FIGURES"
+
+
+def figures_after() -> bool:
+    """Whether `creatio run` draws its figures after it has said its result: not when
+    :data:`FIGURES` is ``now``, nor in a batch job (whose end would stop the drawing), nor
+    where this platform cannot fork."""
+    from creatio.pipeline.worker import BATCH_JOB
+
+    return (os.environ.get(FIGURES, "after") != "now" and hasattr(os, "fork")
+            and not any(k in os.environ for k in BATCH_JOB))
+
+
+def draw_after(tasks: Sequence[Callable[[], None]], data_dir: Path, log_path: Path) -> None:
+    """Draw queued figures (each saved atomically) in a process of its own, in a session of
+    its own with no terminal, that outlives this one: the command exits, and its caller has
+    its status, while they are drawn; then that process refreshes the index, which lists a
+    figure once it is there. Its output goes to log_path, removed when all went well (kept,
+    naming the failure, when not). Where forking is unsafe (other threads) they are drawn
+    here, now."""
+    if not tasks:
+        return
+    if not hasattr(os, "fork") or threading.active_count() > 1:
+        for task in tasks:
+            task()
+        return
+    for stream in (sys.stdout, sys.stderr):
+        stream.flush()
+    if os.fork():
+        return
+    code = 1
+    try:
+        os.setsid()
+        log_path.parent.mkdir(parents=True, exist_ok=True)
+        null = os.open(os.devnull, os.O_RDONLY)
+        out = os.open(log_path, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o644)
+        os.dup2(null, 0)
+        os.dup2(out, 1)
+        os.dup2(out, 2)
+        os.closerange(3, 1 << 16)  # nothing of the caller's pipes, sockets or worker kept
+        from creatio.pipeline.index import refresh_index
+        from creatio.store.forked import run_all
+
+        run_all(list(tasks))
+        refresh_index(data_dir)
+        log_path.unlink(missing_ok=True)
+        code = 0
+    except BaseException:  # noqa: BLE001 - said in the log, which stays
+        import traceback
+
+        with contextlib.suppress(OSError):  # to the log itself, whatever sys.stderr wraps
+            os.write(2, traceback.format_exc().encode(errors="backslashreplace"))
+    finally:
+        for stream in (sys.stdout, sys.stderr):
+            with contextlib.suppress(Exception):
+                stream.flush()
+        os._exit(code)
 
 
 #: The kinds whose parts may compute at once: not the analyses, whose datasets are timings
@@ -113,9 +187,12 @@ def compute_parts(resolved: Resolved, directory: Path, names: Sequence[str]) -> 
     return outs
 
 
-def run_resolved(resolved: Resolved, data_dir: Path = Path("data")) -> Path:
+def run_resolved(resolved: Resolved, data_dir: Path = Path("data"),
+                 figures: str = "now") -> Path:
     """Everything `snakemake all` does for one study, in this process; a run folder gets its
-    overrides.json (the keys its config changes) and the index lists it."""
+    overrides.json (the keys its config changes) and the index lists it. figures ``after``:
+    the report's figures are drawn after this returns, in a process of its own
+    (:func:`draw_after`; its log ``.figures.log`` in the report's folder while it draws)."""
     from creatio.pipeline.config import resolve
     from creatio.pipeline.index import record_run, refresh_index
 
@@ -131,8 +208,12 @@ def run_resolved(resolved: Resolved, data_dir: Path = Path("data")) -> Path:
         from creatio.pipeline.points import run_study_sample
 
         outs += run_study_sample(resolved, root)
-    write_report(resolved.id, root / entry.kind.report_dir, outs)
+    later: list[Callable[[], None]] | None = [] if figures == "after" else None
+    report_dir = root / entry.kind.report_dir
+    write_report(resolved.id, report_dir, outs, later)
     page = refresh_index(data_dir)
     if page is not None:
         log.info("results: %s (creatio ls lists them)", page)
+    if later:
+        draw_after(later, data_dir, report_dir / f".{resolved.id}.figures.log")
     return root

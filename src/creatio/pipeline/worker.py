@@ -39,8 +39,10 @@ invocation): the one of this checkout and of the environment Snakemake gives its
 until it has been idle for :data:`SHARED_IDLE` seconds, so that the next invocation's jobs
 start warm instead of waiting for a worker to import everything again; ``creatio worker
 start`` starts the daemon of ``creatio run`` (the user's own environment), which stays until
-it has been idle for ``--idle`` seconds. ``CREATIO_WORKER=off`` runs every command in its own
-process.
+it has been idle for ``--idle`` seconds; a plain ``creatio run`` that no worker served starts
+that daemon itself once it has said its result (:func:`autostart`: idle after
+``CREATIO_WORKER_IDLE`` s, default :data:`SHARED_IDLE`), so the next run is warm.
+``CREATIO_WORKER=off`` runs every command in its own process and starts none.
 """
 
 from __future__ import annotations
@@ -70,6 +72,7 @@ __all__ = [
     "NEUTRAL_ENV",
     "SHARED_IDLE",
     "Server",
+    "autostart",
     "daemon_socket",
     "delegate",
     "ensure",
@@ -99,7 +102,7 @@ NEUTRAL_ENV = frozenset(("PWD", "OLDPWD", "SHLVL", "_", "TERM", "COLUMNS", "LINE
 #: (``CREATIO_WORKER_IDLE`` sets it).
 SHARED_IDLE = 900.0
 #: Read when a command runs, not at import: a worker serves any value of these.
-CALL_TIME = (ENV, "CREATIO_DEBUG", "CREATIO_WORKER_IDLE", "CREATIO_FORK")
+CALL_TIME = (ENV, "CREATIO_DEBUG", "CREATIO_WORKER_IDLE", "CREATIO_FORK", "CREATIO_FIGURES")
 #: Set in a batch scheduler's job (SLURM, PBS, LSF): such a job never uses a worker, even
 #: one of the same user on the same node.
 BATCH_JOB = ("SLURM_JOB_ID", "PBS_JOBID", "LSB_JOBID")
@@ -275,6 +278,8 @@ def _connect(path: Path, wait: float) -> socket.socket | None:
 def delegate(argv: Sequence[str]) -> int | None:
     """Run a command in a worker and return its exit status, or None when no worker serves
     it (then the caller runs it in its own process)."""
+    global _unserved
+    _unserved = None
     name = os.environ.get(ENV, "")
     if name == "off" or not argv or argv[0] not in COMMANDS:
         return None
@@ -284,6 +289,7 @@ def delegate(argv: Sequence[str]) -> int | None:
         path = Path(name) if name else daemon_socket()
     except OSError:
         return None
+    _unserved = None if name else dict(os.environ)  # as it started, for autostart
     if not name and not path.exists():
         return None
     sock = _connect(path, START_WAIT if name else 0.0)
@@ -302,6 +308,8 @@ def delegate(argv: Sequence[str]) -> int | None:
             return None
         if not isinstance(reply, dict) or not ("refused" in reply or "pid" in reply):
             return None
+        if "pid" in reply:
+            _unserved = None
         if "refused" in reply:
             if os.environ.get("CREATIO_DEBUG"):
                 print(f"creatio: worker refused the job: {reply['refused']}", file=sys.stderr)
@@ -318,6 +326,48 @@ def delegate(argv: Sequence[str]) -> int | None:
             print("creatio: the warm worker stopped during the job: it runs again in its "
                   "own process", file=sys.stderr)
         return code
+
+
+#: The environment, as it started, of this process's own command when no daemon served it
+#: with ``CREATIO_WORKER`` unset (:func:`delegate`): :func:`autostart` starts the daemon in
+#: it (not in what the command's imports set since), so that the next runs match it.
+_unserved: dict[str, str] | None = None
+
+
+def autostart(argv: Sequence[str]) -> subprocess.Popen | None:
+    """Start this checkout's daemon in the background once a `creatio run` that no worker
+    served has said its result, so that the next run of the session is warm (the daemon
+    warms up meanwhile; a run before it is ready runs alone): as Snakemake's invocations
+    start their shared worker, it stops after ``CREATIO_WORKER_IDLE`` s idle (default
+    :data:`SHARED_IDLE`). Never for a command a worker runs, another command or one with
+    options (``--help``, ``-m``), with ``CREATIO_WORKER`` set, in a batch job, under a
+    CPU-time limit (the daemon would inherit it), or where forking or passing descriptors
+    is unavailable. Says so on stderr, in one line, when it starts one; returns the daemon
+    started (None: none)."""
+    import resource
+
+    if (_unserved is None or list(argv[:1]) != ["run"] or any(a.startswith("-") for a in argv[1:])
+            or os.environ.get(ENV) or any(k in os.environ for k in BATCH_JOB)
+            or not (hasattr(os, "fork") and hasattr(socket, "send_fds")
+                    and hasattr(socket, "AF_UNIX"))
+            or resource.getrlimit(resource.RLIMIT_CPU)[0] != resource.RLIM_INFINITY):
+        return None
+    try:
+        idle = float(os.environ.get("CREATIO_WORKER_IDLE", SHARED_IDLE))
+    except ValueError:
+        idle = SHARED_IDLE
+    if not idle > 0:
+        idle = SHARED_IDLE
+    try:
+        path = daemon_socket()
+        proc = ensure(path, _unserved, idle, path.with_suffix(".log"))
+    except OSError:
+        return None
+    if proc is not None:
+        print(f"creatio: starting a warm worker for the next `creatio run` of this checkout "
+              f"(pid {proc.pid}, stops after {idle:g} s idle; `creatio worker stop` stops it "
+              "now; CREATIO_WORKER=off never starts one)", file=sys.stderr, flush=True)
+    return proc
 
 
 def _umask() -> int:

@@ -7,12 +7,13 @@ way everywhere (:func:`fmt`): four significant digits, scientific below 1e-3.
 
 from __future__ import annotations
 
+import contextlib
 import csv
 import html
 import json
 import math
 import re
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -29,8 +30,9 @@ from creatio.store.atomic import atomic_save, atomic_write  # noqa: E402
 from creatio.studies.published import Published  # noqa: E402
 
 __all__ = ["FAILURES", "PUBLISHED_HEADER", "RECORD", "RunCase", "as_list", "cell",
-           "config_label", "config_paragraph", "config_title", "finish_figure", "finite_max",
-           "fmt", "h_key", "markdown_html", "nested", "paths_figure", "plt", "published_row",
+           "config_label", "config_paragraph", "config_title", "draw_figures",
+           "figures_later", "finish_figure", "finite_max", "fmt", "h_key", "markdown_html",
+           "nested", "paths_figure", "plt", "published_row",
            "readable_y", "run_case", "run_difference", "run_header", "start_report",
            "status_counts", "strict_json", "study_status", "table", "value_key", "write_csv",
            "write_markdown"]
@@ -152,6 +154,37 @@ def write_text(path: Path, text: str) -> Path:
 def save_figure(fig: Any, path: Path, **kwargs: Any) -> Path:
     """Save a matplotlib figure the same way (format from the suffix)."""
     return atomic_save(path, lambda tmp: fig.savefig(tmp, **kwargs))
+
+
+#: The queues of figures to draw later (:func:`figures_later`), innermost last.
+_LATER: list[list[Callable[[], None]]] = []
+
+
+@contextlib.contextmanager
+def figures_later(queue: list[Callable[[], None]] | None) -> Iterator[None]:
+    """Within it, :func:`draw_figures` appends a report's figures to queue instead of
+    drawing them, so that the caller can say its result first and draw them after (queue
+    None: they are drawn at once, as outside it)."""
+    if queue is None:
+        yield
+        return
+    _LATER.append(queue)
+    try:
+        yield
+    finally:
+        _LATER.pop()
+
+
+def draw_figures(tasks: Sequence[Callable[[], None]]) -> None:
+    """Draw a report's independent figures (each task saves its files atomically): at once,
+    in forked children where a core is free (creatio.store.forked), or queued for later
+    within :func:`figures_later`."""
+    if _LATER:
+        _LATER[-1].extend(tasks)
+        return
+    from creatio.store.forked import run_all
+
+    run_all(tasks)
 
 
 #: Style of a report's HTML page (Snakemake's report shows it inline; a browser offline).

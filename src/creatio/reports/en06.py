@@ -2,10 +2,10 @@
 datasets (one per part, told apart by their ``part`` attribute) it writes ``en06.json``,
 ``.md`` and ``.html``, ``.png`` (the strain maps at the worst time), ``_envelope.png`` (the
 strain envelopes along R), ``_fatigue.png`` (the damage maps and the life per material) and
-``_tolerances.png`` (the Sobol' bars and the allocation: creatio.reports.en06_tolerances).
-Each part has its summary (SUMMARIES), and each later part its section, answer fragment and
-figures (LATER_SECTIONS): a later part (ribs) adds one entry to each. Nothing here
-recomputes the study."""
+``_tolerances.png`` (the Sobol' bars and the allocation: creatio.reports.en06_tolerances),
+``_ribs_transport.png`` and ``_rib_errors.png`` (the rib surfaces: creatio.reports
+.en06_ribs). Each part has its summary (SUMMARIES), and each later part its section, answer
+fragment and figures (LATER_SECTIONS). Nothing here recomputes the study."""
 
 from __future__ import annotations
 
@@ -18,6 +18,7 @@ import numpy as np
 import xarray as xr
 from matplotlib.colors import ListedColormap
 
+from creatio.reports import en06_ribs as RIBS
 from creatio.reports import en06_tolerances as TOL
 from creatio.reports.answer import answer_lines, num
 from creatio.reports.common import (
@@ -135,7 +136,8 @@ def _fatigue_summary(ds: xr.Dataset, out: dict[str, Any]) -> None:
 
 #: Each part's summary: fills the report's JSON from that part's dataset.
 SUMMARIES: dict[str, Callable[[xr.Dataset, dict[str, Any]], None]] = {
-    "strain": _strain_summary, "fatigue": _fatigue_summary, **TOL.SUMMARIES}
+    "strain": _strain_summary, "fatigue": _fatigue_summary, **TOL.SUMMARIES,
+    "ribs": RIBS.summary}
 
 
 def _tolerance_section(parts: dict[str, xr.Dataset], s: dict[str, Any], outdir: Path
@@ -146,11 +148,12 @@ def _tolerance_section(parts: dict[str, xr.Dataset], s: dict[str, Any], outdir: 
 
 
 #: The sections after fatigue, in order: (markdown writer (datasets by part, summary, report
-#: directory) -> lines, answer fragment (summary) -> text, '' for none). A later part (ribs)
-#: adds its pair here.
+#: directory) -> lines, answer fragment (summary) -> text, '' for none): the tolerances,
+#: then the rib surfaces.
 LATER_SECTIONS: list[tuple[Callable[[dict[str, xr.Dataset], dict[str, Any], Path], list[str]],
                            Callable[[dict[str, Any]], str]]] = [
-    (_tolerance_section, TOL.answer)]
+    (_tolerance_section, TOL.answer),
+    (lambda parts, s, outdir: RIBS.section(parts.get("ribs"), s, outdir), RIBS.answer)]
 
 
 def en06_summary(datasets: xr.Dataset | Sequence[xr.Dataset]) -> dict[str, Any]:
@@ -162,7 +165,8 @@ def en06_summary(datasets: xr.Dataset | Sequence[xr.Dataset]) -> dict[str, Any]:
         if part in SUMMARIES:
             SUMMARIES[part](ds, out)
     out["config_sha256"] = first.attrs.get("config_sha256", "")
-    order = ("study", "strain", "materials", "fatigue_check", "tilt_check", "tolerances")
+    order = ("study", "strain", "materials", "fatigue_check", "tilt_check", "tolerances",
+             "ribs")
     return {**{k: out[k] for k in order if k in out},
             **{k: v for k, v in out.items() if k not in order}}
 
@@ -388,7 +392,8 @@ def _fatigue_section(s: dict[str, Any], paths: dict[str, Path]) -> list[str]:
 
 def write_report(datasets: Sequence[Path], outdir: str | Path) -> dict[str, Path]:
     """Write en06.json/.md/.html, en06.png, en06_envelope.png, en06_fatigue.png and the
-    later sections' figures (en06_tolerances.png)."""
+    later sections' figures (en06_tolerances.png, en06_ribs_transport.png,
+    en06_rib_errors.png)."""
     runs, s, paths = start_report(datasets, outdir, en06_summary)
     out = Path(outdir)
     paths = {"json": paths["json"], "md": paths["md"], "html": paths["html"],

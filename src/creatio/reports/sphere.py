@@ -22,6 +22,7 @@ from creatio.reports.common import (
     config_label,
     config_paragraph,
     config_title,
+    draw_figures,
     fixed_layout,
     fmt,
     plt,
@@ -35,7 +36,6 @@ from creatio.reports.common import (
     write_text,
 )
 from creatio.store.atomic import atomic_write
-from creatio.store.forked import run_all
 from creatio.studies import registry
 
 __all__ = ["dynamic_summary", "energy_check", "history_csv", "printed_half_unit",
@@ -540,10 +540,10 @@ def write_report(datasets: Sequence[Path], outdir: str | Path) -> dict[str, Path
     # the figures are independent: drawn at once where a core is free (creatio.store.forked),
     # one each (0.36, 0.23 + the CSV, 0.32 s of CPU): on 2 idle cores the report took 0.71 s
     # (0.65-0.75) against 0.78 s (0.68-0.85) in two halves, 10 pairs
-    run_all([lambda: _history_figure(ds, paths["png"]),
-             lambda: (_trajectory_figure([(study, ds)], config, paths["trajectory"]),
-                      history_csv(ds, paths["csv"])),
-             lambda: _convergence_figure_dynamic(runs, paths["convergence"])])
+    draw_figures([lambda: _history_figure(ds, paths["png"]),
+                  lambda: (_trajectory_figure([(study, ds)], config, paths["trajectory"]),
+                           history_csv(ds, paths["csv"])),
+                  lambda: _convergence_figure_dynamic(runs, paths["convergence"])])
     sections = feature_sections(runs, config, outdir, study)
     pub = dict(registry.get(study).published) if case.published_case else {}
     compared = [published_row(label, s[key], pub[key]) for label, key in SUMMARY_ROWS

@@ -116,7 +116,7 @@ def _family_batch(args: argparse.Namespace) -> None:
     from creatio.scenes.family import family_of, run_batch
 
     resolved = _config(args)
-    family = family_of(resolved) if resolved.entry.kind.name == "sphere" else None
+    family = family_of(resolved) if resolved.entry.kind.runs else None
     if family is None:
         raise ConfigError("scene.axes", {}, f"scene {resolved.id} declares no axis: it "
                           "has no family to compute")

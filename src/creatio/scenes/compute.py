@@ -27,12 +27,12 @@ import xarray as xr
 
 from creatio.errors import ConfigError
 from creatio.model.cavity import classify_inclination
-from creatio.model.surface import Frame, Motion
+from creatio.model.surface import Frame, Motion, Surface
 from creatio.scenes.needs import RunNeed, needs
 from creatio.scenes.schema import En04Readout, Readout
 from creatio.studies.schema import GeometryConfig, vary
 
-__all__ = ["EN04_READOUTS", "READOUTS", "en04_scene", "run_need", "sphere_scene",
+__all__ = ["EN04_READOUTS", "READOUTS", "en04_scene", "run_need", "skin_rows", "sphere_scene",
            "surface_family_scene", "velocity_normal_scene"]
 
 log = logging.getLogger("creatio")
@@ -63,6 +63,19 @@ READOUTS: dict[Readout, tuple[str, str, Any]] = {
 
 def _geometry_attrs(g: GeometryConfig) -> dict[str, float]:
     return {"R0": g.R0, "dR": g.dR, "A": g.A, "Kr": g.Kr, "Ka": g.Ka}
+
+
+def skin_rows(surface: Surface, n_alpha: int) -> tuple[np.ndarray, np.ndarray]:
+    """(S_c, S_s) at the page's mesh angles alpha_i = 2 pi i / (n_alpha - 1): the two fixed
+    functions of alpha whose combination cos(phi_a) S_c - sin(phi_a) S_s is the angular
+    factor of W (creatio.model.ribs): a rib surface's splines, cos and sin(Ka alpha) ideal."""
+    alpha = 2.0 * math.pi * np.arange(n_alpha) / (n_alpha - 1)
+    if surface.ribs is None:
+        return np.cos(surface.Ka * alpha), np.sin(surface.Ka * alpha)
+    from creatio.model.ribs import NCOEF, spline_eval
+
+    table = surface.skin_table
+    return spline_eval(table[:, :NCOEF], alpha), spline_eval(table[:, NCOEF:], alpha)
 
 
 # --------------------------------------------------------------------------- sphere scenes
@@ -162,6 +175,11 @@ def sphere_scene(resolved: Any, reuse: Mapping[str, str | Path] | None = None,
         per_run.setdefault("stop_time", []).append(float(study_ds.attrs["stop_time"]))
         per_run.setdefault("frames_run", []).append(keep.size)
         per_run.setdefault("sphere_radius", []).append(base.obj.sphere.b)
+        surface = base.obj.geometry.surface()
+        per_run.setdefault("ribs", []).append(surface.ribs is not None)
+        for name, row in zip(("skin_c", "skin_s"), skin_rows(surface, s.mesh.n_alpha),
+                             strict=True):
+            per_run.setdefault(name, []).append(row)
         for key, value in _geometry_attrs(base.obj.geometry).items():
             per_run.setdefault(key, []).append(value)
     data: dict[str, Any] = {
@@ -172,6 +190,12 @@ def sphere_scene(resolved: Any, reuse: Mapping[str, str | Path] | None = None,
     }
     for key in ("R0", "dR", "A", "Kr", "Ka"):
         data[key] = ("run", per_run[key])
+    if any(per_run["ribs"]):  # the page draws a rib surface from its splines
+        for name in ("skin_c", "skin_s"):
+            data[name] = (("run", "mesh_alpha"), np.stack(per_run[name]), {
+                "long_name": f"{'S_c' if name == 'skin_c' else 'S_s'}: angular factor of W "
+                             "at the mesh angles, W = A sin(u) (cos(phi_a) S_c - "
+                             "sin(phi_a) S_s)", "units": "1"})
     if s.rotation:
         data["quaternion"] = (("run", "frame", "quaternion_component"),
                               np.stack(per_run["quaternion"]),

@@ -310,7 +310,8 @@ def plan_family(obj: Any) -> Family | None:
         if inserted:  # the page opens on the scene's own config: make it a member
             numeric = all(isinstance(v, int | float) and not isinstance(v, bool)
                           for v in values)
-            if numeric and values == sorted(values):
+            # a null own value (a feature off: geometry.ribs, the ideal surface) goes last
+            if numeric and base_value is not None and values == sorted(values):
                 at = bisect.bisect(values, base_value)
             else:
                 at = len(values)
@@ -325,13 +326,23 @@ def plan_family(obj: Any) -> Family | None:
                 elif source is None and key in text:
                     raise ConfigError(name, spec, f"{study}'s {dep} follows it through an "
                                       f"expression ({text}) a family cannot vary")
-        axes.append(Axis(key, tuple(values), tuple(_label(v) for v in values), hit[0],
-                         tuple(own), inserted))
+        labels = [_label(v) for v in values]
+        if base_value is None:  # named by what null means (the scene registry's word)
+            labels[hit[0]] = _null_label(obj, key)
+        axes.append(Axis(key, tuple(values), tuple(labels), hit[0], tuple(own), inserted))
     n = math.prod(len(a.values) for a in axes)
     size = min(MAX_BATCH, max(1, math.ceil(n / FAMILY_BATCHES)))
     family = Family(str(obj.scene.id), tuple(axes), tuple(links), size)
     _check_size(obj, family)
     return family
+
+
+def _null_label(obj: Any, key: str) -> str:
+    """The slider's label of a null value of an axis key: the scene registry's word for it
+    (``ideal`` for geometry.ribs), else ``null``."""
+    from creatio.scenes import registry
+
+    return dict(registry.get(str(obj.scene.id)).null_labels).get(key, "null")
 
 
 def _frames(obj: Any, family: Family) -> int:
@@ -357,9 +368,11 @@ def member_bytes(obj: Any, family: Family) -> int:
 def _check_size(obj: Any, family: Family) -> None:
     """Refuse a family whose page would pass the page limit, before anything is computed."""
     per = member_bytes(obj, family)
-    total = PAGE_OVERHEAD + (family.size + 1) * per  # the members and the scene's own frames
+    own = getattr(obj.scene, "extra_page_bytes", None)  # what the scene adds (its strain)
+    extra = own(len(obj.scene.studies), _frames(obj, family)) if own is not None else 0
+    total = PAGE_OVERHEAD + extra + (family.size + 1) * per  # + members and own frames
     if total > MAX_BYTES:
-        fit = max(0, (MAX_BYTES - PAGE_OVERHEAD) // per - 1)
+        fit = max(0, (MAX_BYTES - PAGE_OVERHEAD - extra) // per - 1)
         raise ConfigError("scene.axes", f"{family.size} members",
                           f"the page would be about {total / 2**20:.1f} MB, above its "
                           f"{MAX_BYTES / 2**20:.0f} MB limit ({per / 1e3:.0f} kB a member): "
@@ -570,6 +583,11 @@ def assemble(rows: Sequence[tuple[int, Any, str]], runs: Sequence[str], frames: 
     texts = {v: np.full((n, r), "", dtype=object) for v in RUN_TEXT}
     message = np.full(n, "", dtype=object)
     attrs: dict[str, dict] = {}
+    # a rib surface's splines (compute.skin_rows), NaN for a member of the ideal surface
+    skins = {v: ds[v] for _, ds, _ in rows if ds is not None and "skin_c" in ds.variables
+             for v in ("skin_c", "skin_s")}
+    width = next((int(np.shape(var.values)[-1]) for var in skins.values()), 0)
+    skin = {v: np.full((n, r, width), np.nan) for v in skins}
     for i, (_, ds, reason) in enumerate(rows):
         if ds is None:
             message[i] = reason
@@ -584,6 +602,10 @@ def assemble(rows: Sequence[tuple[int, Any, str]], runs: Sequence[str], frames: 
             attrs.setdefault(v, dict(ds[v].attrs))
         for v in RUN_TEXT:
             texts[v][i] = [str(x) for x in ds[v].values]
+        for v in skin:
+            if v in ds.variables:
+                skin[v][i] = ds[v].values
+                attrs.setdefault(v, dict(ds[v].attrs))
     dims = {"centre": ("member", "run", "frame", "component"),
             "quaternion": ("member", "run", "frame", "quaternion_component")}
     data: dict[str, Any] = {
@@ -591,6 +613,8 @@ def assemble(rows: Sequence[tuple[int, Any, str]], runs: Sequence[str], frames: 
         for v, a in arrays.items()}
     data.update({v: (("member", "run"), a, attrs.get(v, {})) for v, a in scalars.items()})
     data.update({v: (("member", "run"), a.astype(str)) for v, a in texts.items()})
+    data.update({v: (("member", "run", "mesh_alpha"), a, attrs.get(v, {}))
+                 for v, a in skin.items()})
     data["message"] = ("member", message.astype(str),
                        {"long_name": "why the validation refused the member (empty: it ran)"})
     return xr.Dataset(data, coords={"member": ("member", [i for i, _, _ in rows]),

@@ -59,13 +59,15 @@ _HEIGHT = plt.matplotlib.colors.LinearSegmentedColormap.from_list(
     "creatio_height", [(0.16, 0.35, 0.62), (0.86, 0.87, 0.85), (0.72, 0.45, 0.20)])
 
 
-def _draw_surface(ax, pos: np.ndarray, w: np.ndarray, alpha: float = 1.0) -> Poly3DCollection:
-    """The membrane coloured by height: what ``plot_surface(..., facecolors=, rstride=1,
-    cstride=1, shade=True)`` draws (the same quads, corners in its order, each the colour of
-    its first corner, shaded by the same light), built as arrays: plot_surface takes a
-    per-quad Python loop and converts each colour alone when given facecolors."""
+def _draw_surface(ax, pos: np.ndarray, w: np.ndarray, alpha: float = 1.0,
+                  rgba: np.ndarray | None = None) -> Poly3DCollection:
+    """The membrane coloured by height (or by ``rgba`` per vertex): what
+    ``plot_surface(..., facecolors=, rstride=1, cstride=1, shade=True)`` draws (the same
+    quads, corners in its order, each the colour of its first corner, shaded by the same
+    light), built as arrays: plot_surface takes a per-quad Python loop and converts each
+    colour alone when given facecolors."""
     quads = np.stack([pos[:-1, :-1], pos[:-1, 1:], pos[1:, 1:], pos[1:, :-1]], axis=2)
-    colours = _HEIGHT((w[:-1, :-1] + 1) / 2)
+    colours = _HEIGHT((w[:-1, :-1] + 1) / 2) if rgba is None else rgba[:-1, :-1]
     poly = Poly3DCollection(quads.reshape(-1, 4, 3), facecolors=colours.reshape(-1, 4),
                             shade=True, linewidth=0, edgecolor="none", antialiased=False,
                             alpha=alpha, zorder=1)
@@ -324,8 +326,15 @@ def _quat_matrix(q: np.ndarray) -> np.ndarray:
 
 
 # --------------------------------------------------------------------------- sphere scenes
-def sphere_media(ds: xr.Dataset, cfg: Any, animation: Path, poster: Path) -> None:
-    """Animation and poster of a sphere scene: one panel per run, one shared clock."""
+#: Colours of the membrane of run r at frame i on a mesh (alpha, R): RGBA (alpha, R, 4).
+Paint = Callable[[int, int, np.ndarray, np.ndarray], np.ndarray]
+
+
+def sphere_media(ds: xr.Dataset, cfg: Any, animation: Path, poster: Path,
+                 paint: Paint | None = None, legend: Callable[[Any], None] | None = None
+                 ) -> None:
+    """Animation and poster of a sphere scene: one panel per run, one shared clock; the
+    membrane coloured by height, or by ``paint`` with ``legend`` drawing its key once."""
     s = cfg.scene
     runs = [str(r) for r in ds.run.values]
     times = ds.time.values
@@ -353,6 +362,10 @@ def sphere_media(ds: xr.Dataset, cfg: Any, animation: Path, poster: Path) -> Non
         axes = [_frame_axes(fig, (r, len(runs)), surfaces[r].R1 * 0.92, panel)
                 for r, panel in enumerate(panels)]
         moving = _Moving()
+        if legend is not None:
+            legend(fig)
+        mesh_alpha = np.linspace(0.0, 2.0 * math.pi, n_alpha)
+        mesh_R = [np.linspace(0.0, surf.dR, n_R) for surf in surfaces]
 
         def draw(i: int) -> None:
             moving.clear()
@@ -362,7 +375,8 @@ def sphere_media(ds: xr.Dataset, cfg: Any, animation: Path, poster: Path) -> Non
                 if "membrane" in draw_set:
                     pos, w = surface_mesh(surfaces[r], *map(math.radians, phases[r, i]),
                                           n_alpha, n_R)
-                    moving.add(_draw_surface(ax, pos, w, alpha=0.85))
+                    rgba = None if paint is None else paint(r, i, mesh_alpha, mesh_R[r])
+                    moving.add(_draw_surface(ax, pos, w, alpha=0.85, rgba=rgba))
                 c = centre[r]
                 if "trace" in draw_set and k > 0:
                     moving.add(ax.scatter(c[: k + 1, 0], c[: k + 1, 1], c[: k + 1, 2] + 0.01,

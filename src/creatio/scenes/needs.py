@@ -7,7 +7,6 @@ from dataclasses import dataclass
 from typing import Any
 
 from creatio.pipeline.config import Resolved
-from creatio.scenes import registry
 from creatio.studies.schema import Output
 
 __all__ = ["RunNeed", "needs"]
@@ -37,7 +36,7 @@ class RunNeed:
 
 def needs(resolved: Resolved) -> list[RunNeed]:
     """What each study of a sphere scene must provide (empty for the kinematic scenes)."""
-    if resolved.entry.kind is not registry.SPHERE:
+    if not resolved.entry.kind.runs:
         return []
     s = resolved.obj.scene
     outputs = ("trajectory", "rotation") if s.rotation else ("trajectory",)

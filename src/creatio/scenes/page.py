@@ -34,7 +34,14 @@ PAGE_RADIANS = ("phase_r", "phase_a", "inclination")
 #: Dataset attributes the page needs (provenance is shown in the footer instead).
 PAGE_ATTRS = ("kind", "scene", "frame_interval", "playback_speed", "playback_fps", "draw",
               "readouts", "mesh", "time", "alpha_deg", "R", "normal_length", "velocity_scale",
-              "magnification", "R0", "dR", "A", "Kr", "Ka")
+              "magnification", "R0", "dR", "A", "Kr", "Ka", "strain_legend", "strain_ticks",
+              "strain_colours", "strain_label", "strain_thickness")
+
+#: Levels of an array sent as 16-bit codes over its ``legend_range`` (the strain field of a
+#: strain scene, a value per vertex and frame): the page decodes low + code (high - low) /
+#: CODES, within (high - low) / (2 CODES) of the dataset's value, a quarter of float64's size;
+#: the code CODES + 1 is NaN (frames past the scene's own span, padded for a longer member).
+CODES = 65534
 
 
 def _attr(value: Any) -> Any:
@@ -57,6 +64,21 @@ def _array(values: Any) -> dict[str, Any]:
             "b64": base64.b64encode(values.tobytes()).decode("ascii")}
 
 
+def _coded(values: Any, legend_range: Any) -> dict[str, Any]:
+    """An array as 16-bit codes over [low, high] (little-endian uint16, base64), which the
+    viewer decodes to low + code (high - low) / CODES, NaN as CODES + 1; every other value
+    must lie in the range."""
+    low, high = (float(x) for x in np.asarray(_attr(legend_range), float).ravel())
+    values = np.asarray(values, float)
+    finite = values[~np.isnan(values)]
+    if finite.size and not (finite.min() >= low and finite.max() <= high):
+        raise ValueError(f"values outside their legend_range [{low}, {high}]")
+    scaled = np.rint((np.nan_to_num(values, nan=low) - low) / (high - low) * CODES)
+    codes = np.where(np.isnan(values), CODES + 1, scaled).astype("<u2")
+    return {"shape": list(values.shape), "low": low, "high": high,
+            "u16": base64.b64encode(np.ascontiguousarray(codes).tobytes()).decode("ascii")}
+
+
 def _finite(values: Any) -> Any:
     """Nested lists with NaN as None (JSON has no NaN)."""
     return [_finite(v) for v in values] if isinstance(values, list) else (
@@ -72,7 +94,9 @@ def page_data(ds: xr.Dataset) -> dict[str, Any]:
             continue
         radians = (name in PAGE_RADIANS and name in ds.data_vars
                    and var.attrs.get("units") in ("degree", "deg"))
-        if var.dtype.kind in "fiub":
+        if var.dtype.kind in "fiub" and "legend_range" in var.attrs and var.ndim >= 3:
+            arrays[name] = _coded(var.values, var.attrs["legend_range"])
+        elif var.dtype.kind in "fiub":
             arrays[name] = _array(np.radians(var.values) if radians else var.values)
         else:
             strings[name] = [str(v) for v in np.atleast_1d(var.values)]
@@ -97,7 +121,7 @@ def family_data(ds: xr.Dataset) -> dict[str, Any]:
     ran = ~np.all(status == "refused", axis=1)
     rows = np.cumsum(ran) - 1
     figures = json.loads(str(ds.attrs["family_figures"]))
-    per_run = {"frames_run", "sphere_radius", "R0", "dR", "A", "Kr", "Ka"}
+    per_run = {"frames_run", "sphere_radius", "R0", "dR", "A", "Kr", "Ka", "skin_c", "skin_s"}
     arrays = {}
     for name, var in ds.data_vars.items():
         short = str(name).removeprefix("family_")

@@ -252,7 +252,7 @@ class SceneRuns:
         from creatio.scenes.family import family_of
 
         plan = self.get(root, scene)
-        if plan.entry.kind is not registry.SPHERE:
+        if not plan.entry.kind.runs:
             return []
         family = family_of(plan.resolved)
         return family.batch_files(plan.entry.directory(root)) if family else []

@@ -22,6 +22,7 @@ from creatio.scenes.schema import (
     SurfaceFamilyConfig,
     VelocityNormalConfig,
 )
+from creatio.scenes.strain_schema import StrainSceneConfig
 
 __all__ = ["FILES", "KINDS", "SCENES", "Kind", "Scene", "get"]
 
@@ -37,10 +38,13 @@ class Kind:
     schema: type
     compute: str
     media: str
+    #: Whether its scenes draw sphere runs (planned by creatio.scenes.needs, explorable
+    #: over axes by creatio.scenes.family).
+    runs: bool = False
 
 
 SPHERE = Kind("sphere", SphereSceneConfig, "creatio.scenes.compute:sphere_scene",
-              "creatio.scenes.media:sphere_media")
+              "creatio.scenes.media:sphere_media", runs=True)
 SURFACE_FAMILY = Kind("surface_family", SurfaceFamilyConfig,
                       "creatio.scenes.compute:surface_family_scene",
                       "creatio.scenes.media:surface_family_media")
@@ -53,8 +57,13 @@ VELOCITY_NORMAL = Kind("velocity_normal", VelocityNormalConfig,
 EN04 = Kind("en04", En04SceneConfig, "creatio.scenes.compute:en04_scene",
             "creatio.scenes.media:sphere_media")
 
+#: A sphere scene whose membrane is coloured by its strain (creatio.scenes.strain), with the
+#: sphere scenes' runs, page and family.
+STRAIN = Kind("strain", StrainSceneConfig, "creatio.scenes.strain:strain_scene",
+              "creatio.scenes.strain:strain_media", runs=True)
+
 #: Every kind, by name.
-KINDS = {k.name: k for k in (SPHERE, SURFACE_FAMILY, VELOCITY_NORMAL, EN04)}
+KINDS = {k.name: k for k in (SPHERE, SURFACE_FAMILY, VELOCITY_NORMAL, EN04, STRAIN)}
 
 
 @dataclass(frozen=True)
@@ -70,6 +79,9 @@ class Scene:
     kind: Kind
     description: str
     reads: tuple[str, str] | None = None
+    #: (axis key, word) pairs: what the scene's own null value of an axis key is called on
+    #: its slider (creatio.scenes.family; geometry.ribs null is the ideal surface).
+    null_labels: tuple[tuple[str, str], ...] = ()
 
     @property
     def schema(self) -> type:
@@ -109,6 +121,9 @@ SCENES: dict[str, Scene] = {
         Scene("en02", SPHERE, "EN-02: the sphere carried through one cycle of the membrane"),
         Scene("en02r", SPHERE, "EN-02R: the cavity carries the sphere outward while turning"),
         Scene("compare", SPHERE, "EN-02 and EN-02R side by side on one shared clock"),
+        Scene("en06", STRAIN, "EN-06: the membrane coloured by the strain its shape demands, "
+              "with the EN-02 sphere it carries",
+              null_labels=(("geometry.ribs", "ideal"),)),
         Scene("en04", EN04, "EN-04: the fastest closed-loop transport beside the open-loop "
               "quintic at its boundary cycle", reads=("en04", "en04_control")),
     )

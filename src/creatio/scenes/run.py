@@ -50,7 +50,7 @@ def scene_dataset(resolved: Resolved, reuse: Mapping[str, str | Path] | None = N
     from creatio.scenes.family import attach, compute_family, family_of
 
     ds = frames_dataset(resolved, reuse) if frames is None else _frames(resolved, frames)
-    fam = family_of(resolved) if resolved.entry.kind.name == "sphere" else None
+    fam = family_of(resolved) if resolved.entry.kind.runs else None
     if fam is not None:
         members = compute_family(resolved, fam, family, store)
         ds = attach(ds, fam, members)

@@ -359,63 +359,66 @@ def _finite_check(res: SimulationResult) -> tuple[int, list[str]]:
     """1 if every checked history is finite before the stop row (and at it, unless the
     status is non_finite), else 0 with a note naming the history and the time."""
     notes = []
+    status = res.counts.status
     for name in HISTORIES:
-        h = np.asarray(getattr(res, name))
+        h = np.asarray(getattr(res.histories, name))
         rows = h.reshape(h.shape[0], -1)
-        body = rows if res.status != "non_finite" else rows[:-1]
+        body = rows if status != "non_finite" else rows[:-1]
         bad = ~np.isfinite(body).all(axis=1)
         if bad.any():
-            notes.append(f"{name} non-finite at t = {res.t[np.argmax(bad)]:.6g} s before the "
-                         f"stop (status {res.status})")
+            notes.append(f"{name} non-finite at t = {res.histories.t[np.argmax(bad)]:.6g} s "
+                         f"before the stop (status {status})")
     return int(not notes), notes
 
 
 def _consistency(res: SimulationResult, duration: float) -> list[str]:
     """Notes where a result contradicts its own status (these would be model bugs)."""
     notes = []
-    if res.status == "ok" and not math.isclose(res.stop_time, duration, rel_tol=1e-9):
-        notes.append(f"status ok but stop_time {res.stop_time} != duration {duration}")
-    if res.status == "contact_lost" and not (res.N[-1] <= 0.0 and res.min_N <= 0.0):
-        notes.append(f"contact_lost with N = {res.N[-1]:.6g} at the stop")
-    if res.status not in ("contact_lost", "non_finite") and res.min_N <= 0.0:
-        notes.append(f"min N = {res.min_N:.6g} <= 0 but status {res.status}")
-    if res.status == "offset_singular" and not res.max_b_kappa >= 1.0:
-        notes.append(f"offset_singular with max b kappa = {res.max_b_kappa:.6g} < 1")
-    if res.status == "edge_crossed" and not res.min_edge_clearance < 0.0:
-        notes.append(f"edge_crossed with min clearance = {res.min_edge_clearance:.6g} >= 0")
+    c, x, N = res.counts, res.extrema, res.histories.N
+    if c.status == "ok" and not math.isclose(c.stop_time, duration, rel_tol=1e-9):
+        notes.append(f"status ok but stop_time {c.stop_time} != duration {duration}")
+    if c.status == "contact_lost" and not (N[-1] <= 0.0 and x.min_N <= 0.0):
+        notes.append(f"contact_lost with N = {N[-1]:.6g} at the stop")
+    if c.status not in ("contact_lost", "non_finite") and x.min_N <= 0.0:
+        notes.append(f"min N = {x.min_N:.6g} <= 0 but status {c.status}")
+    if c.status == "offset_singular" and not x.max_b_kappa >= 1.0:
+        notes.append(f"offset_singular with max b kappa = {x.max_b_kappa:.6g} < 1")
+    if c.status == "edge_crossed" and not x.min_edge_clearance < 0.0:
+        notes.append(f"edge_crossed with min clearance = {x.min_edge_clearance:.6g} >= 0")
     return notes
 
 
 def _record(point: Point, res: SimulationResult, duration: float) -> None:
     """Copy a run's figures into a point and check its histories and self-consistency."""
-    point.run_status = res.status
-    point.dt = res.dt
+    c, x = res.counts, res.extrema
+    point.run_status = c.status
+    point.dt = c.dt
     point.duration = duration
-    point.stop_time = res.stop_time
-    point.min_N = res.min_N
-    point.max_N = res.max_N
-    point.max_b_kappa = res.max_b_kappa
-    point.min_edge_clearance = res.min_edge_clearance
-    point.max_cavity_tracking_error = res.max_cavity_tracking_error
-    point.max_slip_speed = res.max_slip_speed
-    point.final_R = float(res.R[-1])
-    point.steps = float(res.steps)
-    point.n_warnings = len(res.warnings)
+    point.stop_time = c.stop_time
+    point.min_N = x.min_N
+    point.max_N = x.max_N
+    point.max_b_kappa = x.max_b_kappa
+    point.min_edge_clearance = x.min_edge_clearance
+    point.max_cavity_tracking_error = x.max_cavity_tracking_error
+    point.max_slip_speed = x.max_slip_speed
+    point.final_R = float(res.histories.R[-1])
+    point.steps = float(c.steps)
+    point.n_warnings = len(c.warnings)
     point.histories_finite, notes = _finite_check(res)
     point.anomalies += notes + _consistency(res, duration)
-    if res.warnings:
-        point.message = "; ".join(filter(None, [point.message, *res.warnings]))
+    if c.warnings:
+        point.message = "; ".join(filter(None, [point.message, *c.warnings]))
     point.result = res
 
 
 def _half_dt(point: Point, cfg: DynamicConfig) -> None:
     """Rerun a point at dt / 2: its status must not be an artefact of the step."""
     res, message = _run(cfg, 0.5 * point.dt)
-    point.half_dt_status = res.status if res is not None else "refused_unstable"
-    point.half_dt_stop_time = res.stop_time if res is not None else math.nan
-    if res is not None and res.status != point.run_status:
+    point.half_dt_status = res.counts.status if res is not None else "refused_unstable"
+    point.half_dt_stop_time = res.counts.stop_time if res is not None else math.nan
+    if res is not None and res.counts.status != point.run_status:
         point.anomalies.append(
-            f"dt / 2 gives {res.status} at t = {res.stop_time:.6g} s instead of "
+            f"dt / 2 gives {res.counts.status} at t = {res.counts.stop_time:.6g} s instead of "
             f"{point.run_status} at {point.stop_time:.6g} s"
         )
 
@@ -434,9 +437,9 @@ def evaluate(cfg: BoundariesConfig, axis: str, value: float, kind: str = "grid")
             point.status, point.message = "refused_unstable", unstable
             point.anomalies.append("config accepted a dt that simulate() refuses: " + unstable)
         else:
-            point.status = res.status
+            point.status = res.counts.status
             _record(point, res, dyn.study.duration)
-            if res.warnings:
+            if res.counts.warnings:
                 _half_dt(point, dyn)
     if point.run_status == "not_run" and settings.stable_rerun and status == "refused_unstable":
         relaxed = vary(base, {**changes, "solver.allow_unstable": True})
@@ -452,7 +455,7 @@ def evaluate(cfg: BoundariesConfig, axis: str, value: float, kind: str = "grid")
                 point.anomalies.append(f"stable dt {step} refused by simulate(): {unstable}")
             else:
                 _record(point, res, stable_cfg.study.duration)
-                if res.warnings:
+                if res.counts.warnings:
                     _half_dt(point, stable_cfg)
     return point
 

@@ -48,7 +48,7 @@ def event_figures(res: SimulationResult) -> dict[str, float]:
     """Event statistics of one run: flights, impacts, total flight time (an unfinished
     flight counts to the stop), largest flight height, total impact loss (the impacts'
     and the resumptions' projections), and whether the run ends in its starting cavity."""
-    ev = res.events
+    ev = res.events.table
     kind = ev[:, EV_KIND] if ev.size else np.empty(0)
     flights = int(np.sum(kind == EV_SEPARATION)) + (1 if _starts_in_flight(res) else 0)
     start = 0.0 if _starts_in_flight(res) else math.nan
@@ -61,26 +61,28 @@ def event_figures(res: SimulationResult) -> dict[str, float]:
             flight_time += row[EV_T] - start
             start = math.nan
     if not math.isnan(start):
-        flight_time += res.stop_time - start
-    in_cavity = bool(res.t.size) and bool(in_cavity_cell(res.cell_u[-1], res.cell_v[-1]))
+        flight_time += res.counts.stop_time - start
+    h = res.histories
+    in_cavity = bool(h.t.size) and bool(in_cavity_cell(h.cell_u[-1], h.cell_v[-1]))
     return {
         "flights": flights,
         "impacts": int(np.sum(kind == EV_IMPACT)),
         "flight_time": float(flight_time),
-        "max_flight_height": float(res.max_flight_height) if flights else 0.0,
+        "max_flight_height": float(res.events.max_flight_height) if flights else 0.0,
         "impact_loss": float(np.sum(ev[:, EV_LOSS])) if ev.size else 0.0,
-        "ends_in_cavity": int(in_cavity and not res.ends_in_flight
-                              and res.status == "ok"),
+        "ends_in_cavity": int(in_cavity and not res.events.ends_in_flight
+                              and res.counts.status == "ok"),
     }
 
 
 def _starts_in_flight(res: SimulationResult) -> bool:
-    return bool(res.t.size) and res.N.size > 0 and res.N[0] == 0.0 and np.isnan(res.slip_speed[0])
+    h = res.histories
+    return bool(h.t.size) and h.N.size > 0 and h.N[0] == 0.0 and np.isnan(h.slip_speed[0])
 
 
 def _event_table(results: list[SimulationResult]) -> dict[str, tuple]:
     """The event tables of the runs, concatenated along ``event`` with their case index."""
-    rows = [np.column_stack([np.full(len(r.events), i), r.events])
+    rows = [np.column_stack([np.full(len(r.events.table), i), r.events.table])
             for i, r in enumerate(results)]
     ev = np.concatenate(rows) if rows else np.empty((0, 12))
     ev = ev if ev.size else np.empty((0, 12))
@@ -118,7 +120,7 @@ def _returns(prob: SphereProblem) -> bool:
     its cell and in contact at the end; without, simply status ok (contact never lost)."""
     res = simulate(prob)
     if not prob.events.flight:
-        return res.status == "ok"
+        return res.counts.status == "ok"
     return bool(event_figures(res)["ends_in_cavity"])
 
 
@@ -214,8 +216,8 @@ def run_drop(cfg: En02fConfig) -> xr.Dataset:
     res = simulate(prob)
     ds = run_dataset(prob, res)
     ds = ds.assign(_event_table([res]))
-    kind = res.events[:, EV_KIND]
-    imp = res.events[kind == EV_IMPACT]
+    kind = res.events.table[:, EV_KIND]
+    imp = res.events.table[kind == EV_IMPACT]
     h, g, e = prob.start.height, prob.model.sphere.g, prob.events.restitution
     first = float(imp[0, EV_T]) if len(imp) else math.nan
     heights = imp[:, EV_HEIGHT]
@@ -231,6 +233,7 @@ def run_drop(cfg: En02fConfig) -> xr.Dataset:
         "first_impact_time_error_s": abs(first - math.sqrt(2 * h / g)),
         "apex_ratio_error": float(np.max(np.abs(ratios - e * e))) if ratios.size else math.nan,
         "apex_ratios_checked": int(ratios.size),
-        "max_spin_rate": float(np.nanmax(res.spin_rate)) if res.t.size else math.nan,
+        "max_spin_rate": (float(np.nanmax(res.histories.spin_rate)) if res.histories.t.size
+                          else math.nan),
     })
     return ds

@@ -76,11 +76,12 @@ def probe(cfg: En03mConfig, kind: Confinement, inertia: float, force: float, dt:
     prob = cfg.force_problem(kind, inertia, force, dt, stop_on_leaving=True)
     res = simulate(prob)
     angle = lag = math.nan
-    if res.t.size:
-        angle = math.degrees(res.azimuth[-1] - res.azimuth[0])
-        lag = math.degrees(res.azimuth[-1] - pattern(prob, res.t[-1:])[0])
-    return Probe(float(force), prob.solver.dt, res.status, res.status == "ok" and res.carried,
-                 res.stop_time, res.left_cavity_time, angle, lag)
+    h, c = res.histories, res.counts
+    if h.t.size:
+        angle = math.degrees(h.azimuth[-1] - h.azimuth[0])
+        lag = math.degrees(h.azimuth[-1] - pattern(prob, h.t[-1:])[0])
+    return Probe(float(force), prob.solver.dt, c.status, c.status == "ok" and res.carried,
+                 c.stop_time, res.events.left_cavity_time, angle, lag)
 
 
 def search(cfg: En03mConfig, kind: Confinement, inertia: float, dt: float

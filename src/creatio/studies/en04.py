@@ -383,9 +383,10 @@ def demand(cfg: En04Config, name: str) -> Demand:
     res = simulate(actuation_problem(base, a.sample_interval))
     fine_dt = base.solver.timesteps()[1]
     fine = simulate(actuation_problem(base, a.sample_interval, fine_dt))
-    t = res.t
-    P_s = act.load_power(surface, motion, t, res.R, res.alpha, res.N, res.f)
-    P_fine = act.load_power(surface, motion, fine.t, fine.R, fine.alpha, fine.N, fine.f)
+    h, hf = res.histories, fine.histories
+    t = h.t
+    P_s = act.load_power(surface, motion, t, h.R, h.alpha, h.N, h.f)
+    P_fine = act.load_power(surface, motion, hf.t, hf.R, hf.alpha, hf.N, hf.f)
     T = base.study.duration
     q = a.quadrature
     check_t = t[:: max(1, steps_in(q.check_interval, a.sample_interval) or 1)] if t.size else t
@@ -419,9 +420,9 @@ def demand(cfg: En04Config, name: str) -> Demand:
     ang = act.angular_law_bounds(surface, motion)
     W_cum = cumulative_simpson(P_s, x=t, initial=0.0) if t.size > 1 else np.zeros(t.size)
     W_surf = act.time_integral(P_s, t)
-    W_surf_fine = act.time_integral(P_fine, fine.t)
-    W_run = float(res.surface_work[-1]) if t.size else math.nan
-    W_run_fine = float(fine.surface_work[-1]) if fine.t.size else math.nan
+    W_surf_fine = act.time_integral(P_fine, hf.t)
+    W_run = float(h.surface_work[-1]) if t.size else math.nan
+    W_run_fine = float(hf.surface_work[-1]) if hf.t.size else math.nan
     powers = {**d.powers(), "P_damping_damped": damped, "P_actuator_damped": P_act_damped}
     scalars: dict[str, float] = {
         "sigma": a.sigma, "c_d": a.c_d, "damped_c_d": a.damped_c_d, "duration": T,
@@ -447,11 +448,11 @@ def demand(cfg: En04Config, name: str) -> Demand:
     for key, y in powers.items():
         for figure, value in act.power_figures(y, t, T).items():
             scalars[f"{key}_{figure}"] = value
-    histories = {**powers, "load_work": W_cum, "surface_work": res.surface_work,
+    histories = {**powers, "load_work": W_cum, "surface_work": h.surface_work,
                  "K_m": mi.kinetic, "K_m_closed_form": K_cf, "P_inertia_closed_form": P_in_cf,
-                 "contact_R": res.R, "contact_alpha": np.degrees(res.alpha),
-                 "normal_reaction": res.N}
-    return Demand(t, histories, scalars, conv, res.status)
+                 "contact_R": h.R, "contact_alpha": np.degrees(h.alpha),
+                 "normal_reaction": h.N}
+    return Demand(t, histories, scalars, conv, res.counts.status)
 
 
 def _flat(base: DynamicConfig) -> bool:
@@ -670,20 +671,20 @@ def run_oscillation(cfg: En04Config) -> xr.Dataset:
             for amp in amplitudes:
                 res = simulate(still_problem(base, direction, amp, mu, o.duration))
                 runs.append((direction, float(mu), amp, res))
-    grid = runs[0][3].t
+    grid = runs[0][3].histories.t
     disp = np.full((len(runs), grid.size), math.nan)
     rows: dict[str, list[Any]] = {k: [] for k in (
         "direction", "mu", "amplitude", "status", "omega", "crossings", "decay",
         "omega_closed_form", "omega_regularised", "decay_regularised")}
     for i, (direction, mu, amp, res) in enumerate(runs):
-        x = (res.R - R_c) if direction == "R" else rho_c * (res.alpha - a_c)
+        x = (res.histories.R - R_c) if direction == "R" else rho_c * (res.histories.alpha - a_c)
         disp[i, : x.size] = x
-        meas = measure_oscillation(res.t, x)
+        meas = measure_oscillation(res.histories.t, x)
         slide = cf.slide(direction)
         closed = slide if mu == 0.0 else cf.roll(direction)
         reg = regularised_rolling(slide, mu * sp.g / sp.eps, j)
         for key, value in (("direction", direction), ("mu", mu), ("amplitude", amp),
-                           ("status", res.status), ("omega", meas.omega),
+                           ("status", res.counts.status), ("omega", meas.omega),
                            ("crossings", meas.crossings), ("decay", meas.decay),
                            ("omega_closed_form", closed), ("omega_regularised", reg[0]),
                            ("decay_regularised", reg[1])):

@@ -276,10 +276,11 @@ class DemandAlong:
 
 def _rows(res: SimulationResult, interval: float) -> np.ndarray:
     """Every row of res at the interval (rounded to its step), and its last row."""
-    every = max(1, round(interval / res.dt))
-    rows = np.arange(0, res.t.size, every)
-    if rows.size and rows[-1] != res.t.size - 1:
-        rows = np.append(rows, res.t.size - 1)
+    h = res.histories
+    every = max(1, round(interval / res.counts.dt))
+    rows = np.arange(0, h.t.size, every)
+    if rows.size and rows[-1] != h.t.size - 1:
+        rows = np.append(rows, h.t.size - 1)
     return rows
 
 
@@ -289,9 +290,10 @@ def _motion_along(res: SimulationResult, motion: Motion, ctl: Controller | None,
     controlled phase as samples (phi_a, its rate, and u recomputed by the controller)."""
     if ctl is None:
         return motion
-    u, _, _ = ctl.acceleration(Ka, res.alpha[rows], res.alphadot[rows], res.phi_a[rows],
-                               res.phi_a_rate[rows])
-    return act.sampled_motion(motion, res.t[rows], res.phi_a[rows], res.phi_a_rate[rows],
+    h = res.histories
+    u, _, _ = ctl.acceleration(Ka, h.alpha[rows], h.alphadot[rows], h.phi_a[rows],
+                               h.phi_a_rate[rows])
+    return act.sampled_motion(motion, h.t[rows], h.phi_a[rows], h.phi_a_rate[rows],
                               np.asarray(u, float))
 
 
@@ -330,13 +332,14 @@ def demand_figures(res: SimulationResult, surface: Surface, motion: Motion,
     frequency over the run, the energy frequency of W_t at the worst point at the rows (NaN
     unless the run ends with its local frequency below 1 % of the largest: the record must
     end at rest)."""
-    n = res.t.size
+    h = res.histories
+    n = h.t.size
     if n < 3:
-        return DemandAlong({k: math.nan for k, *_ in DEMAND_FIGURES}, res.t, {})
+        return DemandAlong({k: math.nan for k, *_ in DEMAND_FIGURES}, h.t, {})
     s = settings
-    t_all = res.t
+    t_all = h.t
     m = _motion_along(res, motion, ctl, float(surface.Ka), np.arange(n))
-    P_all = act.load_power(surface, m, t_all, res.R, res.alpha, res.N, res.f)
+    P_all = act.load_power(surface, m, t_all, h.R, h.alpha, h.N, h.f)
     rows = _rows(res, interval)
     t = t_all[rows]
     d = act.actuation_demand(surface, m, t, P_all[rows], rule, s.sigma, s.c_d, g,
@@ -407,49 +410,51 @@ def measure(res: SimulationResult, goal: float, tol: float, Ka: float,
     time |theta - goal| <= tol, settling the time from which it stays so to the end (NaN if
     it does not end so, or the run stopped early), overshoot past the goal; u recomputed from
     the histories by the controller's own formula."""
-    t = res.t
+    h = res.histories
+    t = h.t
     if t.size == 0:
         nan = math.nan
-        return Measured(res.status, False, nan, nan, nan, nan, nan, nan, nan, nan, nan, nan,
+        return Measured(res.counts.status, False, nan, nan, nan, nan, nan, nan, nan, nan, nan, nan,
                         nan, nan, nan, 0.0)
-    theta = res.alpha - res.alpha[0]
+    theta = h.alpha - h.alpha[0]
     err = theta - goal
     within = np.abs(err) <= tol
     arrival = float(t[np.argmax(within)]) if within.any() else math.nan
     settling = math.nan
-    ran = res.status == "ok"
+    ran = res.counts.status == "ok"
     if ran and within[-1]:
         outside = np.nonzero(~within)[0]
         settling = float(t[outside[-1] + 1]) if outside.size else float(t[0])
     sign = math.copysign(1.0, goal)
     overshoot = max(0.0, float(np.max(sign * err)))
-    delta = np.array([lead(a, p, Ka) for a, p in zip(res.alpha, res.phi_a, strict=True)])
+    delta = np.array([lead(a, p, Ka) for a, p in zip(h.alpha, h.phi_a, strict=True)])
     if ctl is not None:
-        u, _, _ = ctl.acceleration(Ka, res.alpha, res.alphadot, res.phi_a, res.phi_a_rate)
-        phidot = res.phi_a_rate
+        u, _, _ = ctl.acceleration(Ka, h.alpha, h.alphadot, h.phi_a, h.phi_a_rate)
+        phidot = h.phi_a_rate
         max_u = float(np.max(np.abs(u)))
     else:
-        phidot = np.gradient(res.phi_a, t) if t.size > 1 else np.zeros(1)
+        phidot = np.gradient(h.phi_a, t) if t.size > 1 else np.zeros(1)
         max_u = math.nan
-    P = np.gradient(res.surface_work, t) if t.size > 1 else np.zeros(1)
+    P = np.gradient(h.surface_work, t) if t.size > 1 else np.zeros(1)
     span = float(t[-1] - t[0])
     return Measured(
-        status=res.status, carried=bool(res.carried and ran), arrival=arrival,
+        status=res.counts.status, carried=bool(res.carried and ran), arrival=arrival,
         settling=settling, final_error=math.degrees(float(err[-1])),
         overshoot=math.degrees(overshoot), max_delta=math.degrees(float(np.max(np.abs(delta)))),
-        max_phidot=float(np.max(np.abs(phidot))), max_u=max_u, min_N=res.min_N,
-        max_slip=res.max_slip_speed, max_track=res.max_cavity_tracking_error,
+        max_phidot=float(np.max(np.abs(phidot))), max_u=max_u, min_N=res.extrema.min_N,
+        max_slip=res.extrema.max_slip_speed, max_track=res.extrema.max_cavity_tracking_error,
         P_peak=float(np.max(np.abs(P))),
-        P_mean=float(res.surface_work[-1] - res.surface_work[0]) / span if span > 0 else 0.0,
-        residual=res.max_energy_residual, end_time=float(t[-1]))
+        P_mean=float(h.surface_work[-1] - h.surface_work[0]) / span if span > 0 else 0.0,
+        residual=res.extrema.max_energy_residual, end_time=float(t[-1]))
 
 
 def _difference(a: SimulationResult, b: SimulationResult) -> float:
     """Largest distance between the centres of two runs at their common times."""
-    common, ia, ib = np.intersect1d(np.round(a.t, 9), np.round(b.t, 9), return_indices=True)
+    ha, hb = a.histories, b.histories
+    common, ia, ib = np.intersect1d(np.round(ha.t, 9), np.round(hb.t, 9), return_indices=True)
     if common.size == 0:
         return math.nan
-    return float(np.max(np.linalg.norm(a.X[ia] - b.X[ib], axis=1)))
+    return float(np.max(np.linalg.norm(ha.X[ia] - hb.X[ib], axis=1)))
 
 
 @dataclass
@@ -474,19 +479,20 @@ class Path:
 def _path(name: str, label: str, res: SimulationResult, Ka: float, grid: np.ndarray) -> Path:
     """res's histories on grid (NaN after its last row). The grid's times are steps of the
     run (path_interval is a multiple of dt), so the centre and phase are the run's own rows."""
-    theta = np.degrees(res.alpha - res.alpha[0])
-    rate = res.phi_a_rate if np.isfinite(res.phi_a_rate).all() else np.gradient(res.phi_a, res.t)
-    delta = np.degrees([lead(a, p, Ka) for a, p in zip(res.alpha, res.phi_a, strict=True)])
-    power = np.gradient(res.surface_work, res.t)
+    h = res.histories
+    theta = np.degrees(h.alpha - h.alpha[0])
+    rate = h.phi_a_rate if np.isfinite(h.phi_a_rate).all() else np.gradient(h.phi_a, h.t)
+    delta = np.degrees([lead(a, p, Ka) for a, p in zip(h.alpha, h.phi_a, strict=True)])
+    power = np.gradient(h.surface_work, h.t)
 
     def on(y: np.ndarray) -> np.ndarray:
         if y.ndim == 2:
             return np.stack([on(col) for col in y.T], axis=-1)
-        return np.interp(grid, res.t, y, right=math.nan)
+        return np.interp(grid, h.t, y, right=math.nan)
 
-    Q = res.Q if len(res.Q) == len(res.t) else np.full((len(res.t), 4), math.nan)
+    Q = h.Q if len(h.Q) == len(h.t) else np.full((len(h.t), 4), math.nan)
     return Path(name, label, grid, on(theta), on(-rate / Ka), on(delta), on(power),
-                on(res.X), on(np.degrees(res.phi_a)), on(Q))
+                on(h.X), on(np.degrees(h.phi_a)), on(Q))
 
 
 def run_control(cfg: ControlConfig, base: DynamicConfig, k_alpha: float,
@@ -535,15 +541,15 @@ def run_control(cfg: ControlConfig, base: DynamicConfig, k_alpha: float,
     lo, hi = q.lo, q.hi
     tried: list[tuple[float, bool]] = []
     hi_res = quintic(hi)
-    tried.append((hi, bool(hi_res.carried and hi_res.status == "ok")))
+    tried.append((hi, bool(hi_res.carried and hi_res.counts.status == "ok")))
     lo_res = quintic(lo)
-    tried.append((lo, bool(lo_res.carried and lo_res.status == "ok")))
+    tried.append((lo, bool(lo_res.carried and lo_res.counts.status == "ok")))
     boundary_found = tried[0][1] and not tried[1][1]
     best_quintic = hi_res
     while boundary_found and hi - lo > q.tol:
         mid = 0.5 * (lo + hi)
         r = quintic(mid)
-        ok = bool(r.carried and r.status == "ok")
+        ok = bool(r.carried and r.counts.status == "ok")
         tried.append((mid, ok))
         if ok:
             hi, best_quintic = mid, r
@@ -588,8 +594,8 @@ def run_control(cfg: ControlConfig, base: DynamicConfig, k_alpha: float,
             mc, mo = measure(rc, goal, tol, Ka, default_ctl), measure(ro, goal, tol, Ka, None)
             closed[i, j], opened[i, j] = mc.carried, mo.carried
             closed_arrival[i, j], open_arrival[i, j] = mc.arrival, mo.arrival
-            closed_status[i, j], open_status[i, j] = rc.status, ro.status
-            robust_dt[i, j] = rc.dt
+            closed_status[i, j], open_status[i, j] = rc.counts.status, ro.counts.status
+            robust_dt[i, j] = rc.counts.dt
 
     # ---- paths for the figures
     tgrid = np.arange(0.0, cfg.duration + 0.5 * cfg.path_interval, cfg.path_interval)
@@ -726,8 +732,8 @@ def _with_demand(ds: xr.Dataset, cfg: ControlConfig, base: DynamicConfig,
     check_rows = _rows(ref_res, cfg.path_interval)
     conv = act.converge_quadrature(surface, _motion_along(ref_res, ref_motion, ref_ctl,
                                                           float(surface.Ka), check_rows),
-                                   ref_res.t[check_rows], s.sigma, s.c_d, g, s.n_alpha, s.n_R,
-                                   s.rtol, s.growth, s.max_levels)
+                                   ref_res.histories.t[check_rows], s.sigma, s.c_d, g,
+                                   s.n_alpha, s.n_R, s.rtol, s.growth, s.max_levels)
     levels = conv.levels[-2] if conv.converged else conv.levels[-1]
     rule = act.quadrature(surface, *levels)
 
@@ -738,9 +744,9 @@ def _with_demand(ds: xr.Dataset, cfg: ControlConfig, base: DynamicConfig,
     case_demand = [along(*c) for c in cases]
     # the paths at every recorded step (the figure's histories); the fastest case's is the
     # check of the sampling above
-    path_demand = [along(*p, interval=p[0].dt) for p in paths]
+    path_demand = [along(*p, interval=p[0].counts.dt) for p in paths]
     every = (path_demand[0] if paths and paths[0][0] is ref_res
-             else along(*cases[reference], interval=ref_res.dt))
+             else along(*cases[reference], interval=ref_res.counts.dt))
     ref = case_demand[reference].figures
     direct = {"P_actuator_peak": float(np.max(np.abs(every.histories["P_actuator"]))),
               "E_actuator": act.time_integral(every.histories["P_actuator"], every.t),

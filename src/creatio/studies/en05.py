@@ -334,9 +334,9 @@ def model_centre(cfg: DynamicConfig, interval: float, frames: np.ndarray
     frames = np.asarray(frames, np.int64)
     res = simulate(sampled_problem(cfg, interval, float(frames[-1]) * interval))
     X = np.full((frames.size, 3), np.nan)
-    have = frames < res.t.size
-    X[have] = res.X[frames[have]]
-    return X, res.status, bool(res.carried)
+    have = frames < res.histories.t.size
+    X[have] = res.histories.X[frames[have]]
+    return X, res.counts.status, bool(res.carried)
 
 
 # ----------------------------------------------------------------------------- tracks

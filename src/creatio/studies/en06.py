@@ -20,7 +20,7 @@ tilt and the tolerances of EN-02's transport (creatio.studies.en06_tolerances).
 
 Assumptions (stated in every dataset): (alpha, R) are material coordinates, the reference is
 the surface without corrugation, the sheet is thin, and the shipped materials are
-illustrative. Every part is one entry of PART_RUNS (a later part, ribs, adds its own).
+illustrative. Every part is one entry of PART_RUNS, the rib surfaces' too (en06_ribs.py).
 """
 
 from __future__ import annotations
@@ -36,13 +36,15 @@ from creatio.model import fatigue as FT
 from creatio.model import strain as S
 from creatio.model.laws import Law, LawKind
 from creatio.model.surface import Motion, Surface
+from creatio.studies import en06_ribs as RIBS
 from creatio.studies import en06_tolerances as TOL
 from creatio.studies.en06_schema import En06Config
 from creatio.studies.material_schema import MaterialConfig, MaterialLaw
 from creatio.studies.registry import Part
 
 __all__ = ["ASSUMPTIONS", "PARTS", "PART_RUNS", "check_dataset", "closed_form", "envelope",
-           "fatigue_dataset", "motion_of", "parts", "phase_times", "run", "strain_dataset",
+           "fatigue_dataset", "motion_of", "parts", "phase_times", "ribs_dataset", "run",
+           "strain_dataset",
            "stress_field"]
 
 Array = NDArray[np.float64]
@@ -368,8 +370,21 @@ def fatigue_dataset(cfg: En06Config) -> xr.Dataset:
     return ds
 
 
-#: The dataset parts of EN-06, in report order: name -> the function config -> dataset. A
-#: later part (ribs) adds its entry here; each is one job of the workflow.
+#: The dataset parts of EN-06, in report order: name -> the function config -> dataset; each
+#: is one job of the workflow.
+def ribs_dataset(cfg: En06Config) -> xr.Dataset:
+    """The rib part: EN-02's config (bases.en02) on the rib surfaces of study.ribs, with the
+    study's surfaces and the tolerance parts' spec."""
+    r, spec = cfg.study.ribs, cfg.study.tolerances.spec
+    ds = RIBS.ribs_dataset(cfg.base, dict(cfg.study.surfaces), counts=r.counts,
+                           refused=r.refused, errors_N=r.errors_N, seeds=r.seeds,
+                           sigma_e=r.sigma_e, sigma_d_deg=r.sigma_d_deg,
+                           angle_deg=spec.angle_deg, radius_m=spec.radius_m)
+    ds.attrs.update({"part": "ribs", "assumptions": "spline skin: between the ribs the membrane "
+                     "is the periodic quintic spline through them"})
+    return ds
+
+
 PART_RUNS: dict[str, Callable[[En06Config], xr.Dataset]] = {
     "strain": strain_dataset,
     "fatigue": fatigue_dataset,
@@ -377,6 +392,7 @@ PART_RUNS: dict[str, Callable[[En06Config], xr.Dataset]] = {
     "sobol": TOL.sobol_dataset,
     "allocation": TOL.allocation_dataset,
     "joint": TOL.joint_dataset,
+    "ribs": ribs_dataset,
 }
 #: The part names, in report order.
 PARTS = tuple(PART_RUNS)

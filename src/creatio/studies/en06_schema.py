@@ -7,7 +7,7 @@ are en06_tolerances.py).
 
 Every size that sets an allocation or a count of evaluations is checked against
 MAX_SAMPLES (or MAX_RUNS for runs) before anything runs, and refused in one line naming
-the key. A later part (ribs) adds its own group beside these.
+the key. The rib part's group is ``study.ribs`` (the runs are en06_ribs.py).
 """
 
 from __future__ import annotations
@@ -31,8 +31,8 @@ from creatio.studies.schema import (
 )
 
 __all__ = ["AllocationConfig", "BASE", "BeyondGrid", "En06Config", "En06Study",
-           "FatigueCheckConfig", "FatigueGrid", "Interval", "JointConfig", "SobolConfig",
-           "SpecConfig", "StrainGrid", "TiltCheckConfig", "ToleranceInput",
+           "FatigueCheckConfig", "FatigueGrid", "Interval", "JointConfig", "RibsConfig",
+           "SobolConfig", "SpecConfig", "StrainGrid", "TiltCheckConfig", "ToleranceInput",
            "TolerancesConfig"]
 
 #: The study whose transport the tolerance parts vary (its full config: bases.en02).
@@ -381,6 +381,45 @@ class TiltCheckConfig:
 
 
 @dataclass
+class RibsConfig:
+    """The rib part (docs/model.md, rib surfaces): EN-02 and EN-02R on the surface N ribs
+    make, for each N of ``counts`` (each > 2 Ka) against the ideal surface; ``refused`` the
+    counts shown refused (each <= 2 Ka); rib errors over ``seeds`` seeds at ``errors_N``
+    (null: the smallest N within spec) with amplitude sigma ``sigma_e`` and phase sigma
+    ``sigma_d_deg``."""
+
+    counts: list[int] = field(default_factory=lambda: [18, 24, 36, 48, 72])
+    refused: list[int] = field(default_factory=lambda: [12])
+    errors_N: int | None = None
+    seeds: int = 50
+    sigma_e: float = 0.01
+    sigma_d_deg: float = 1.0
+
+    def check(self, path: str, Ka: int) -> None:
+        """Counts above 2 Ka, refusals at or below it, positive sizes, sigmas >= 0."""
+        require(len(self.counts) >= 1, f"{path}.counts", list(self.counts),
+                "needs at least 1 rib count")
+        for i, N in enumerate(self.counts):
+            require(int(N) == N and N > 2 * Ka, f"{path}.counts[{i}]", N,
+                    f"must be an integer > 2 Ka = {2 * Ka} (fewer ribs cannot carry the wave)")
+        for i, N in enumerate(self.refused):
+            require(int(N) == N and 1 <= N <= 2 * Ka, f"{path}.refused[{i}]", N,
+                    f"must be an integer in [1, 2 Ka = {2 * Ka}] (a count the study refuses)")
+        if self.errors_N is not None:
+            require(int(self.errors_N) == self.errors_N and self.errors_N > 2 * Ka,
+                    f"{path}.errors_N", self.errors_N,
+                    f"must be null or an integer > 2 Ka = {2 * Ka}")
+        require(int(self.seeds) == self.seeds and self.seeds >= 1, f"{path}.seeds", self.seeds,
+                "must be an integer >= 1")
+        require_runs(f"{path}.seeds", self.seeds, 2 * self.seeds, "rib-error runs")
+        require_runs(f"{path}.counts", list(self.counts), 4 * len(self.counts), "rib runs")
+        for name in ("sigma_e", "sigma_d_deg"):
+            value = getattr(self, name)
+            require(math.isfinite(value) and value >= 0.0, f"{path}.{name}", value,
+                    "must be >= 0")
+
+
+@dataclass
 class En06Study:
     """EN-06: the strain the surfaces of EN-02 and EN-02R demand of the membrane, the stress
     and fatigue it causes in each material, the closed-form fatigue check, the energy check
@@ -396,6 +435,7 @@ class En06Study:
     fatigue_check: FatigueCheckConfig = field(default_factory=FatigueCheckConfig)
     tolerances: TolerancesConfig = field(default_factory=TolerancesConfig)
     tilt_check: TiltCheckConfig = field(default_factory=TiltCheckConfig)
+    ribs: RibsConfig = field(default_factory=RibsConfig)
 
     def check(self, path: str, Ka: int) -> None:
         """At least one surface and material, each valid; every grid within the limits."""
@@ -411,6 +451,7 @@ class En06Study:
         self.beyond.check(f"{path}.beyond")
         self.fatigue.check(f"{path}.fatigue")
         self.fatigue_check.check(f"{path}.fatigue_check", self.surfaces, Ka)
+        self.ribs.check(f"{path}.ribs", Ka)
 
 
 @dataclass

@@ -61,7 +61,8 @@ ANALYSIS = Kind("analysis", "benchmarks", "benchmarks", (".json", ".md", ".png")
 #: EN-06: fields over the membrane from the prescribed surface (strain, stress, fatigue).
 MATERIAL = Kind("material", "studies", "reports", (".json", ".md", ".html", ".png",
                                                    "_envelope.png", "_fatigue.png",
-                                                   "_tolerances.png"))
+                                                   "_tolerances.png", "_ribs_transport.png",
+                                                   "_rib_errors.png"))
 #: EN-07: a microgravity demonstrator (similarity, platforms' requirements, host interfaces).
 DEMONSTRATOR = Kind("demonstrator", "studies", "reports", (".json", ".md", ".html", ".png",
                                                            "_feasible.png", "_yaw.png"))

@@ -85,12 +85,13 @@ def run_dataset(prob: SphereProblem, res: SimulationResult) -> xr.Dataset:
     """One run's EN-02 dataset with its start point, the equilibrium's verdict (empty when
     accepted or not asked for) and the cavity-cell offsets (docs/model.md s.8)."""
     ds = result_dataset(prob, res)
-    ds.attrs.update({"start_R": res.start_R, "start_alpha": math.degrees(res.start_alpha),
-                     "equilibrium_message": res.equilibrium_message})
-    ds["cavity_cell_u"] = ("time", np.degrees(res.cell_u),
+    c = res.counts
+    ds.attrs.update({"start_R": c.start_R, "start_alpha": math.degrees(c.start_alpha),
+                     "equilibrium_message": c.equilibrium_message})
+    ds["cavity_cell_u"] = ("time", np.degrees(res.histories.cell_u),
                            {"long_name": "radial phase offset from the cavity bottom "
                             "(cell: |du| < 90 deg)", "units": "degree"})
-    ds["cavity_cell_v"] = ("time", np.degrees(res.cell_v),
+    ds["cavity_cell_v"] = ("time", np.degrees(res.histories.cell_v),
                            {"long_name": "angular phase offset from the cavity bottom "
                             "(cell: |dv| < 90 deg)", "units": "degree"})
     return ds
@@ -114,34 +115,35 @@ def structure_dataset(prob: SphereProblem, res: SimulationResult) -> xr.Dataset:
     """One run's dataset with the structure of docs/model.md s.9-10 (for runs on the
     structure path; on a fixed structure theta is 0 and H_z NaN)."""
     ds = run_dataset(prob, res)
+    h = res.histories
     # a fixed structure (the run took the EN-02 path) does not turn: theta = 0
-    th = res.theta if res.structure_free else 0.0 * res.t
+    th = h.theta if res.counts.structure_free else 0.0 * h.t
     c, s = np.cos(th), np.sin(th)
-    X = res.X
+    X = h.X
     world = np.stack([c * X[:, 0] - s * X[:, 1], s * X[:, 0] + c * X[:, 1], X[:, 2]], axis=-1)
-    hz = res.hz_structure + res.hz_orbital + res.hz_spin
+    hz = h.hz_structure + h.hz_orbital + h.hz_spin
     vec = ("time", "component")
     ds["centre"].attrs["long_name"] = "sphere centre X = c + b n (structure frame)"
     ds["velocity"].attrs["long_name"] = "centre velocity relative to the structure"
     ds["centre_azimuth"].attrs["long_name"] = "unwrapped azimuth of the centre (structure frame)"
     ds["world_centre"] = (vec, world, {"long_name": "sphere centre in the world frame",
                                        "units": "m"})
-    ds["world_azimuth"] = ("time", np.degrees(res.world_azimuth),
+    ds["world_azimuth"] = ("time", np.degrees(h.world_azimuth),
                            {"long_name": "unwrapped azimuth of the centre (world frame)",
                             "units": "degree"})
     ds["theta"] = ("time", np.degrees(th), {"long_name": "structure yaw theta",
                                             "units": "degree"})
-    ds["theta_rate"] = ("time", res.theta_rate if res.structure_free else 0.0 * res.t,
+    ds["theta_rate"] = ("time", h.theta_rate if res.counts.structure_free else 0.0 * h.t,
                         {"long_name": "structure yaw rate Theta", "units": "rad s-1"})
-    ds["hz_structure"] = ("time", res.hz_structure, {"long_name": "H_z part I_s Theta",
+    ds["hz_structure"] = ("time", h.hz_structure, {"long_name": "H_z part I_s Theta",
                                                      "units": "kg m2 s-1"})
-    ds["hz_orbital"] = ("time", res.hz_orbital,
+    ds["hz_orbital"] = ("time", h.hz_orbital,
                         {"long_name": "H_z part m [X x V_abs] . z", "units": "kg m2 s-1"})
-    ds["hz_spin"] = ("time", res.hz_spin, {"long_name": "H_z part I omega_z",
+    ds["hz_spin"] = ("time", h.hz_spin, {"long_name": "H_z part I omega_z",
                                            "units": "kg m2 s-1"})
     ds["hz"] = ("time", hz, {"long_name": "angular momentum about z, H_z",
                              "units": "kg m2 s-1"})
-    ds["confinement_work"] = ("time", res.confinement_work,
+    ds["confinement_work"] = ("time", h.confinement_work,
                               {"long_name": "work of the normal preload, W_confine",
                                "units": "J"})
     figures = run_scalars(ds)
@@ -159,12 +161,12 @@ def structure_dataset(prob: SphereProblem, res: SimulationResult) -> xr.Dataset:
         "world_angular_displacement": (float(ds.world_azimuth.values[-1]
                                              - ds.world_azimuth.values[0])
                                        if th.size else math.nan),
-        "max_hz_drift": res.max_hz_drift,
-        "hz_scale": res.max_structure_momentum,
-        "max_structure_rate": res.max_structure_rate,
-        "max_contact_radius": res.max_contact_radius,
-        "confinement_work_total": (float(res.confinement_work[-1])
-                                   if res.confinement_work.size else math.nan),
+        "max_hz_drift": res.extrema.max_hz_drift,
+        "hz_scale": res.extrema.max_structure_momentum,
+        "max_structure_rate": res.extrema.max_structure_rate,
+        "max_contact_radius": res.extrema.max_contact_radius,
+        "confinement_work_total": (float(h.confinement_work[-1])
+                                   if h.confinement_work.size else math.nan),
     })
     return ds
 

@@ -38,6 +38,7 @@ from creatio.model.control import Controller, outer_gains
 from creatio.model.laws import Law, LawKind
 from creatio.model.numerics import steps_in
 from creatio.model.oscillation import still_cavity
+from creatio.model.ribs import Ribs, rib_errors
 from creatio.model.sphere import inertia
 from creatio.model.surface import Motion, Surface
 
@@ -359,13 +360,23 @@ class LawConfig:
 
 @dataclass
 class GeometryConfig:
-    """Surface shape: inner radius, width, amplitude, radial and angular cycle counts."""
+    """Surface shape: inner radius, width, amplitude, radial and angular cycle counts; and
+    whether N ribs make it (docs/model.md s.14.4): ``ribs`` = N at alpha_j = 2 pi j / N with
+    the periodic spline of degree ``rib_degree`` (5) between them, and with ``rib_seed``
+    each rib's amplitude error e_j ~ N(0, rib_sigma_e) and phase offset d_j ~ N(0,
+    rib_sigma_d_deg) (defaults 0.01 and 1 degree). Each is left out of the canonical text
+    while null (ribs null: the ideal surface), so the existing configs keep their hashes."""
 
     R0: float = MISSING
     dR: float = MISSING
     A: float = MISSING
     Kr: int = MISSING
     Ka: int = MISSING
+    ribs: int | None = field(default=None, metadata={OMIT_NULL: True})
+    rib_degree: int | None = field(default=None, metadata={OMIT_NULL: True})
+    rib_sigma_e: float | None = field(default=None, metadata={OMIT_NULL: True})
+    rib_sigma_d_deg: float | None = field(default=None, metadata={OMIT_NULL: True})
+    rib_seed: int | None = field(default=None, metadata={OMIT_NULL: True})
 
     def check(self, path: str) -> None:
         """R0 > 0, dR > 0, 0 <= A < R0, Kr and Ka positive integers."""
@@ -376,10 +387,48 @@ class GeometryConfig:
         )
         require(self.Kr >= 1, f"{path}.Kr", self.Kr, "must be a positive integer")
         require(self.Ka >= 1, f"{path}.Ka", self.Ka, "must be a positive integer")
+        self._check_ribs(path)
+
+    def _check_ribs(self, path: str) -> None:
+        """ribs an integer > 2 Ka, rib_degree 5, sigmas finite and >= 0, rib_seed an integer
+        >= 0; the rib_* keys only with ribs."""
+        if self.ribs is None:
+            for name in ("rib_degree", "rib_sigma_e", "rib_sigma_d_deg", "rib_seed"):
+                value = getattr(self, name)
+                require(value is None, f"{path}.{name}", value,
+                        f"needs {path}.ribs (the number of ribs; null: the ideal surface)")
+            return
+        Ka = self.Ka
+        require(isinstance(self.ribs, int) and self.ribs > 2 * Ka, f"{path}.ribs", self.ribs,
+                f"must be an integer > 2 Ka = {2 * Ka} (N <= 2 Ka ribs cannot carry the "
+                "travelling wave)")
+        require(self.rib_degree in (None, 5), f"{path}.rib_degree", self.rib_degree,
+                "must be 5 (the quintic skin: C4, the offset surface reads third derivatives)")
+        for name, what in (("rib_sigma_e", "the ribs' relative amplitude error"),
+                           ("rib_sigma_d_deg", "the ribs' phase offset in degrees")):
+            value = getattr(self, name)
+            if value is not None:
+                require(isinstance(value, int | float) and math.isfinite(value)
+                        and value >= 0.0, f"{path}.{name}", value,
+                        f"must be finite and >= 0 ({what})")
+        if self.rib_seed is not None:
+            require(isinstance(self.rib_seed, int) and self.rib_seed >= 0, f"{path}.rib_seed",
+                    self.rib_seed, "must be an integer >= 0 (null: exact ribs)")
+
+    def rib_set(self) -> Ribs | None:
+        """The numeric core's ribs (None: the ideal surface), errors drawn from rib_seed."""
+        if self.ribs is None:
+            return None
+        if self.rib_seed is None:
+            return Ribs(self.ribs)
+        sigma_e = 0.01 if self.rib_sigma_e is None else self.rib_sigma_e
+        sigma_d = 1.0 if self.rib_sigma_d_deg is None else self.rib_sigma_d_deg
+        e, d = rib_errors(self.ribs, sigma_e, math.radians(sigma_d), self.rib_seed)
+        return Ribs(self.ribs, tuple(e), tuple(d))
 
     def surface(self) -> Surface:
-        """The numeric-core surface."""
-        return Surface(self.R0, self.dR, self.A, self.Kr, self.Ka)
+        """The numeric-core surface (with its ribs when ribs is set)."""
+        return Surface(self.R0, self.dR, self.A, self.Kr, self.Ka, ribs=self.rib_set())
 
 
 NO_CYCLE = (LawKind.constant, LawKind.linear, LawKind.sinusoid)  # a step needs phases.T
@@ -758,16 +807,20 @@ class DynamicConfig:
         """The problem of this config at timestep dt: model, start, solver, output, events."""
         ph, sp, sv, st = self.phases, self.sphere, self.solver, self.study
         rtol, atol = sv.tolerances(dt)
+        phi_r, phi_a, gamma = ph.laws()
         problem = SphereProblem(
-            model=core.Model(self.geometry.surface(), Motion(*ph.laws()),
-                             sp.sphere(), self.run_structure()),
-            start=core.Start(st.initial.R, math.radians(st.initial.alpha_deg),
-                             st.initial.Rdot, st.initial.alphadot),
-            solver=core.Solver(str(sv.method), dt, rtol, atol, sv.fixed_step, sv.dense_output,
-                               sv.allow_unstable, sv.max_rhs_evals),
-            output=core.Output(st.duration, sv.output_interval,
-                               True if Output.rotation in st.outputs else None,
-                               Output.energy in st.outputs),
+            model=core.Model(surface=self.geometry.surface(),
+                             motion=Motion(phi_r=phi_r, phi_a=phi_a, gamma=gamma),
+                             sphere=sp.sphere(), structure=self.run_structure()),
+            start=core.Start(R=st.initial.R, alpha=math.radians(st.initial.alpha_deg),
+                             Rdot=st.initial.Rdot, alphadot=st.initial.alphadot),
+            solver=core.Solver(method=str(sv.method), dt=dt, rtol=rtol, atol=atol,
+                               fixed_step=sv.fixed_step, dense_output=sv.dense_output,
+                               allow_unstable=sv.allow_unstable,
+                               max_rhs_evals=sv.max_rhs_evals),
+            output=core.Output(t_end=st.duration, interval=sv.output_interval,
+                               rotation=True if Output.rotation in st.outputs else None,
+                               energy=Output.energy in st.outputs),
             events=self.run_events(),
         )
         ctl = self.controller(problem)
@@ -836,7 +889,7 @@ _PROBLEM_KEYS = {
     "confinement": "structure.confinement", "force": "structure.force",
     "restitution": "flight.restitution", "resume_speed": "flight.resume_speed",
     "impact_cap": "flight.impact_cap", "height": "study.drop.height",
-    "beta": "sphere.beta_deg", "psi": "sphere.psi_deg",
+    "beta": "sphere.beta_deg", "psi": "sphere.psi_deg", "ribs": "geometry.ribs",
 }
 
 

@@ -41,15 +41,16 @@ def result_dataset(prob: SphereProblem, res: SimulationResult,
     cavity-cell check (docs/model.md s.8.2) as ``left_cavity_time`` (NaN: never left) and
     ``carried``; on the controlled path (s.12.2) the phase, its rate, the servo's u, the lead
     and the arrival readouts too (control: the group, for its arrival tolerance)."""
-    t = res.t
+    h = res.histories
+    t = h.t
     dt = prob.solver.dt
     # The pattern angle starts at the initial contact angle and turns at -phi_a' / Ka
     # (on the controlled path phi_a is the state's, recorded with the run).
     if prob.controlled:
-        pattern_t = prob.start.alpha - (res.phi_a - res.phi_a[:1]) / prob.model.surface.Ka
+        pattern_t = prob.start.alpha - (h.phi_a - h.phi_a[:1]) / prob.model.surface.Ka
     else:
         pattern_t = pattern(prob, t)
-    rho = np.hypot(res.X[:, 0], res.X[:, 1])
+    rho = np.hypot(h.X[:, 0], h.X[:, 1])
     vec = ("time", "component")
     coords = {
         "time": ("time", t, {"units": "s"}),
@@ -57,43 +58,43 @@ def result_dataset(prob: SphereProblem, res: SimulationResult,
         "quaternion_component": ("quaternion_component", ["w", "x", "y", "z"]),
     }
     data = {
-        "centre": (vec, res.X, {"long_name": "sphere centre X = c + b n", "units": "m"}),
+        "centre": (vec, h.X, {"long_name": "sphere centre X = c + b n", "units": "m"}),
         "centre_radius": ("time", rho, {"long_name": "horizontal radius of the centre",
                                         "units": "m"}),
-        "centre_azimuth": ("time", np.degrees(res.azimuth),
+        "centre_azimuth": ("time", np.degrees(h.azimuth),
                            {"long_name": "unwrapped azimuth of the centre", "units": "degree"}),
-        "contact_R": ("time", res.R, {"long_name": "contact radial coordinate R", "units": "m"}),
-        "contact_alpha": ("time", np.degrees(res.alpha), {"long_name": "contact angle alpha",
+        "contact_R": ("time", h.R, {"long_name": "contact radial coordinate R", "units": "m"}),
+        "contact_alpha": ("time", np.degrees(h.alpha), {"long_name": "contact angle alpha",
                                                           "units": "degree"}),
-        "velocity": (vec, res.V, {"long_name": "centre velocity", "units": "m s-1"}),
-        "speed": ("time", res.speed, {"long_name": "centre speed", "units": "m s-1"}),
-        "normal_reaction": ("time", res.N, {"long_name": "normal reaction N", "units": "N"}),
-        "friction": (vec, res.f, {"long_name": "friction force", "units": "N"}),
-        "slip_speed": ("time", res.slip_speed, {"long_name": "slip speed |v_s|",
+        "velocity": (vec, h.V, {"long_name": "centre velocity", "units": "m s-1"}),
+        "speed": ("time", h.speed, {"long_name": "centre speed", "units": "m s-1"}),
+        "normal_reaction": ("time", h.N, {"long_name": "normal reaction N", "units": "N"}),
+        "friction": (vec, h.f, {"long_name": "friction force", "units": "N"}),
+        "slip_speed": ("time", h.slip_speed, {"long_name": "slip speed |v_s|",
                                                 "units": "m s-1"}),
-        "omega": (vec, res.omega, {"long_name": "angular velocity (world frame)",
+        "omega": (vec, h.omega, {"long_name": "angular velocity (world frame)",
                                    "units": "rad s-1"}),
-        "spin_rate": ("time", res.spin_rate, {"long_name": "|omega|", "units": "rad s-1"}),
-        "cumulative_spin": ("time", np.degrees(res.cumulative_spin),
+        "spin_rate": ("time", h.spin_rate, {"long_name": "|omega|", "units": "rad s-1"}),
+        "cumulative_spin": ("time", np.degrees(h.cumulative_spin),
                             {"long_name": "integral of |omega| dt", "units": "degree"}),
-        "quaternion": (("time", "quaternion_component"), res.Q,
+        "quaternion": (("time", "quaternion_component"), h.Q,
                        {"long_name": "orientation, unit quaternion, scalar first"}),
-        "marker": (vec, res.marker, {"long_name": "body marker, starts at (0, 0, 1)"}),
+        "marker": (vec, h.marker, {"long_name": "body marker, starts at (0, 0, 1)"}),
         "pattern_angle": ("time", np.degrees(pattern_t),
                           {"long_name": "pattern angle from the initial contact angle",
                            "units": "degree"}),
-        "angular_lag": ("time", np.degrees(res.azimuth) - np.degrees(pattern_t),
+        "angular_lag": ("time", np.degrees(h.azimuth) - np.degrees(pattern_t),
                         {"long_name": "centre azimuth minus pattern angle", "units": "degree"}),
-        "cavity_R": ("time", res.cavity_R, {"long_name": "radial coordinate of the cavity",
+        "cavity_R": ("time", h.cavity_R, {"long_name": "radial coordinate of the cavity",
                                             "units": "m"}),
-        "kinetic_energy": ("time", res.kinetic, {"units": "J"}),
-        "potential_energy": ("time", res.potential, {"units": "J"}),
-        "energy": ("time", res.energy, {"long_name": "mechanical energy E", "units": "J"}),
-        "surface_work": ("time", res.surface_work, {"long_name": "work of the membrane",
+        "kinetic_energy": ("time", h.kinetic, {"units": "J"}),
+        "potential_energy": ("time", h.potential, {"units": "J"}),
+        "energy": ("time", h.energy, {"long_name": "mechanical energy E", "units": "J"}),
+        "surface_work": ("time", h.surface_work, {"long_name": "work of the membrane",
                                                     "units": "J"}),
-        "friction_dissipation": ("time", res.friction_dissipation,
+        "friction_dissipation": ("time", h.friction_dissipation,
                                  {"long_name": "energy dissipated by friction", "units": "J"}),
-        "energy_residual": ("time", res.energy_residual,
+        "energy_residual": ("time", h.energy_residual,
                             {"long_name": "E - E0 - W_surface + D_friction", "units": "J"}),
     }
     ds = xr.Dataset(data, coords=coords)
@@ -109,28 +110,28 @@ def result_dataset(prob: SphereProblem, res: SimulationResult,
                          "gravity_y": gy, "gravity_z": gz})
     ds.attrs.update({
         "dt": dt,
-        "method": res.method,
-        "status": res.status,
-        "stop_time": res.stop_time,
-        "steps": res.steps,
-        "rhs_evals": res.rhs_evals,
-        "rotation_integrated": int(res.rotation_integrated),
-        "energy_integrated": int(res.energy_integrated),
-        "stability_limit_dt": res.stability_limit,
-        "min_normal_reaction": res.min_N,
-        "max_normal_reaction": res.max_N,
-        "max_slip_speed": res.max_slip_speed,
-        "max_energy_residual": res.max_energy_residual,
-        "max_cavity_tracking_error": res.max_cavity_tracking_error,
-        "min_edge_clearance": res.min_edge_clearance,
-        "max_b_kappa": res.max_b_kappa,
-        "rejected_steps": res.rejected_steps,
-        "jacobians": res.jacobians,
-        "lu_factorisations": res.lu_factorisations,
-        "newton_iterations": res.newton_iterations,
-        "warnings": "\n".join(res.warnings),
+        "method": res.counts.method,
+        "status": res.counts.status,
+        "stop_time": res.counts.stop_time,
+        "steps": res.counts.steps,
+        "rhs_evals": res.counts.rhs_evals,
+        "rotation_integrated": int(res.counts.rotation_integrated),
+        "energy_integrated": int(res.counts.energy_integrated),
+        "stability_limit_dt": res.counts.stability_limit,
+        "min_normal_reaction": res.extrema.min_N,
+        "max_normal_reaction": res.extrema.max_N,
+        "max_slip_speed": res.extrema.max_slip_speed,
+        "max_energy_residual": res.extrema.max_energy_residual,
+        "max_cavity_tracking_error": res.extrema.max_cavity_tracking_error,
+        "min_edge_clearance": res.extrema.min_edge_clearance,
+        "max_b_kappa": res.extrema.max_b_kappa,
+        "rejected_steps": res.counts.rejected_steps,
+        "jacobians": res.counts.jacobians,
+        "lu_factorisations": res.counts.lu_factorisations,
+        "newton_iterations": res.counts.newton_iterations,
+        "warnings": "\n".join(res.counts.warnings),
         "comment": "extrema (min_*, max_*) are taken over every integration step",
-        "left_cavity_time": res.left_cavity_time,
+        "left_cavity_time": res.events.left_cavity_time,
         "carried": int(res.carried),
     })
     return ds
@@ -144,12 +145,12 @@ def _control_variables(ds: xr.Dataset, prob: SphereProblem, res: SimulationResul
     overshoot and final error against the group's arrival tolerance."""
     ctl = prob.model.control
     Ka = float(prob.model.surface.Ka)
-    u, delta, delta_cmd = ctl.acceleration(Ka, res.alpha, res.alphadot, res.phi_a,
-                                           res.phi_a_rate)
+    h = res.histories
+    u, delta, delta_cmd = ctl.acceleration(Ka, h.alpha, h.alphadot, h.phi_a, h.phi_a_rate)
     m = measure(res, ctl.goal, math.radians(control.arrival_tol_deg), Ka, ctl)
-    ds["phase_a"] = ("time", np.degrees(res.phi_a),
+    ds["phase_a"] = ("time", np.degrees(h.phi_a),
                      {"long_name": "angular phase phi_a (controlled state)", "units": "degree"})
-    ds["phase_a_rate"] = ("time", res.phi_a_rate.copy(),
+    ds["phase_a_rate"] = ("time", h.phi_a_rate.copy(),
                           {"long_name": "rate of the angular phase", "units": "rad s-1"})
     ds["phase_a_acceleration"] = ("time", u, {"long_name": "servo output u = phi_a''",
                                               "units": "rad s-2"})
@@ -157,7 +158,7 @@ def _control_variables(ds: xr.Dataset, prob: SphereProblem, res: SimulationResul
                                               "over the contact", "units": "degree"})
     ds["lead_command"] = ("time", np.degrees(delta_cmd), {"long_name": "lead commanded by "
                                                           "the outer loop", "units": "degree"})
-    ds["travel"] = ("time", np.degrees(res.alpha - ctl.alpha0),
+    ds["travel"] = ("time", np.degrees(h.alpha - ctl.alpha0),
                     {"long_name": "travel theta = alpha - alpha(0)", "units": "degree"})
     ds.attrs.update({
         "control": 1,

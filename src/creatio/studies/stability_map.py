@@ -278,8 +278,8 @@ def reference(problem: SphereProblem, spec: ReferenceConfig) -> SimulationResult
 
     ref = simulate(problem.replace(fixed_step=False, method=spec.method, rtol=spec.rtol,
                                    atol=spec.atol))
-    if ref.status != "ok":
-        raise RuntimeError(f"reference {spec.label()} stopped with status {ref.status}")
+    if ref.counts.status != "ok":
+        raise RuntimeError(f"reference {spec.label()} stopped with status {ref.counts.status}")
     return ref
 
 
@@ -306,12 +306,11 @@ def probe(problem: SphereProblem, n: int, ref: SimulationResult, tol: float, cha
 
     dt = problem.output.interval / n
     res = simulate(problem.replace(dt=dt))
-    error = _distance(res.X, ref.X)
-    chattered = not math.isfinite(res.max_slip_speed) or (
-        res.max_slip_speed > chatter * ref.max_slip_speed
-    )
-    good = res.status == "ok" and error < tol
-    return Probe(n, dt, error, res.status, float(res.max_slip_speed), good, chattered)
+    error = _distance(res.histories.X, ref.histories.X)
+    slip, status = res.extrema.max_slip_speed, res.counts.status
+    chattered = not math.isfinite(slip) or slip > chatter * ref.extrema.max_slip_speed
+    good = status == "ok" and error < tol
+    return Probe(n, dt, error, status, float(slip), good, chattered)
 
 
 def locate_break(
@@ -450,13 +449,13 @@ def stability_map(cfg: StabilityMapConfig, axis: str) -> xr.Dataset:
         base = base_problem(cfg, axis, v)
         ref = reference(base, s.reference)
         cross = reference(base, s.cross_check)
-        agreement[j] = _distance(cross.X, ref.X)
-        ref_slip[j] = ref.max_slip_speed
+        agreement[j] = _distance(cross.histories.X, ref.histories.X)
+        ref_slip[j] = ref.extrema.max_slip_speed
         for i, m in enumerate(methods):
             t0 = time.perf_counter()
             prob = scheme_problem(base, m)
             estimate[i, j] = stability_limit(prob)
-            linear[i, j] = linear_limit(prob, ref.max_N)
+            linear[i, j] = linear_limit(prob, ref.extrema.max_N)
             runs[m, j] = located = _locate(cfg, prob, ref)
             probes, good_n, bad_n = located
             good = base.output.interval / good_n if good_n else math.nan

@@ -471,16 +471,16 @@ def reference(base: SphereProblem, ref: ReferenceConfig) -> tuple[np.ndarray, di
     }
     res = {k: simulate(p) for k, p in runs.items()}
     for k, r in res.items():
-        if r.status != "ok":
-            raise RuntimeError(f"{k} run stopped: {r.status} at {r.stop_time} s")
-    X = res["reference"].X
+        if r.counts.status != "ok":
+            raise RuntimeError(f"{k} run stopped: {r.counts.status} at {r.counts.stop_time} s")
+    X = res["reference"].histories.X
     return X, {
         "reference": f"{ref.method} rtol={ref.rtol:g} atol={ref.atol:g}",
-        "reference_steps": int(res["reference"].steps),
+        "reference_steps": int(res["reference"].counts.steps),
         "check_adaptive": f"{ref.check_method} rtol={ref.check_rtol:g} atol={ref.check_atol:g}",
-        "check_adaptive_max_diff_m": errors(res["check_adaptive"].X, X)[0],
+        "check_adaptive_max_diff_m": errors(res["check_adaptive"].histories.X, X)[0],
         "check_fixed": f"{ref.fixed_method} dt={dt:.6g}",
-        "check_fixed_max_diff_m": errors(res["check_fixed"].X, X)[0],
+        "check_fixed_max_diff_m": errors(res["check_fixed"].histories.X, X)[0],
     }
 
 
@@ -535,17 +535,18 @@ def prepare_native(base: SphereProblem, s: Setting, ref: np.ndarray, study: Work
     t0 = time.perf_counter()
     res = simulate(prob)
     warm = time.perf_counter() - t0
+    c = res.counts
     if s.group == "mu0":
         err = fin = math.nan  # no reference without friction: a timing row only
     else:
-        err, fin = errors(res.X, ref) if res.status == "ok" else (math.inf, math.inf)
-    record = {"error_m": err, "final_error_m": fin, "rhs_evals": res.rhs_evals,
-              "steps": res.steps, "status": res.status,
+        err, fin = errors(res.histories.X, ref) if c.status == "ok" else (math.inf, math.inf)
+    record = {"error_m": err, "final_error_m": fin, "rhs_evals": c.rhs_evals,
+              "steps": c.steps, "status": c.status,
               "state_size": prob.initial_state(prob.rotation_integrated,
                                                prob.output.energy).size,
-              "rejected_steps": res.rejected_steps, "jacobians": res.jacobians,
-              "lu_factorisations": res.lu_factorisations,
-              "newton_iterations": res.newton_iterations}
+              "rejected_steps": c.rejected_steps, "jacobians": c.jacobians,
+              "lu_factorisations": c.lu_factorisations,
+              "newton_iterations": c.newton_iterations}
     return Run(s, call, first, _repeat_count(warm, study.repeats, study.budget_s), record)
 
 

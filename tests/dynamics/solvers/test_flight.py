@@ -67,9 +67,9 @@ def test_flight_measurement_continues_the_contact(problem) -> None:
 def test_a_run_that_never_separates_is_the_flight_off_run(problem) -> None:
     a = simulate(problem)
     b = simulate(problem.replace(flight=True))
-    assert a.status == b.status == "ok" and b.events.shape[0] == 0
+    assert a.counts.status == b.counts.status == "ok" and b.events.table.shape[0] == 0
     for name in ("t", "X", "alpha", "phi_a", "phi_a_rate", "energy_residual", "omega"):
-        assert np.array_equal(getattr(a, name), getattr(b, name)), name
+        assert np.array_equal(getattr(a.histories, name), getattr(b.histories, name)), name
 
 
 def test_a_thrown_sphere_lands_and_is_carried(problem) -> None:
@@ -81,21 +81,23 @@ def test_a_thrown_sphere_lands_and_is_carried(problem) -> None:
     impact time and the centre converge."""
     ctl = dataclasses.replace(problem.model.control, omega_n=40.0)
     off = simulate(problem.replace(control=ctl))
-    assert off.status == "contact_lost" and off.stop_time < 0.1
+    assert off.counts.status == "contact_lost" and off.counts.stop_time < 0.1
     runs = [simulate(problem.replace(control=ctl, flight=True, dt=dt))
             for dt in (0.001, 0.0005, 0.00025)]
     for r in runs:
-        assert r.status == "ok" and r.carried
-        kinds = r.events[:, EV_KIND].astype(int).tolist()
+        assert r.counts.status == "ok" and r.carried
+        kinds = r.events.table[:, EV_KIND].astype(int).tolist()
         assert kinds == [EV_SEPARATION, EV_IMPACT, EV_CONTACT]
-        assert 1e-3 < r.max_flight_height < 3e-3
-        assert math.degrees(r.alpha[-1] - r.alpha[0]) == pytest.approx(-360.0, abs=2.0)
-    residual = [r.max_energy_residual for r in runs]
+        assert 1e-3 < r.events.max_flight_height < 3e-3
+        alpha = r.histories.alpha
+        assert math.degrees(alpha[-1] - alpha[0]) == pytest.approx(-360.0, abs=2.0)
+    residual = [r.extrema.max_energy_residual for r in runs]
     assert residual[0] / residual[1] > 16.0 and residual[1] / residual[2] > 16.0
     assert residual[2] < 1e-9
-    t_impact = [r.events[1, 0] for r in runs]
+    t_impact = [r.events.table[1, 0] for r in runs]
     assert abs(t_impact[1] - t_impact[2]) < abs(t_impact[0] - t_impact[1]) + 1e-9
     assert abs(t_impact[1] - t_impact[2]) < 2e-5
-    dX = [np.max(np.abs(a.X - b.X[: a.t.size])) for a, b in zip(runs[:-1], runs[1:],
-                                                                 strict=True)]
+    dX = [np.max(np.abs(a.X - b.X[: a.t.size]))
+          for a, b in zip([r.histories for r in runs[:-1]], [r.histories for r in runs[1:]],
+                          strict=True)]
     assert dX[1] < dX[0] / 4.0 and dX[1] < 1e-6

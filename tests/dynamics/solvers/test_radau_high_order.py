@@ -73,7 +73,7 @@ def en02_reference(en02):
     """dop853 at rtol 1e-13: a reference of a different method (explicit, not collocation)."""
     res = simulate(en02.replace(method="dop853", rtol=1e-13, atol=1e-15, fixed_step=False,
                                 interval=0.025))
-    assert res.status == "ok"
+    assert res.counts.status == "ok"
     return res
 
 
@@ -81,7 +81,7 @@ def _fixed(en02, name: str, dt: float, dense: bool):
     """A fixed-step run of dt with Newton converged to rtol 1e-14, rows every 0.025 s."""
     res = simulate(en02.replace(method=name, dt=dt, fixed_step=True, rtol=1e-14, atol=1e-16,
                                 interval=0.025 if dense else dt, dense_output=dense))
-    assert res.status == "ok"
+    assert res.counts.status == "ok"
     return res
 
 
@@ -102,9 +102,9 @@ def test_observed_order_at_fixed_steps_on_en02(en02, en02_reference, name, order
     errs = []
     for dt in STEPS[name]:
         res = _fixed(en02, name, dt, False)
-        idx = np.searchsorted(ref.t, res.t - 1e-9)
-        np.testing.assert_allclose(ref.t[idx], res.t, atol=1e-9)
-        errs.append(np.abs(res.X - ref.X[idx]).max())
+        idx = np.searchsorted(ref.histories.t, res.histories.t - 1e-9)
+        np.testing.assert_allclose(ref.histories.t[idx], res.histories.t, atol=1e-9)
+        errs.append(np.abs(res.histories.X - ref.histories.X[idx]).max())
     observed = _observed(errs, STEPS[name])
     assert errs[1] > 1e-15, errs  # above the reference's own error
     assert order - 1.0 <= observed <= order + 1.5, (errs, observed)
@@ -119,10 +119,10 @@ def test_dense_output_order_between_steps_on_en02(en02, en02_reference, name, s)
     for dt in STEPS[name]:
         res = _fixed(en02, name, dt, True)
         steps = np.arange(0.0, 2.0 + 1e-9, dt)
-        off = np.min(np.abs(res.t[:, None] - steps[None, :]), axis=1) > 1e-9
+        off = np.min(np.abs(res.histories.t[:, None] - steps[None, :]), axis=1) > 1e-9
         assert off.sum() >= 40
-        idx = np.searchsorted(ref.t, res.t - 1e-9)
-        errs.append(np.abs(res.X[off] - ref.X[idx][off]).max())
+        idx = np.searchsorted(ref.histories.t, res.histories.t - 1e-9)
+        errs.append(np.abs(res.histories.X[off] - ref.histories.X[idx][off]).max())
     observed = _observed(errs, STEPS[name])
     assert s <= observed <= s + 1.5, (errs, observed)
 
@@ -152,9 +152,9 @@ def test_agrees_with_radau5_at_a_common_tolerance(en02, en02_reference, name) ->
     within 1e-9 m of the reference (radau5 itself: measured 4e-13 m over 120 s)."""
     run = {m: simulate(en02.replace(method=m, rtol=1e-10, atol=1e-12, fixed_step=False,
                                     interval=0.025)) for m in ("radau5", name)}
-    assert all(r.status == "ok" for r in run.values())
-    assert np.abs(run[name].X - run["radau5"].X).max() < 1e-9
-    assert np.abs(run[name].X - en02_reference.X).max() < 1e-9
+    assert all(r.counts.status == "ok" for r in run.values())
+    assert np.abs(run[name].histories.X - run["radau5"].histories.X).max() < 1e-9
+    assert np.abs(run[name].histories.X - en02_reference.histories.X).max() < 1e-9
 
 
 def test_driver_counts_match_the_stepper(en02) -> None:
@@ -162,15 +162,17 @@ def test_driver_counts_match_the_stepper(en02) -> None:
     free steps, so its Newton iterations per step and Jacobians are of the same size; every
     count is positive and a fixed radau9 step of 0.2 s needs no rejection."""
     res = simulate(en02.replace(method="radau9", rtol=1e-10, atol=1e-12, fixed_step=False))
-    assert res.status == "ok"
-    assert res.newton_iterations >= res.steps  # one Newton iteration at least per try
-    assert 0 < res.jacobians <= res.steps + res.rejected_steps
-    assert res.lu_factorisations >= res.jacobians
+    c = res.counts
+    assert c.status == "ok"
+    assert c.newton_iterations >= c.steps  # one Newton iteration at least per try
+    assert 0 < c.jacobians <= c.steps + c.rejected_steps
+    assert c.lu_factorisations >= c.jacobians
     # rhs: 5 per Newton iteration, the Jacobian's columns, one per step for f(t, y)
     n_cols = 7  # R, alpha and their rates, omega (creatio.dynamics.solvers.radau5.jacobian)
-    assert res.rhs_evals >= 5 * res.newton_iterations + n_cols * res.jacobians + res.steps
+    assert c.rhs_evals >= 5 * c.newton_iterations + n_cols * c.jacobians + c.steps
     fixed = simulate(en02.replace(method="radau9", dt=0.2, fixed_step=True, rtol=1e-12,
                                   atol=1e-14, interval=0.2))
-    assert fixed.status == "ok" and fixed.rejected_steps == 0 and fixed.steps == 10
+    f = fixed.counts
+    assert f.status == "ok" and f.rejected_steps == 0 and f.steps == 10
     r5 = simulate(en02.replace(method="radau5", rtol=1e-8, atol=1e-10, fixed_step=False))
-    assert r5.newton_iterations >= r5.steps
+    assert r5.counts.newton_iterations >= r5.counts.steps

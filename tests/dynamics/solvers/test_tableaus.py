@@ -5,12 +5,15 @@ with before the coefficients were written this way, which equalled scipy's too).
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pytest
 from scipy.integrate._ivp import dop853_coefficients as d8
 from scipy.integrate._ivp import radau as scipy_radau
 from scipy.integrate._ivp.rk import RK45
 
+from creatio.dynamics.solvers import METHODS
 from creatio.dynamics.solvers import tableaus as tb
 
 
@@ -59,3 +62,29 @@ def test_radau_collocation_constants_are_consistent() -> None:
     np.testing.assert_allclose(ev, np.sort_complex([tb.RADAU_MU_REAL, mu_c, mu_c.conjugate()]),
                                rtol=1e-13)
     np.testing.assert_allclose(tb.RADAU_T @ tb.RADAU_TI, np.eye(3), atol=1e-15)
+
+
+@pytest.mark.parametrize("name", list(METHODS))
+def test_every_method_meets_its_order_on_the_linear_test(name: str) -> None:
+    """Every method of the registry: an explicit tableau's rows sum to its nodes (A 1 = c)
+    and its weights meet the linear-test conditions b A^(k-1) 1 = 1 / k! for k <= its order
+    (its stability polynomial agrees with exp(z) to that order, as an order-p method's must),
+    its error weights vanish on a constant (sum e = 0) and its real stability interval is
+    finite; an implicit method (no tableau) is L-stable, with no limit on dt."""
+    m = METHODS[name]
+    if m.tableau is None:
+        assert m.l_stable and math.isinf(m.stability_bound)
+        return
+    b, c, s = m.tableau.weights(), np.asarray(m.tableau.c), m.tableau.stages
+    given = np.asarray(m.tableau.a, float)
+    a = np.zeros((s, s))  # A as stored may leave out its zero last column
+    a[:, :given.shape[1]] = given[:s, :s]
+    np.testing.assert_allclose(a.sum(axis=1), c[:s], rtol=0, atol=1e-15)
+    v = np.ones(s)
+    for k in range(1, m.order + 1):
+        assert b @ v == pytest.approx(1.0 / math.factorial(k), rel=1e-12, abs=1e-17), k
+        v = a @ v
+    for e in (m.tableau.e, m.tableau.e3):
+        if e is not None:
+            assert abs(float(np.sum(e))) < 1e-15
+    assert 0.0 < m.stability_bound < math.inf and not m.l_stable

@@ -179,6 +179,12 @@ class Method:
         return self.error_order is not None
 
     @property
+    def variable_order(self) -> bool:
+        """Whether the method changes its order as it runs (radau: 5, 9, 13, its params'
+        stage range, PRM_S_MIN and PRM_S_MAX, not one count); its order is the lowest."""
+        return len(self.params) >= 2 and self.params[0] != self.params[1]
+
+    @property
     def flight(self) -> bool:
         """Whether flight's event loop runs the method (it steps onto every event with an
         explicit stage scheme: solvers.flight)."""

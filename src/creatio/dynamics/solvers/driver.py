@@ -4,15 +4,20 @@ The driver owns time, step size, output landing, diagnostics, the evaluation bud
 step-size floors (creatio.dynamics.status.UNDERFLOW, COLLAPSE_TRIES) and the progress lines of
 a long run (creatio.dynamics.progress); a specialisation a run must compile is announced first
 (creatio.dynamics.jit.ensure_compiled); a step is taken by the stepper of
-the method's kind (creatio.dynamics.solvers.STEPPERS). The explicit Runge-Kutta stepper
-(creatio.dynamics.solvers.explicit) reads any tableau of the registry; the implicit kinds,
-Radau IIA (3 stages; 5, 7 and variable order) and RODAS4, are modules under one contract:
-``workspace(n, params)`` their arrays and carried state (params: the method's parameters,
-creatio.dynamics.solvers.Method.params), ``step(...)`` one try at one step (outcome, step
-factor, work counters: evaluations, Jacobians, LU decompositions, Newton iterations; whether
-the end-of-step evaluation is done), ``dense(ws, t, yout)`` the dense output inside the last
-accepted step. A new implicit kind is such a module and an entry of STEPPERS; the
-explicit kind's arrays are the driver's own (see below).
+the method's kind (creatio.dynamics.solvers.STEPPERS). The controller around a step (budget,
+progress, floors, the split to the output grid, accept or reject: :func:`accepted_step`) and
+the grid's start, targets and landing (:func:`plan`, :func:`target`, :func:`landed`) are
+written once, for this loop and the flight loop (creatio.dynamics.solvers.flight), which hands
+:func:`accepted_step` its own try at a step, inlined as the driver's is.
+
+The explicit Runge-Kutta stepper (creatio.dynamics.solvers.explicit) reads any tableau of the
+registry; the implicit kinds, Radau IIA (3 stages; 5, 7 and variable order) and RODAS4, are
+modules under one contract: ``workspace(n, params)`` their arrays and carried state (params:
+the method's parameters, creatio.dynamics.solvers.Method.params), ``step(...)`` one try at one
+step (outcome, step factor, work counters: evaluations, Jacobians, LU decompositions, Newton
+iterations; whether the end-of-step evaluation is done), ``dense(ws, t, yout)`` the dense
+output inside the last accepted step. A new implicit kind is such a module and an entry of
+STEPPERS; the explicit kind's arrays are the driver's own (see below).
 
 * Fixed step (RK4, or any method with ``fixed``): step i runs from t_i = i dt to t_{i+1};
   histories are every ``stride`` steps, and the run is ``n_steps`` steps long.
@@ -72,7 +77,8 @@ from creatio.dynamics.sphere import (
     rhs_of,
 )
 
-__all__ = ["CONTROLLED", "SPECIALISATIONS", "run"]
+__all__ = ["CONTROLLED", "SPECIALISATIONS", "accepted_step", "gave_up", "landed", "plan", "run",
+           "target"]
 
 #: The module of each implicit kind (the contract of the module docstring).
 _IMPLICIT = {RADAU: radau5, ROSENBROCK: rosenbrock, RADAU_VO: radau_high_order}
@@ -134,6 +140,149 @@ def _arrays(n: int, n_dense: int, en: bool) -> tuple:
 _EXT = 8
 
 
+@njit(inline="always")
+def plan(fixed, dense, t_end, interval, h0, n_steps):
+    """(whole output intervals of an adaptive or dense grid, first step size, whether the
+    start is already the end) of a run: the loops' common start."""
+    n_int = int(math.floor(t_end / interval * (1.0 + 1e-12))) if dense or not fixed else 0
+    h = h0 if fixed or dense else min(h0, interval)
+    final = n_steps == 0 if fixed else t_end <= 0.0
+    return n_int, h, final
+
+
+@njit(inline="always")
+def target(fixed, dense, k, h0, jn, n_int, interval, t_end):
+    """Where the next step aims: grid time (k + 1) h0 at a fixed step (t_end for the last one
+    with dense output), t_end with dense output, else the output time jn (of n_int)."""
+    if fixed:
+        t_target = (k + 1) * h0
+        if dense and t_target >= t_end * (1.0 - 1e-12):
+            t_target = t_end
+    elif dense:
+        t_target = t_end
+    else:
+        t_target = jn * interval if jn <= n_int else t_end
+        if t_target > t_end:
+            t_target = t_end
+    return t_target
+
+
+@njit(inline="always")
+def accepted_step(try_step, sargs, t, t_target, t_end, h, h_fixed, fixed, dense, land, have_f,
+                  evals, tally, steps, max_evals, h_small, progress, clock):
+    """One accepted step from t towards t_target, retried under the controller: the step-retry
+    loop of the driver and of the flight loop (creatio.dynamics.solvers.flight), written once.
+
+    Before each try: the evaluation budget, the progress line (creatio.dynamics.progress), and
+    for an adaptive step the floors (creatio.dynamics.status.UNDERFLOW, COLLAPSE_TRIES) and the
+    split of what remains to t_target into m equal steps no longer than the proposal h (with
+    `dense`, steps of h, the last cut to what remains); a single step (m = 1) ends at t_target
+    exactly with `land`, every other at t + h_use, which fails the run unless it passes t. A
+    fixed step is h_fixed long, tried once: refused, it fails the run.
+    try_step(sargs, t, t_next, h_use, rejected) is the loop's stepper, inlined: (outcome,
+    factor, evaluations, Jacobians, LU decompositions, Newton iterations, whether the
+    end-of-step evaluation is done). evals counts the run's evaluations against max_evals;
+    tally = (rejected steps, Jacobians, LU decompositions, Newton iterations, tries, tries in a
+    row below h_small). Returns (status, m, h_use, t_next, next proposal h, have_f, evals,
+    tally).
+    """
+    n_rej, n_jac, n_lu, n_newton, tries, small = tally
+    yes = np.bool_(True)
+    status = st.OK
+    remaining = t_target - t
+    rejected = not yes
+    accepted = not yes
+    m = 1
+    h_use = h_fixed
+    t_next = t_target
+    while not accepted:
+        if evals >= max_evals:
+            status = st.BUDGET_EXCEEDED
+            break
+        tries += 1
+        if tries & CLOCK_MASK == 1 and progress < math.inf:
+            tick(clock, t, t_end, steps, evals, max_evals, progress)
+        if not fixed:
+            if not math.isfinite(h):
+                status = st.STEP_FAILED
+                break
+            small = small + 1 if h < h_small else 0
+            if h < st.UNDERFLOW * max(1.0, t_end) or small > st.COLLAPSE_TRIES:
+                status = st.STEP_SIZE_COLLAPSE
+                break
+            if dense:
+                m = 1 if h >= remaining * (1.0 - 1e-9) else 2
+                h_use = remaining if m == 1 else h
+            else:
+                m = math.ceil(remaining / h * (1.0 - 1e-9))
+                if m < 1:
+                    m = 1
+                h_use = remaining / m
+            if land and m == 1:
+                t_next = t_target
+            else:
+                t_next = t + h_use
+                if t_next <= t:
+                    status = st.STEP_FAILED
+                    break
+        outcome, factor, ev, nj, nl, nn, have_f = try_step(sargs, t, t_next, h_use, rejected)
+        evals += ev
+        n_jac += nj
+        n_lu += nl
+        n_newton += nn
+        if outcome == ACCEPTED:
+            accepted = yes
+            if not fixed:
+                h = next_step(h, h_use, factor, m)
+        elif fixed:
+            status = st.STEP_FAILED
+            break
+        else:
+            h = h_use * factor
+            rejected = yes
+            n_rej += 1
+    return status, m, h_use, t_next, h, have_f, evals, (n_rej, n_jac, n_lu, n_newton, tries,
+                                                        small)
+
+
+@njit(inline="always")
+def landed(fixed, dense, k, n_steps, stride, m, t_next, t_target, t_end, jn):
+    """(t, jn, final, sample) after an accepted step, the k-th of a fixed-step run: a fixed
+    or dense step ends at t_next; an adaptive one at t_target when it was the last of its
+    split (m == 1), which is then the output time jn, and the next one is jn + 1."""
+    if dense:
+        return t_next, jn, t_next == t_end, t_next == t_end
+    if fixed:
+        return t_next, jn, k == n_steps, k % stride == 0
+    hit = m == 1
+    if hit:
+        return t_target, jn + 1, t_target >= t_end, hit
+    return t_next, jn, False, False
+
+
+@njit(inline="always")
+def gave_up(status):
+    """Whether the run stopped for its integrator's sake (a failed step or foot point, the
+    budget, a collapsed step size) rather than the model's: its last state gets a row."""
+    return (status == st.STEP_FAILED or status == st.FOOT_POINT_FAILED
+            or status == st.BUDGET_EXCEEDED or status == st.STEP_SIZE_COLLAPSE)
+
+
+@njit(inline="always")
+def _try(sargs, t, t_next, h, rejected):
+    """One try at the driver's step t -> t_next = t + h by the stepper of its kind (the
+    try_step of :func:`accepted_step`)."""
+    (stepper, free, c, a_ptr, a_idx, a_val, b_idx, b_val, e, e3, scalars, y, f, ynew, fnew,
+     dbuf, K, work, kst, iws, tol, fixed, dense, pp, lc, rot, en) = sargs
+    if stepper == EXPLICIT:
+        outcome, factor, ev, have_f = explicit.step(
+            free, c, a_ptr, a_idx, a_val, b_idx, b_val, e, e3, scalars, t, t_next, h, y, ynew,
+            fnew, dbuf, K, work, kst, tol, fixed, dense, rejected, pp, lc, rot, en)
+        return outcome, factor, ev, 0, 0, 0, have_f
+    return _implicit_step(stepper, t, t_next, h, y, f, ynew, fnew, dbuf, iws, tol, fixed,
+                          rejected, pp, lc, rot, en, free)
+
+
 # inlined by numba into each entry point (the entry is the one compiled function of a run)
 @njit(inline="always")
 def _drive(stepper, p, lawc, y, arrays, iws, t_end, interval, h0, n_steps, stride, rtol, atol,
@@ -155,9 +304,10 @@ def _drive(stepper, p, lawc, y, arrays, iws, t_end, interval, h0, n_steps, strid
     STEP_SIZE_COLLAPSE when the adaptive step size falls below its floors (creatio.dynamics
     .status.UNDERFLOW, COLLAPSE_TRIES), STEP_FAILED when the step size is not finite or Newton
     fails at a fixed step, BUDGET_EXCEEDED when max_evals right-hand-side evaluations did not
-    reach t_end (neither the budget nor the floors ever change a step). A line of progress
-    goes to stderr every `progress` seconds (inf: never). ctl: the controlled path (docs/model.md
-    s.12.2), whose parameter vector carries the controller's row after its parameters.
+    reach t_end (neither the budget nor the floors ever change a step; all three are
+    :func:`accepted_step`'s). A line of progress goes to stderr every `progress` seconds (inf:
+    never). ctl: the controlled path (docs/model.md s.12.2), whose parameter vector carries
+    the controller's row after its parameters.
     """
     pp, lc = pack_run(ctl, p, lawc)
     (c, a_ptr, a_idx, a_val, b_idx, b_val, b_divisor, e, e3, estimator, error_order, c_extra,
@@ -166,30 +316,23 @@ def _drive(stepper, p, lawc, y, arrays, iws, t_end, interval, h0, n_steps, strid
     s = c.size
     ynew, K, fnew, dbuf, work, kst, yout, wq, ext, clock = arrays
     f = K[0]  # f(t, y) is the first stage: a view made once, so never copied into K
-    tol = (rtol, atol)
-    scalars = (b_divisor, estimator, error_order)
+    sargs = (stepper, free, c, a_ptr, a_idx, a_val, b_idx, b_val, e, e3,
+             (b_divisor, estimator, error_order), y, f, ynew, fnew, dbuf, K, work, kst, iws,
+             (rtol, atol), fixed, dense, pp, lc, rot, en)
     # Counters and flags start as typed values, not literals: a literal argument would make
     # numba compile the callee once more for it (observe), costing seconds.
     evals = np.int64(0)
-    n_rej = np.int64(0)
-    n_jac = np.int64(0)
-    n_lu = np.int64(0)
-    n_newton = np.int64(0)
+    tally = (evals, evals, evals, evals, evals, evals)
     rows = np.int64(0)
     steps = np.int64(0)
-    tries = np.int64(0)
-    small = np.int64(0)  # step tries in a row whose proposal is below the sustained floor
     h_small = t_end / max_evals
     top_wrote = np.int64(0)
     yes = np.bool_(True)
     no = not yes
     t = 0.0
     status = st.OK
-    # output grid of an adaptive run: n_int whole intervals, then t_end
-    n_int = int(math.floor(t_end / interval * (1.0 + 1e-12))) if dense or not fixed else 0
+    n_int, h, final = plan(fixed, dense, t_end, interval, h0, n_steps)
     jn = 1
-    h = h0 if fixed or dense else min(h0, interval)
-    final = n_steps == 0 if fixed else t_end <= 0.0
     sample = yes
     # whether f and dbuf already hold f(t, y) and its diagnostics (an adaptive step's last
     # stage); otherwise they are evaluated at the top of the step, as the notebook's RK4 did
@@ -206,79 +349,11 @@ def _drive(stepper, p, lawc, y, arrays, iws, t_end, interval, h0, n_steps, strid
         rows += top_wrote
         if status != st.OK or final:
             break
-        if fixed:
-            t_target = (steps + 1) * h0
-            if dense and t_target >= t_end * (1.0 - 1e-12):
-                t_target = t_end
-        elif dense:
-            t_target = t_end
-        else:
-            t_target = jn * interval if jn <= n_int else t_end
-            if t_target > t_end:
-                t_target = t_end
-        remaining = t_target - t
-        rejected = not yes
-        accepted = not yes
-        m = 1
-        h_use = h
-        t_next = t_target
-        while not accepted:
-            if evals >= max_evals:
-                status = st.BUDGET_EXCEEDED
-                break
-            tries += 1
-            if tries & CLOCK_MASK == 1 and progress < math.inf:
-                tick(clock, t, t_end, steps, evals, max_evals, progress)
-            if not fixed:
-                if not math.isfinite(h):
-                    status = st.STEP_FAILED
-                    break
-                small = small + 1 if h < h_small else 0
-                if h < st.UNDERFLOW * max(1.0, t_end) or small > st.COLLAPSE_TRIES:
-                    status = st.STEP_SIZE_COLLAPSE
-                    break
-                if dense:
-                    # free steps; the one that reaches t_end lands on it
-                    m = 1 if h >= remaining * (1.0 - 1e-9) else 2
-                    h_use = remaining if m == 1 else h
-                else:
-                    m = math.ceil(remaining / h * (1.0 - 1e-9))
-                    if m < 1:
-                        m = 1
-                    h_use = remaining / m
-                t_next = t_target if dense and m == 1 else t + h_use
-                if t_next <= t:
-                    status = st.STEP_FAILED
-                    break
-            elif dense and t_target == t_end:
-                h_use = t_end - t
-            if stepper == EXPLICIT:
-                outcome, factor, ev, have_f = explicit.step(
-                    free, c, a_ptr, a_idx, a_val, b_idx, b_val, e, e3, scalars, t, t_next,
-                    h_use, y, ynew, fnew, dbuf, K, work, kst, tol, fixed, dense, rejected, pp,
-                    lc, rot, en)
-                nj = 0
-                nl = 0
-                nn = 0
-            else:
-                outcome, factor, ev, nj, nl, nn, have_f = _implicit_step(
-                    stepper, t, t_next, h_use, y, f, ynew, fnew, dbuf, iws, tol, fixed,
-                    rejected, pp, lc, rot, en, free)
-            evals += ev
-            n_jac += nj
-            n_lu += nl
-            n_newton += nn
-            if outcome == ACCEPTED:
-                accepted = yes
-                if not fixed:
-                    h = next_step(h, h_use, factor, m)
-            elif fixed:
-                status = st.STEP_FAILED
-                break
-            else:
-                h = h_use * factor
-                rejected = yes
-                n_rej += 1
+        t_target = target(fixed, dense, steps, h0, jn, n_int, interval, t_end)
+        h_fixed = t_end - t if dense and t_target == t_end else h
+        status, m, h_use, t_next, h, have_f, evals, tally = accepted_step(
+            _try, sargs, t, t_target, t_end, h, h_fixed, fixed, dense, dense, have_f, evals,
+            tally, steps, max_evals, h_small, progress, clock)
         if status != st.OK:
             break
         if dense:
@@ -311,29 +386,16 @@ def _drive(stepper, p, lawc, y, arrays, iws, t_end, interval, h0, n_steps, strid
         if have_f:
             for j in range(n):
                 f[j] = fnew[j]
-        if dense:
-            t = t_next
-            final = t_next == t_end
-            sample = final
-        elif fixed:
-            t = t_next
-            final = steps == n_steps
-            sample = steps % stride == 0
-        else:
-            hit = m == 1
-            t = t_target if hit else t_next
-            if hit:
-                jn += 1
-            final = hit and t_target >= t_end
-            sample = hit
-    if (status == st.STEP_FAILED or status == st.BUDGET_EXCEEDED
-            or status == st.STEP_SIZE_COLLAPSE) and top_wrote == 0:
+        t, jn, final, sample = landed(fixed, dense, steps, n_steps, stride, m, t_next, t_target,
+                                      t_end, jn)
+    if gave_up(status) and top_wrote == 0:
         # record the state where the run gave up, so the stop is visible in the histories
         # (unless that state's row was just written)
         d = rhs_of(free, t, y, f, pp, lc, rot, en, True)
         evals += 1
         _, wrote = observe(steps == 0, t, y, d, pp, ext, out, rows, yes, yes, rot, en, free)
         rows += wrote
+    n_rej, n_jac, n_lu, n_newton, _, _ = tally
     return status, steps, rows, evals, n_rej, n_jac, n_lu, n_newton, t
 
 

@@ -1,7 +1,10 @@
 """The hybrid loop: contact and flight phases with located events (docs/model.md s.11).
 
 A separate compiled loop, so that runs with flight disabled compile and execute the one
-driver (creatio.dynamics.solvers.driver) exactly as before. It runs any explicit tableau of
+driver (creatio.dynamics.solvers.driver) exactly as before; around each step it runs the
+driver's controller (creatio.dynamics.solvers.driver.accepted_step: budget, progress lines,
+step-size floors, accept or reject) with its own try at a step of either phase (:func:`_try`),
+and adds the phases and their events between steps. It runs any explicit tableau of
 the registry, at a fixed step (RK4) or under error control (dopri5, dop853), with rotation
 and energy bookkeeping always on and the fixed structure; Radau and the structure path have
 no flight.
@@ -128,8 +131,14 @@ from creatio.dynamics.layout import (
     energy_start,
     state_size,
 )
-from creatio.dynamics.progress import CLOCK_MASK, tick
-from creatio.dynamics.solvers.explicit import error_norm, next_step, stages, step_factor
+from creatio.dynamics.solvers.driver import accepted_step, gave_up, landed, plan, target
+from creatio.dynamics.solvers.explicit import (
+    ACCEPTED,
+    ERROR_REJECTED,
+    error_norm,
+    stages,
+    step_factor,
+)
 from creatio.dynamics.sphere import (
     _controlled,
     new_extrema,
@@ -325,6 +334,20 @@ def _step(phase, t, h, t_next, y, ynew, K, work, kst, tab, pp, lc, estimate, rto
     for j in range(n):
         K[s, j] = kst[j]
     return error_norm(K, y, ynew, h, tab.e, tab.e3, tab.estimator, rtol, atol)
+
+
+@njit(inline="always")
+def _try(sargs, t, t_next, h, rejected):
+    """One try at a step of the phase (the try_step of creatio.dynamics.solvers.driver
+    .accepted_step): a fixed step is taken as it is; an adaptive one is judged by scipy's
+    controller on its error estimate (creatio.dynamics.solvers.explicit.step_factor)."""
+    phase, y, yn, K, work, kst, tab, pp, lc, rtol, atol, fixed = sargs
+    err = _step(phase, t, h, t_next, y, yn, K, work, kst, tab, pp, lc, not fixed, rtol, atol)
+    s = tab.c.size
+    if fixed:
+        return ACCEPTED, 1.0, s, 0, 0, 0, False
+    ok, factor = step_factor(err, tab.error_order, rejected)
+    return ACCEPTED if ok else ERROR_REJECTED, factor, s + 1, 0, 0, 0, False
 
 
 @njit(cache=True)
@@ -633,10 +656,10 @@ def _drive_flight(p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, atol,
     in flight that far above the initial contact position); ev the event table
     (rows beyond its size are counted, not written). Returns the driver's tuple (status,
     steps, rows, rhs_evals, extrema, rejected, jacobians, lu, stop_time) plus the event
-    count, the flight extrema and the final phase. The evaluation budget max_evals and the
-    progress lines (every `progress` seconds) are the driver's. ctl: the controlled path
-    (docs/model.md s.12.2; p carries the controller's row, y0 the control block last, which
-    both phases' states carry).
+    count, the flight extrema and the final phase. The step-retry loop (the evaluation budget
+    max_evals, the progress lines every `progress` seconds, the step-size floors) is the
+    driver's. ctl: the controlled path (docs/model.md s.12.2; p carries the controller's row,
+    y0 the control block last, which both phases' states carry).
     """
     pp, lc = pack_run(ctl, p, lawc)
     nc = y0.size
@@ -649,7 +672,6 @@ def _drive_flight(p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, atol,
     yc = y0.copy()
     yf = np.zeros(nf)
     clock = np.zeros(2)
-    tries = np.int64(0)
     top_wrote = 0
     yt_c = np.empty(nc)
     yt_f = np.empty(nf)
@@ -665,22 +687,19 @@ def _drive_flight(p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, atol,
     fx = np.zeros(NFX)
     nev = np.int64(0)
     evals = np.int64(0)
-    n_rej = np.int64(0)
+    # rejected steps, Jacobians, LU, Newton iterations, tries, tries below the sustained floor
+    tally = (evals, evals, evals, evals, evals, evals)
     rows = np.int64(0)
     steps = np.int64(0)
     stalled = 0
-    small = 0  # step tries in a row whose proposal is below the sustained floor
     h_small = t_end / max_evals
     status = st.OK
     t = 0.0
     phase = CONTACT
-    n_int = int(math.floor(t_end / interval * (1.0 + 1e-12))) if not fixed else 0
+    n_int, h, final = plan(fixed, False, t_end, interval, h0, n_steps)
     jn = 1
     kg = 0
     on_grid = True
-    h = h0 if fixed else min(h0, interval)
-    error_order = tab.error_order
-    final = n_steps == 0 if fixed else t_end <= 0.0
     sample = True
     first = True
     transition = True  # the state may need an event at once (the start, after an event)
@@ -741,61 +760,18 @@ def _drive_flight(p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, atol,
         top_wrote = wrote
         if status != st.OK or final:
             break
-        # one step towards the next grid (fixed) or output (adaptive) time
-        if fixed:
-            t_target = (kg + 1) * h0
-        else:
-            t_target = jn * interval if jn <= n_int else t_end
-            if t_target > t_end:
-                t_target = t_end
+        # one step towards the next grid (fixed) or output (adaptive) time: after an event,
+        # a fixed step is the rest of its grid step; an adaptive one lands on t_target exactly
+        t_target = target(fixed, False, kg, h0, jn, n_int, interval, t_end)
         y = yc if phase == CONTACT else yf
         yn = yt_c if phase == CONTACT else yt_f
         K = Kc if phase == CONTACT else Kf
         work = wc if phase == CONTACT else wf
         kst = kc if phase == CONTACT else kf
-        accepted = False
-        rejected = False
-        m_split = 1
-        h_use = h0
-        t_next = t_target
-        while not accepted:
-            if evals >= max_evals:
-                status = st.BUDGET_EXCEEDED
-                break
-            tries += 1
-            if tries & CLOCK_MASK == 1 and progress < math.inf:
-                tick(clock, t, t_end, steps, evals, max_evals, progress)
-            if fixed:
-                h_use = h0 if on_grid else t_target - t
-                _step(phase, t, h_use, t_next, y, yn, K, work, kst, tab, pp, lc, False, rtol,
-                      atol)
-                evals += s
-                accepted = True
-            else:
-                if not math.isfinite(h):
-                    status = st.STEP_FAILED
-                    break
-                small = small + 1 if h < h_small else 0
-                if h < st.UNDERFLOW * max(1.0, t_end) or small > st.COLLAPSE_TRIES:
-                    status = st.STEP_SIZE_COLLAPSE
-                    break
-                remaining = t_target - t
-                m_split = math.ceil(remaining / h * (1.0 - 1e-9))
-                if m_split < 1:
-                    m_split = 1
-                h_use = remaining / m_split
-                t_next = t + h_use if m_split > 1 else t_target
-                err = _step(phase, t, h_use, t_next, y, yn, K, work, kst, tab, pp, lc, True,
-                            rtol, atol)
-                evals += s + 1
-                ok, factor = step_factor(err, error_order, rejected)
-                if ok:
-                    accepted = True
-                    h = next_step(h, h_use, factor, m_split)
-                else:
-                    h = h_use * factor
-                    rejected = True
-                    n_rej += 1
+        status, m_split, h_use, t_next, h, _, evals, tally = accepted_step(
+            _try, (phase, y, yn, K, work, kst, tab, pp, lc, rtol, atol, fixed), t, t_target,
+            t_end, h, h0 if on_grid else t_target - t, fixed, False, True, False, evals, tally,
+            steps, max_evals, h_small, progress, clock)
         if status != st.OK:
             break
         steps += 1
@@ -848,21 +824,11 @@ def _drive_flight(p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, atol,
             final = False
             continue
         if fixed:
-            t = t_next
             kg += 1
             on_grid = True
-            final = kg == n_steps
-            sample = kg % stride == 0
-        else:
-            hit = m_split == 1
-            t = t_target if hit else t_next
-            if hit:
-                jn += 1
-            final = hit and t_target >= t_end
-            sample = hit
-    gave_up = (status == st.STEP_FAILED or status == st.FOOT_POINT_FAILED
-               or status == st.BUDGET_EXCEEDED or status == st.STEP_SIZE_COLLAPSE)
-    if gave_up and top_wrote == 0:
+        t, jn, final, sample = landed(fixed, False, kg, n_steps, stride, m_split, t_next,
+                                      t_target, t_end, jn)
+    if gave_up(status) and top_wrote == 0:
         # record the state where the run gave up, so the stop is visible in the histories
         # (unless that state's row was just written)
         if phase == CONTACT:
@@ -873,7 +839,7 @@ def _drive_flight(p, lawc, y0, t_end, interval, h0, n_steps, stride, rtol, atol,
             _, wrote = _observe_flight(first, t, yf, fx, 0.0, pp, lc, ext, out, rows,
                                        True, True)
         rows += wrote
-    return status, steps, rows, evals, ext, n_rej, 0, 0, t, nev, fx, phase
+    return status, steps, rows, evals, ext, tally[0], 0, 0, t, nev, fx, phase
 
 
 def _entry(ctl: bool):

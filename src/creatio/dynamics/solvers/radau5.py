@@ -35,7 +35,10 @@ from creatio.dynamics.solvers.explicit import (
 from creatio.dynamics.solvers.linalg import lu_factor, lu_solve
 from creatio.dynamics.sphere import control_columns, rhs_of, store
 
-__all__ = ["THETA", "dense", "jacobian", "step", "workspace"]
+__all__ = ["NWS", "THETA", "WS_ERR", "WS_F", "WS_JAC", "WS_LU_COMPLEX", "WS_LU_REAL",
+           "WS_PIV_COMPLEX", "WS_PIV_REAL", "WS_Q_OLD", "WS_RES_COMPLEX", "WS_RES_REAL", "WS_RS",
+           "WS_TMP", "WS_W", "WS_WORK", "WS_Y_OLD", "WS_Z", "WS_Z0", "dense", "jacobian", "step",
+           "workspace"]
 
 NEWTON_MAXITER = 6
 #: Newton contraction rate above which the Jacobian is refreshed (Hairer's THET).
@@ -59,32 +62,44 @@ RS_HAVE_JAC, RS_CURRENT_JAC, RS_LU_H, RS_HAVE_OLD, RS_T_OLD, RS_H_PREV, RS_H_OLD
     range(8))
 
 
+#: Slots of the workspace tuple (:func:`workspace`), as the layouts of
+#: creatio.dynamics.layout name a state's components: the carried state (RS_*), the
+#: Jacobian, the real and complex LU factors and their pivots, the stage increments Z, their
+#: prediction Z0, W = TI Z, the stage derivatives F, the previous step's collocation
+#: polynomial and its start y, the real and complex Newton residuals, the error estimate, a
+#: trial state and a trial derivative.
+(WS_RS, WS_JAC, WS_LU_REAL, WS_LU_COMPLEX, WS_PIV_REAL, WS_PIV_COMPLEX, WS_Z, WS_Z0, WS_W, WS_F,
+ WS_Q_OLD, WS_Y_OLD, WS_RES_REAL, WS_RES_COMPLEX, WS_ERR, WS_WORK, WS_TMP) = range(17)
+NWS = 17
+
+
 @njit(cache=True)
 def workspace(n, params):
-    """Carried state and work arrays of step for a state of size n: nothing computed yet
-    (params, the method's parameters of the driver's contract, are not used)."""
+    """Carried state and work arrays of step for a state of size n, in the WS_* order:
+    nothing computed yet (params, the method's parameters of the driver's contract, are not
+    used)."""
     rs = np.zeros(8)
     rs[RS_LU_H] = -1.0
     rs[RS_H_OLD] = -1.0
     rs[RS_ERR_OLD] = -1.0
     return (
-        rs,
-        np.empty((n, n)),                       # jac
-        np.empty((n, n)),                       # real LU
-        np.empty((n, n), dtype=np.complex128),  # complex LU
-        np.empty(n, dtype=np.int64),            # pivots (real)
-        np.empty(n, dtype=np.int64),            # pivots (complex)
-        np.zeros((3, n)),                       # Z: stage increments
-        np.zeros((3, n)),                       # Z0: predicted stage increments
-        np.zeros((3, n)),                       # W = TI Z
-        np.empty((3, n)),                       # F: stage derivatives
-        np.zeros((n, 3)),                       # Qold: previous collocation polynomial
-        np.empty(n),                            # yold
-        np.empty(n),                            # real Newton residual
-        np.empty(n, dtype=np.complex128),       # complex Newton residual
-        np.empty(n),                            # error estimate
-        np.empty(n),                            # work: a trial state
-        np.empty(n),                            # tmp: a trial derivative
+        rs,                                     # WS_RS
+        np.empty((n, n)),                       # WS_JAC
+        np.empty((n, n)),                       # WS_LU_REAL
+        np.empty((n, n), dtype=np.complex128),  # WS_LU_COMPLEX
+        np.empty(n, dtype=np.int64),            # WS_PIV_REAL
+        np.empty(n, dtype=np.int64),            # WS_PIV_COMPLEX
+        np.zeros((3, n)),                       # WS_Z: stage increments
+        np.zeros((3, n)),                       # WS_Z0: predicted stage increments
+        np.zeros((3, n)),                       # WS_W = TI Z
+        np.empty((3, n)),                       # WS_F: stage derivatives
+        np.zeros((n, 3)),                       # WS_Q_OLD: previous collocation polynomial
+        np.empty(n),                            # WS_Y_OLD
+        np.empty(n),                            # WS_RES_REAL: real Newton residual
+        np.empty(n, dtype=np.complex128),       # WS_RES_COMPLEX: complex Newton residual
+        np.empty(n),                            # WS_ERR: error estimate
+        np.empty(n),                            # WS_WORK: a trial state
+        np.empty(n),                            # WS_TMP: a trial derivative
     )
 
 
@@ -267,7 +282,11 @@ def step(stepper, t, t_next, h, y, f, ynew, fnew, dbuf, ws, tol, fixed, rejected
     diagnostics dbuf filled; factor proposes the next step), NEWTON_FAILED (halve h) or
     ERROR_REJECTED (factor shrinks h).
     """
-    rs, jac, lur, luc, pivr, pivc, Z, Z0, W, F, Qold, yold, rreal, rcplx, err, work, tmp = ws
+    rs, jac, lur, luc = ws[WS_RS], ws[WS_JAC], ws[WS_LU_REAL], ws[WS_LU_COMPLEX]
+    pivr, pivc, Z, Z0, W, F = (ws[WS_PIV_REAL], ws[WS_PIV_COMPLEX], ws[WS_Z], ws[WS_Z0],
+                               ws[WS_W], ws[WS_F])
+    Qold, yold, rreal, rcplx = ws[WS_Q_OLD], ws[WS_Y_OLD], ws[WS_RES_REAL], ws[WS_RES_COMPLEX]
+    err, work, tmp = ws[WS_ERR], ws[WS_WORK], ws[WS_TMP]
     rtol, atol = tol
     n = y.size
     evals = 0
@@ -369,9 +388,9 @@ def step(stepper, t, t_next, h, y, f, ynew, fnew, dbuf, ws, tol, fixed, rejected
 def dense(ws, tg, yout):
     """Dense output at tg inside the last accepted step: its collocation polynomial
     y_old + Q (x, x^2, x^3), x = (tg - t_old) / h, which matches the stage values (order 3)."""
-    rs = ws[0]
-    Qold = ws[10]
-    yold = ws[11]
+    rs = ws[WS_RS]
+    Qold = ws[WS_Q_OLD]
+    yold = ws[WS_Y_OLD]
     x = (tg - rs[RS_T_OLD]) / rs[RS_H_PREV]
     x2 = x * x
     x3 = x2 * x

@@ -22,8 +22,11 @@ from creatio.dynamics.solvers.explicit import NEWTON_FAILED
 from creatio.dynamics.solvers.radau5 import jacobian
 from creatio.dynamics.sphere import pack, rhs_of
 
-__all__ = ["PRM_S_MAX", "PRM_S_MIN", "PRM_S_START", "PRM_THET", "dense", "solve", "step",
-           "workspace"]
+__all__ = ["NWS", "PRM_S_MAX", "PRM_S_MIN", "PRM_S_START", "PRM_THET", "dense", "solve",
+           "step", "workspace"]
+
+#: Slots of the workspace: radau_variable_order's (its WS_*), NWS of them.
+NWS = rvo.NWS
 
 #: Slots of the method's parameter vector: the stage range, the first step's stage count and
 #: the Jacobian reuse threshold (radau.f's THET).
@@ -63,8 +66,8 @@ def step(stepper, t, t_next, h, y, f, ynew, fnew, dbuf, ws, tol, fixed, rejected
     A fixed step has no smaller step to retry, so when its Newton iteration fails with a
     Jacobian that was not fresh it is tried once more at the same h with a fresh one (what
     radau.f does before it would shrink h; radau5's stepper does the same)."""
-    rs = ws[0]
-    cnt = ws[1]
+    rs = ws[rvo.WS_RS]
+    cnt = ws[rvo.WS_CNT]
     newton0 = cnt[rvo.CNT_NEWTON]
     evals = 0
     n_jac = 0

@@ -29,7 +29,7 @@ Contract (the caller owns time and the step size, as the project's driver does):
   step whose Newton iteration converges (no error estimate, factor 1).
 * ``dense(ws, t, yout)``: the last accepted step's collocation polynomial at t (degree s,
   local error O(h^(s+1)): of order s + 1 off the steps when 2 s - 1 >= s + 1).
-* ``ws[1]`` holds the run's counts (CNT_*): right-hand-side calls of the stepper,
+* ``ws[WS_CNT]`` holds the run's counts (CNT_*): right-hand-side calls of the stepper,
   Jacobians, real and complex LU factorisations, Newton iterations, rejected steps (error
   and Newton), accepted steps at 3, 5 and 7 stages, order changes.
 
@@ -84,8 +84,11 @@ from creatio.dynamics.solvers.linalg import lu_factor, lu_solve
 from creatio.dynamics.solvers.radau_coefficients import STAGES, coefficients
 
 __all__ = ["CNT_CHANGES", "CNT_JAC", "CNT_LU_COMPLEX", "CNT_LU_REAL", "CNT_NEWTON",
-           "CNT_REJECTED_ERROR", "CNT_REJECTED_NEWTON", "CNT_RHS", "CNT_STEPS", "dense",
-           "solve", "stages", "step", "workspace"]
+           "CNT_REJECTED_ERROR", "CNT_REJECTED_NEWTON", "CNT_RHS", "CNT_STEPS", "NWS", "WS_CNT",
+           "WS_ERR", "WS_F", "WS_JAC", "WS_LU_COMPLEX", "WS_LU_REAL", "WS_PIV_COMPLEX",
+           "WS_PIV_REAL", "WS_Q", "WS_RES_COMPLEX", "WS_RES_REAL", "WS_RS", "WS_SCAL", "WS_TMP",
+           "WS_W", "WS_WORK", "WS_Y_OLD", "WS_Z", "dense", "solve", "stages", "step",
+           "workspace"]
 
 # radau.f's defaults
 UROUND = 1e-16
@@ -145,13 +148,24 @@ _NCNT = 11
 CNT_STEPS = {3: CNT_STEPS3, 5: CNT_STEPS5, 7: CNT_STEPS7}
 
 
+#: Slots of the workspace tuple (:func:`workspace`): the carried state (RS_*), the run's
+#: counts (CNT_*), the Jacobian, the real LU factors and the complex ones (one per complex
+#: pair) with their pivots, the stage increments Z, W = T^-1 Z, the stage derivatives F, the
+#: last step's polynomial Q and its start y, the real and complex Newton residuals, the error
+#: estimate, a trial state, a trial derivative and the error scale atol1 + rtol1 |y|.
+(WS_RS, WS_CNT, WS_JAC, WS_LU_REAL, WS_LU_COMPLEX, WS_PIV_REAL, WS_PIV_COMPLEX, WS_Z, WS_W,
+ WS_F, WS_Q, WS_Y_OLD, WS_RES_REAL, WS_RES_COMPLEX, WS_ERR, WS_WORK, WS_TMP,
+ WS_SCAL) = range(18)
+NWS = 18
+
+
 @njit(cache=True)
 def workspace(n, s_min, s_max, s_start, nit=NIT, thet=THET):
-    """Carried state and work arrays for a state of size n, stages in [s_min, s_max] (odd,
-    3..7), starting at s_start; at most nit Newton iterations at 3 stages (radau.f's
-    IWORK(3); nit + 5 at 5 stages, nit + 10 at 7); the Jacobian kept while Newton contracts
-    by thet or better (radau.f's WORK(3): 1e-3; Hairer advises 0.1 when a Jacobian is
-    costly). Nothing computed yet."""
+    """Carried state and work arrays for a state of size n, in the WS_* order, stages in
+    [s_min, s_max] (odd, 3..7), starting at s_start; at most nit Newton iterations at 3
+    stages (radau.f's IWORK(3); nit + 5 at 5 stages, nit + 10 at 7); the Jacobian kept while
+    Newton contracts by thet or better (radau.f's WORK(3): 1e-3; Hairer advises 0.1 when a
+    Jacobian is costly). Nothing computed yet."""
     rs = np.zeros(_NRS)
     rs[RS_S] = s_start
     rs[RS_NIT] = nit
@@ -161,31 +175,31 @@ def workspace(n, s_min, s_max, s_start, nit=NIT, thet=THET):
     rs[RS_LU_H] = -1.0
     rs[RS_FACCON] = 1.0
     return (
-        rs,
-        np.zeros(_NCNT, dtype=np.int64),
-        np.empty((n, n)),                           # J
-        np.empty((n, n)),                           # real LU
-        np.empty((3, n, n), dtype=np.complex128),   # complex LUs
-        np.empty(n, dtype=np.int64),                # real pivots
-        np.empty((3, n), dtype=np.int64),           # complex pivots
-        np.zeros((SMAX, n)),                        # Z: stage increments
-        np.zeros((SMAX, n)),                        # W = T^-1 Z
-        np.empty((SMAX, n)),                        # F: stage derivatives
-        np.zeros((SMAX, n)),                        # Q: last step's polynomial (x^1 .. x^s)
-        np.empty(n),                                # y at the start of the last step
-        np.empty(n),                                # real Newton residual / work
-        np.empty((3, n), dtype=np.complex128),      # complex Newton residuals
-        np.empty(n),                                # error estimate
-        np.empty(n),                                # work: a trial state
-        np.empty(n),                                # tmp: a trial derivative
-        np.empty(n),                                # scal: atol1 + rtol1 |y|
+        rs,                                         # WS_RS
+        np.zeros(_NCNT, dtype=np.int64),            # WS_CNT
+        np.empty((n, n)),                           # WS_JAC
+        np.empty((n, n)),                           # WS_LU_REAL
+        np.empty((3, n, n), dtype=np.complex128),   # WS_LU_COMPLEX
+        np.empty(n, dtype=np.int64),                # WS_PIV_REAL
+        np.empty((3, n), dtype=np.int64),           # WS_PIV_COMPLEX
+        np.zeros((SMAX, n)),                        # WS_Z: stage increments
+        np.zeros((SMAX, n)),                        # WS_W = T^-1 Z
+        np.empty((SMAX, n)),                        # WS_F: stage derivatives
+        np.zeros((SMAX, n)),                        # WS_Q: last step's polynomial (x^1 .. x^s)
+        np.empty(n),                                # WS_Y_OLD: y at the last step's start
+        np.empty(n),                                # WS_RES_REAL: real residual / work
+        np.empty((3, n), dtype=np.complex128),      # WS_RES_COMPLEX: complex residuals
+        np.empty(n),                                # WS_ERR: error estimate
+        np.empty(n),                                # WS_WORK: a trial state
+        np.empty(n),                                # WS_TMP: a trial derivative
+        np.empty(n),                                # WS_SCAL: atol1 + rtol1 |y|
     )
 
 
 @njit(cache=True)
 def stages(ws):
     """The stage count the next step will start from."""
-    return int(ws[0][RS_S])
+    return int(ws[WS_RS][RS_S])
 
 
 @njit(cache=True, inline="always")
@@ -274,8 +288,10 @@ def step(rhs, jac, ctx, t, t_next, h, y, f, ynew, ws, tol, fixed, rejected):
 
     Returns (outcome, factor, rhs evaluations, jacobians, decompositions, False).
     """
-    (rs, cnt, J, lur, luc, pivr, pivc, Z, W, F, Q, yold, rreal, rcplx, err, work, tmp,
-     scal) = ws
+    rs, cnt, J, lur, luc = ws[WS_RS], ws[WS_CNT], ws[WS_JAC], ws[WS_LU_REAL], ws[WS_LU_COMPLEX]
+    pivr, pivc, Z, W, F = ws[WS_PIV_REAL], ws[WS_PIV_COMPLEX], ws[WS_Z], ws[WS_W], ws[WS_F]
+    Q, yold, rreal, rcplx = ws[WS_Q], ws[WS_Y_OLD], ws[WS_RES_REAL], ws[WS_RES_COMPLEX]
+    err, work, tmp, scal = ws[WS_ERR], ws[WS_WORK], ws[WS_TMP], ws[WS_SCAL]
     rtol, atol = tol
     n = y.size
     evals = 0
@@ -528,9 +544,9 @@ def step(rhs, jac, ctx, t, t_next, h, y, f, ynew, ws, tol, fixed, rejected):
 def dense(ws, t, yout):
     """The last accepted step's collocation polynomial at t (inside the step, or beyond it
     for a prediction)."""
-    rs = ws[0]
-    Q = ws[10]
-    yold = ws[11]
+    rs = ws[WS_RS]
+    Q = ws[WS_Q]
+    yold = ws[WS_Y_OLD]
     so = int(rs[RS_S_OLD])
     x = (t - rs[RS_T_OLD]) / rs[RS_H_OLD]
     for j in range(yold.size):
@@ -606,4 +622,4 @@ def solve(rhs, jac, ctx, t0, y0, t_end, h0, rtol, atol, s_min, s_max, s_start, f
         evals += 1
         if not fixed:
             h = h_use * factor
-    return ok, y, out, ws[1].copy(), evals, steps, ts, ys
+    return ok, y, out, ws[WS_CNT].copy(), evals, steps, ts, ys

@@ -29,7 +29,8 @@ from creatio.dynamics.solvers.linalg import lu_factor, lu_solve
 from creatio.dynamics.solvers.radau5 import jacobian
 from creatio.dynamics.sphere import rhs_of, store
 
-__all__ = ["dense", "step", "workspace"]
+__all__ = ["NWS", "WS_DFDT", "WS_HERMITE", "WS_JAC", "WS_LU", "WS_PIV", "WS_RS", "WS_TMP",
+           "WS_U", "WS_WORK", "dense", "step", "workspace"]
 
 _GAMMA = tb.RODAS4_GAMMA
 _ALPHA = tb.RODAS4_ALPHA.copy()
@@ -47,23 +48,31 @@ ERROR_ORDER = 3
 RS_JAC_T, RS_LU_H, RS_T_OLD, RS_H_OLD = range(4)
 
 
+#: Slots of the workspace tuple (:func:`workspace`): the carried state (RS_*), the Jacobian,
+#: the LU factors of W and their pivots, the stage increments U, df/dt, a stage state, a
+#: stage derivative, and the last step's y0, f0, y1, f1 for the dense output.
+(WS_RS, WS_JAC, WS_LU, WS_PIV, WS_U, WS_DFDT, WS_WORK, WS_TMP, WS_HERMITE) = range(9)
+NWS = 9
+
+
 @njit(cache=True)
 def workspace(n, params):
-    """Carried state and work arrays of step for a state of size n: nothing computed yet
-    (params, the method's parameters of the driver's contract, are not used)."""
+    """Carried state and work arrays of step for a state of size n, in the WS_* order:
+    nothing computed yet (params, the method's parameters of the driver's contract, are not
+    used)."""
     rs = np.zeros(4)
     rs[RS_JAC_T] = math.nan
     rs[RS_LU_H] = -1.0
     return (
-        rs,
-        np.empty((n, n)),               # jac
-        np.empty((n, n)),               # LU of W
-        np.empty(n, dtype=np.int64),    # pivots
-        np.empty((_S, n)),              # U: stage increments
-        np.empty(n),                    # df/dt
-        np.empty(n),                    # work: a stage state
-        np.empty(n),                    # tmp: a stage derivative
-        np.empty((4, n)),               # dense output: y0, f0, y1, f1 of the last step
+        rs,                             # WS_RS
+        np.empty((n, n)),               # WS_JAC
+        np.empty((n, n)),               # WS_LU: LU of W
+        np.empty(n, dtype=np.int64),    # WS_PIV
+        np.empty((_S, n)),              # WS_U: stage increments
+        np.empty(n),                    # WS_DFDT: df/dt
+        np.empty(n),                    # WS_WORK: a stage state
+        np.empty(n),                    # WS_TMP: a stage derivative
+        np.empty((4, n)),               # WS_HERMITE: y0, f0, y1, f1 of the last step
     )
 
 
@@ -74,7 +83,8 @@ def step(stepper, t, t_next, h, y, f, ynew, fnew, dbuf, ws, tol, fixed, rejected
     creatio.dynamics.solvers.radau5.step): (outcome, factor, rhs evaluations, jacobians, LU
     factorisations, Newton iterations (none: 0), whether fnew and dbuf hold the end-of-step
     evaluation)."""
-    rs, jac, lu, piv, U, dfdt, work, tmp, hermite = ws
+    rs, jac, lu, piv = ws[WS_RS], ws[WS_JAC], ws[WS_LU], ws[WS_PIV]
+    U, dfdt, work, tmp, hermite = ws[WS_U], ws[WS_DFDT], ws[WS_WORK], ws[WS_TMP], ws[WS_HERMITE]
     rtol, atol = tol
     n = y.size
     evals = 0
@@ -162,8 +172,8 @@ def step(stepper, t, t_next, h, y, f, ynew, fnew, dbuf, ws, tol, fixed, rejected
 def dense(ws, tg, yout):
     """Dense output at tg inside the last accepted step: the cubic Hermite polynomial through
     both ends' states and derivatives (order 3)."""
-    rs = ws[0]
-    hermite = ws[8]
+    rs = ws[WS_RS]
+    hermite = ws[WS_HERMITE]
     h_old = rs[RS_H_OLD]
     x = (tg - rs[RS_T_OLD]) / h_old
     h00 = (1.0 + 2.0 * x) * (1.0 - x) ** 2

@@ -17,11 +17,18 @@
   for (const [name, a] of Object.entries(D.arrays)) A[name] = decode(a);
   const state = { t: 0, playing: false, speed: D.attrs.playback_speed || 1, last: null };
 
+  // float64 (b64), or 16-bit codes over [low, high] (u16: creatio.scenes.page._coded).
   function decode(a) {
-    const bin = atob(a.b64);
+    const bin = atob(a.u16 !== undefined ? a.u16 : a.b64);
     const bytes = new Uint8Array(bin.length);
     for (let i = 0; i < bin.length; i++) bytes[i] = bin.charCodeAt(i);
-    const v = new Float64Array(bytes.buffer);
+    let v;
+    if (a.u16 !== undefined) {
+      const codes = new Uint16Array(bytes.buffer);
+      const scale = (a.high - a.low) / 65534;  // creatio.scenes.page.CODES; 65535 is NaN
+      v = new Float64Array(codes.length);
+      for (let i = 0; i < codes.length; i++) v[i] = codes[i] > 65534 ? NaN : a.low + codes[i] * scale;
+    } else v = new Float64Array(bytes.buffer);
     v.shape = a.shape;
     return v;
   }
@@ -42,9 +49,13 @@
 
   // ------------------------------------------------------------------------ the surface
   // c(alpha, R) at phases (phr, pha) and inclination gam (docs/model.md s.1.1); also W.
-  function surfacePoint(g, alpha, R, phr, pha, gam, out) {
+  // A rib surface (g.skin: its splines S_c, S_s at the mesh angles, creatio.model.ribs)
+  // replaces cos(Ka alpha + phi_a) by cos(phi_a) S_c - sin(phi_a) S_s at mesh angle i.
+  function surfacePoint(g, alpha, R, phr, pha, gam, out, i) {
     const k = 2 * Math.PI * g.Kr / g.dR;
-    const W = g.A * Math.sin(k * R + phr) * Math.cos(g.Ka * alpha + pha);
+    const H = g.skin && i !== undefined
+      ? Math.cos(pha) * g.skin.c[i] - Math.sin(pha) * g.skin.s[i] : Math.cos(g.Ka * alpha + pha);
+    const W = g.A * Math.sin(k * R + phr) * H;
     const cg = Math.cos(gam), sg = Math.sin(gam);
     const rho = g.R0 + R * cg - W * sg;
     out[0] = rho * Math.cos(alpha);
@@ -111,17 +122,19 @@
     }
     alpha(i) { return 2 * Math.PI * i / (this.nA - 1); }
     radius(j) { return this.g.dR * j / (this.nR - 1); }
-    update(phr, pha, gam) {
-      const key = phr + "," + pha + "," + gam;
+    // paint: null (colour by height) or { key, colour(v, out) } colouring vertex v.
+    update(phr, pha, gam, paint) {
+      const key = phr + "," + pha + "," + gam + "," + (paint ? paint.key : "");
       if (key === this.key) return;
       this.key = key;
       const p = [0, 0, 0];
       for (let i = 0; i < this.nA; i++) {
         for (let j = 0; j < this.nR; j++) {
           const v = i * this.nR + j;
-          const W = surfacePoint(this.g, this.alpha(i), this.radius(j), phr, pha, gam, p);
+          const W = surfacePoint(this.g, this.alpha(i), this.radius(j), phr, pha, gam, p, i);
           this.pos[3 * v] = p[0]; this.pos[3 * v + 1] = p[1]; this.pos[3 * v + 2] = p[2];
-          heightColour(this.g.A > 0 ? W / this.g.A : 0, this.col, v);
+          if (paint) paint.colour(v, this.col);
+          else heightColour(this.g.A > 0 ? W / this.g.A : 0, this.col, v);
         }
       }
       this.geo.attributes.position.needsUpdate = true;
@@ -141,11 +154,14 @@
     }
     // A few drawn vertices with their (alpha, R): what tests compare with the model. Two of
     // them off the radii where sin(2 pi Kr R / dR) vanishes, so that every phase shows.
+    probeIndices() {
+      return [[0, 0], [Math.floor(this.nA / 3), Math.floor(this.nR / 2)],
+              [this.nA - 2, this.nR - 1], [Math.floor(this.nA / 5), 1],
+              [Math.floor(this.nA / 7), Math.floor(this.nR / 3)]];
+    }
     probe() {
       const out = [];
-      for (const [i, j] of [[0, 0], [Math.floor(this.nA / 3), Math.floor(this.nR / 2)],
-                            [this.nA - 2, this.nR - 1], [Math.floor(this.nA / 5), 1],
-                            [Math.floor(this.nA / 7), Math.floor(this.nR / 3)]]) {
+      for (const [i, j] of this.probeIndices()) {
         const v = i * this.nR + j;
         out.push({ alpha: this.alpha(i), R: this.radius(j),
                    xyz: [this.pos[3 * v], this.pos[3 * v + 1], this.pos[3 * v + 2]] });
@@ -558,13 +574,17 @@
     const F = D.family || null;
     const FA = {};
     if (F) for (const [k, a] of Object.entries(F.arrays)) FA[k] = decode(a);
-    const geometry = (get, r) => ({ R0: get("R0", r), dR: get("dR", r), A: get("A", r),
-                                    Kr: get("Kr", r), Ka: get("Ka", r) });
+    // A source's geometry of run r: its shape numbers and, for a rib surface, its splines.
+    const geometry = (get, r, skin) => ({ R0: get("R0", r), dR: get("dR", r), A: get("A", r),
+                                          Kr: get("Kr", r), Ka: get("Ka", r),
+                                          skin: skin ? skin(r) : null });
+    const strain = A.strain ? strainColours() : null;
     // What is drawn: the scene's own frames, or one member of its family (or its refusal).
     const own = {
       member: F ? F.base : null, refused: "",
       frame: (name, r, i) => row(A[name], r, i),
       scalar: (name, r) => A[name][r],
+      skin: A.skin_c ? (r) => ({ c: at(A.skin_c, r), s: at(A.skin_s, r) }) : null,
       status: D.strings.status, direction: D.strings.direction,
     };
     function memberSource(m) {
@@ -575,14 +595,18 @@
       return Object.assign(base, {
         frame: (name, r, i) => at(FA[name], k, r, i),
         scalar: (name, r) => at(FA[name], k)[r],
+        // a member of the ideal surface has NaN splines: drawn from cos(Ka alpha + phi_a)
+        skin: FA.skin_c ? (r) => (Number.isFinite(at(FA.skin_c, k, r)[0])
+          ? { c: at(FA.skin_c, k, r), s: at(FA.skin_s, k, r) } : null) : null,
       });
     }
     const table = readoutTable(runs.map((r) => r.toUpperCase()));
     const b0 = runs.map((_, r) => A.sphere_radius[r]);
     const objs = runs.map((name, r) => {
-      const g = geometry((k, q) => A[k][q], r);
+      const g = geometry((k, q) => A[k][q], r, own.skin);
       const view = new View(name.toUpperCase(), D.strings.direction[r]);
-      const o = { view: view, g: g, geoKey: JSON.stringify(g) };
+      const key = JSON.stringify(g, (_, v) => (ArrayBuffer.isView(v) ? Array.from(v) : v));
+      const o = { view: view, g: g, geoKey: key, ownKey: key };
       if (draw.has("membrane")) {
         o.membrane = new Membrane(g, D.attrs.mesh[0], D.attrs.mesh[1], 1.0);
         view.scene.add(o.membrane.mesh);
@@ -692,8 +716,8 @@
         o.body.visible = !s.refused;
         if (o.trace) o.trace.visible = !s.refused;
         if (s.refused) return;
-        const g = geometry(s.scalar, r);
-        const key = JSON.stringify(g);
+        const g = geometry(s.scalar, r, s.skin);
+        const key = JSON.stringify(g, (_, v) => (ArrayBuffer.isView(v) ? Array.from(v) : v));
         if (o.membrane && key !== o.geoKey) {
           o.view.scene.remove(o.membrane.mesh);
           o.membrane = new Membrane(g, D.attrs.mesh[0], D.attrs.mesh[1], 1.0);
@@ -734,8 +758,17 @@
         const pj = Number.isFinite(ph_src.frame("phase_a", r, j)[0]) ? j : Math.min(j, end);
         const ph = ["phase_r", "phase_a", "inclination"].map(
           (k) => lerp(ph_src.frame(k, r, pi)[0], ph_src.frame(k, r, pj)[0], pi === pj ? 0 : w));
-        if (o.membrane) o.membrane.update(ph[0], ph[1], ph[2]);
-        out.runs[runs[r]] = { status: src.status[r], phases: ph };
+        // Strain colours where the drawn surface is the scene's own (its geometry and
+        // phases, as a refused member keeps them): another member's is coloured by height.
+        const paint = strain && o.geoKey === o.ownKey && (src === own || src.refused
+          || ["phase_r", "phase_a", "inclination"].every((k, c) => Math.abs(
+            ph[c] - lerp(own.frame(k, r, i)[0], own.frame(k, r, j)[0], w)) < 1e-12))
+          ? strain.paint(r, i, j, i === j ? 0 : w) : null;
+        if (o.membrane) o.membrane.update(ph[0], ph[1], ph[2], paint);
+        out.runs[runs[r]] = { status: src.status[r], phases: ph,
+                              colour: paint ? "strain" : "height" };
+        if (paint && o.membrane) out.runs[runs[r]].strain = o.membrane.probeIndices().map(
+          ([a, q]) => paint.value(a * o.membrane.nR + q));
         if (o.membrane) out.runs[runs[r]].surface = o.membrane.probe();
         if (src.refused) {
           for (const key of readouts) if (key !== "time") (vals[key] = vals[key] || []).push("refused");
@@ -805,17 +838,82 @@
     };
     cameraFromHash(h);
     onHash((hh) => { if (F) chart.fromHash(hh); cameraFromHash(hh); });
-    sphereLegend(draw, time[n - 1], b0[0]);
+    sphereLegend(draw, time[n - 1], b0[0], strain);
     const notes = document.getElementById("notes");
     runs.forEach((r, k) => notes.appendChild(el("p", {},
       `${r.toUpperCase()}: status ${D.strings.status[k]}; ${D.strings.source[k]}.`)));
+    if (strain) notes.appendChild(el("p", { id: "strain-note" }, strain.note()));
     notes.appendChild(el("p", {}, "Drag to orbit, scroll to zoom. Frames every "
       + `${dt} s of simulated time, played at x${D.attrs.playback_speed} by default.`
       + (runs.length > 1 ? " The views' cameras move together." : "")));
   }
 
+  // The strain colouring of a strain scene (creatio.scenes.strain): per run, frame and mesh
+  // vertex the dataset's strain, interpolated linearly between frames, mapped through the
+  // dataset's own colour stops over the legend's range; and its legend, ticks in percent.
+  function strainColours() {
+    const S = A.strain, [nRun, nFrame, nA, nR] = S.shape, nV = nA * nR;
+    const [low, high] = D.attrs.strain_legend;
+    const stops = D.attrs.strain_colours, ticks = D.attrs.strain_ticks;
+    if (nA !== D.attrs.mesh[0] || nR !== D.attrs.mesh[1] || nRun !== D.coords.run.length) {
+      throw new Error("the strain field does not match the scene's mesh and runs");
+    }
+    function rgb(s, out, v) {
+      const x = Math.max(0, Math.min(1, (s - low) / (high - low))) * (stops.length - 1);
+      const k = Math.min(stops.length - 2, Math.floor(x)), f = x - k;
+      for (let c = 0; c < 3; c++) out[3 * v + c] = lerp(stops[k][c], stops[k + 1][c], f);
+    }
+    const pct = (x) => `${parseFloat((100 * x).toPrecision(6))} %`;
+    // the last frame of each run with a strain (a longer member pads the frames with NaN)
+    const last = D.coords.run.map((_, r) => {
+      let f = nFrame - 1;
+      while (f > 0 && !Number.isFinite(S[(r * nFrame + f) * nV])) f--;
+      return f;
+    });
+    let top = 0, arg = 0;
+    for (let k = 0; k < S.length; k++) if (S[k] > top) { top = S[k]; arg = k; }
+    const where = { run: Math.floor(arg / (nFrame * nV)), frame: Math.floor(arg / nV) % nFrame,
+                    alpha: Math.floor(arg / nR) % nA, R: arg % nR };
+    return {
+      paint(r, i, j, w) {  // past the last frame with a strain, the membrane keeps its last
+        [i, j] = [Math.min(i, last[r]), Math.min(j, last[r])];
+        const a = (r * nFrame + i) * nV, b = (r * nFrame + j) * nV;
+        const value = (v) => lerp(S[a + v], S[b + v], w);
+        return { key: `${r},${i},${j},${w}`, value: value,
+                 colour: (v, out) => rgb(value(v), out, v) };
+      },
+      // What the colours rest on, and the largest drawn value: where and when.
+      note() {
+        const alpha = 360 * where.alpha / (nA - 1), R = A.dR[where.run] * where.R / (nR - 1);
+        return `Strain: largest drawn value ${pct(top)} (${D.coords.run[where.run]
+          .toUpperCase()}, t = ${fmt(A.time[where.frame])} s, α = ${fmt(alpha)}°, `
+          + `R = ${fmt(R)} m), over the `
+          + "drawn vertices and frames (the EN-06 report refines the maximum over the "
+          + "membrane and the cycle). Material coordinates: (α, R) label material points; "
+          + "the reference is the same surface without corrugation.";
+      },
+      legend(box) {
+        const item = el("div", { class: "item" });
+        const bar = el("span", { class: "swatch strain-bar", style: "background: "
+          + `linear-gradient(to right, ${stops.map(css).join(", ")})` });
+        item.append(el("span", {}, `membrane: ${D.attrs.strain_label} (dimensionless, `
+          + "in %), interpolated linearly between frames"
+          + (D.family ? "; a member of another surface or phase laws is coloured by "
+             + "height W instead" : "")));
+        box.append(item);
+        box.append(bar);
+        const scale = el("div", { class: "strain-ticks" });
+        for (const tk of ticks) {
+          scale.append(el("span", { style: `left: ${100 * (tk - low) / (high - low)}%` },
+                          pct(tk)));
+        }
+        box.append(scale);
+      },
+    };
+  }
+
   // What each colour and shape of a sphere scene means.
-  function sphereLegend(draw, tEnd, b) {
+  function sphereLegend(draw, tEnd, b, strain) {
     const box = section("Legend");
     const item = (swatch, text) => {
       const r = el("div", { class: "item" });
@@ -824,7 +922,9 @@
     };
     const grad = (stops) => el("span", { class: "swatch", style:
       `background: linear-gradient(to right, ${stops.join(", ")})` });
-    if (draw.has("membrane")) {
+    if (draw.has("membrane") && strain) {
+      strain.legend(box);
+    } else if (draw.has("membrane")) {
       item(grad([css(COLD), css(MID), css(WARM)]),
            "membrane: height W along the normal, blue cavity (−A), grey 0, brown crest (+A)");
     }
