@@ -11,7 +11,7 @@
 #   snakemake diff -c 2 --config against=latest      data/reports/diff/<v>_vs_data.{txt,json}
 #   snakemake all --workflow-profile profiles/slurm    the same on a SLURM cluster
 #   snakemake scenes -c 2            the notebook's viewers: data/scenes/<scene>/ (creatio.scenes)
-#   snakemake beyond -c 2            EN-02G, EN-03, EN-03M, EN-02F (beyond the notebook, outside all)
+#   snakemake beyond -c 2            the studies beyond the notebook outside all (creatio ls)
 #   snakemake en05 -c 2              EN-05: Sobol' indices, calibration, which test pins mu
 #   snakemake --report data/report.html    Snakemake's report of everything built
 #

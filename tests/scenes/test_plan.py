@@ -51,3 +51,13 @@ def test_a_study_dataset_is_reused_only_when_it_exists_and_holds_the_frames(tmp_
     r2 = resolve("en02", ["scene.playback.fps=32", "~scene.axes.sphere", "~scene.axes.phases"])
     (need2,) = needs(r2)
     assert reusable(r2.bases["en02"], need2, tmp_path) is None
+
+
+def test_a_beyond_study_builds_the_scenes_that_read_it_or_are_built_with_it():
+    """EN-04's scene reads its datasets, EN-06's is built with it; EN-02F has none."""
+    from creatio.scenes.plan import scenes_of
+
+    assert scenes_of(["en04"]) == ["en04"]
+    assert scenes_of(["en06"]) == ["en06"]
+    assert scenes_of(["en02f"]) == []
+    assert sorted(scenes_of(["en04", "en06"])) == ["en04", "en06"]

@@ -65,8 +65,10 @@ def study_dataset(base: Resolved, part: str, data_dir: str | Path = "data") -> s
 
 
 def scenes_of(study_ids: Sequence[str]) -> list[str]:
-    """The scenes built with these studies (those that read one of their datasets)."""
-    return [s.id for s in registry.SCENES.values() if s.reads and s.reads[0] in study_ids]
+    """The scenes built with these studies: those that read one of their datasets, or that
+    name one of them as the study they are built with."""
+    return [s.id for s in registry.SCENES.values()
+            if (s.reads[0] if s.reads else s.built_with) in study_ids]
 
 
 @dataclass(frozen=True)

@@ -82,6 +82,9 @@ class Scene:
     #: (axis key, word) pairs: what the scene's own null value of an axis key is called on
     #: its slider (creatio.scenes.family; geometry.ribs null is the ideal surface).
     null_labels: tuple[tuple[str, str], ...] = ()
+    #: The study whose target builds this scene too when it reads none of that study's
+    #: datasets (EN-06's scene computes its own run): `snakemake beyond` with en06 builds it.
+    built_with: str | None = None
 
     @property
     def schema(self) -> type:
@@ -123,7 +126,7 @@ SCENES: dict[str, Scene] = {
         Scene("compare", SPHERE, "EN-02 and EN-02R side by side on one shared clock"),
         Scene("en06", STRAIN, "EN-06: the membrane coloured by the strain its shape demands, "
               "with the EN-02 sphere it carries",
-              null_labels=(("geometry.ribs", "ideal"),)),
+              null_labels=(("geometry.ribs", "ideal"),), built_with="en06"),
         Scene("en04", EN04, "EN-04: the fastest closed-loop transport beside the open-loop "
               "quintic at its boundary cycle", reads=("en04", "en04_control")),
     )
