@@ -22,6 +22,11 @@ REPO = Path(__file__).resolve().parents[1]
 # The shared worker that the tests' `snakemake` runs start (creatio.pipeline.worker) stops a
 # minute after their last job instead of fifteen.
 os.environ.setdefault("CREATIO_WORKER_IDLE", "60")
+# No daemon started behind a test's back by its `creatio run` (creatio.pipeline.worker
+# .autostart), and a report's figures drawn before the command returns, so that a test reads
+# them at once; the worker's and the deferred figures' own tests set both themselves.
+os.environ.setdefault("CREATIO_WORKER", "off")
+os.environ.setdefault("CREATIO_FIGURES", "now")
 
 
 @pytest.fixture(scope="session")
@@ -65,9 +70,9 @@ def en02_config_problem() -> SphereProblem:
 # ------------------------------------------------------------------------------ test tiers
 #: The second tier (marker ``long``: `make test-long`; CI runs it after `make test`): the
 #: end-to-end tests (Snakemake, the CLI in subprocesses, SLURM, Chromium) and the numerical
-#: tests that take seconds each (measured with `pytest --durations`). A whole module, or
-#: module::test (every parametrization of it). Kept here, in one list, rather than as
-#: decorators spread over the modules.
+#: tests that take seconds each (measured with `pytest --durations`). A whole module,
+#: module::test (every parametrization of it) or module::test[id] (that one). Kept here, in
+#: one list, rather than as decorators spread over the modules.
 LONG = (
     "tests/workflow/test_slurm.py",
     "tests/workflow/test_workflow.py",
@@ -152,6 +157,71 @@ LONG = (
     "tests/scenes/test_scene_en04.py::test_a_dataset_of_another_config_is_refused",
     "tests/scenes/test_scene_en04.py::test_the_page_draws_the_dataset_at_the_chosen_time",
     "tests/scenes/test_scene_en04.py::test_beyond_builds_the_scene_after_its_studys_dataset",
+    # The quick tier compiles the default specialisations only (rk4 with rotation and
+    # energy, the trajectory-only and sweep loops): a test that needs a rare one (an
+    # implicit kind, flight, control, the structure, the high Radau orders) is here unless
+    # it is its module's only test. Measured with an empty numba cache, --durations, load 6-8
+    # on 2 cores (issue 39): the EN-02F flight run 342 s; the CF fixture of every dataset kind
+    # (work-precision's implicit methods) 58 s; flight budget 25 s; radau5 / rodas4 dense
+    # output 19 / 12 s; stiff collapse (radau5 with energy) 15 s; the structure's equations
+    # 13 s; control 7 s; and the end-to-end ones: the Chromium bench of every scene 47 s,
+    # Hydra's multirun in a subprocess 33 s, the EN-02 bench and the Radau theta scripts.
+    "tests/trust/test_trust.py::test_a_run_whose_own_checks_are_absurd_never_ends_ok",
+    "tests/store/test_cf.py::test_every_variable_has_a_long_name_and_units_udunits_reads",
+    "tests/store/test_cf.py::test_plain_open_dataset_gives_time_in_seconds",
+    "tests/dynamics/test_progress.py::test_budget_bounds_the_flight_loop",
+    "tests/dynamics/test_progress.py::"
+    "test_a_stiff_regularisation_collapses_in_seconds_not_a_budget_later",
+    "tests/dynamics/solvers/test_solvers.py::"
+    "test_adaptive_dense_output_meets_the_tolerance_in_fewer_steps[radau5]",
+    "tests/dynamics/solvers/test_solvers.py::"
+    "test_adaptive_dense_output_meets_the_tolerance_in_fewer_steps[rodas4]",
+    "tests/studies/test_en03.py::test_equations_of_motion_against_high_order_differences",
+    "tests/model/test_control.py::test_zero_lead_limit_keeps_the_sphere_at_its_bottom",
+    "tests/scenes/test_bench_scene_family.py",
+    "tests/pipeline/test_sweep.py::test_hydra_multirun_gives_the_same_aggregate",
+    "tests/scripts/test_scripts.py::test_bench_en02_quick",
+    "tests/scripts/test_scripts.py::test_radau_thet_one_setting",
+    # every other quick test that ran a rare specialisation (their entry points recorded
+    # per test: flight, control, the free structure, radau5, rodas4, the high Radau orders)
+    *(f"tests/model/test_flight.py::test_{name}" for name in (
+        "adaptive_method_locates_the_same_events", "contact_lost_without_flight_and_ok_with",
+        "drop_has_no_spin_and_balance_closes", "elastic_frictionless_drop_loses_nothing",
+        "en02f_builds_its_datasets_and_report",
+        "events_that_do_not_advance_the_clock_end_the_run",
+        "flight_energy_balance_closes_with_losses", "impact_cap_turns_bounces_into_contact",
+        "separation_time_converges_at_fourth_order")),
+    "tests/model/test_control.py::test_adaptive_methods_agree_with_rk4",
+    *(f"tests/studies/test_en04_control.py::test_{name}" for name in (
+        "actuation_figures_along_a_controlled_run_against_its_closed_forms",
+        "arrival_rule_on_the_histories", "controller_beats_the_quintic_boundary",
+        "mass_does_not_change_the_closed_loop")),
+    "tests/studies/test_sphere_control.py::test_energy_residual_converges_at_rk4_order",
+    *(f"tests/studies/test_en03.py::test_{name}" for name in (
+        "en03_defaults_conserve_hz_and_energy_to_rounding", "frictionless_leaves_the_spin_at_zero",
+        "large_inertia_is_en02_to_its_timestep_difference")),
+    *(f"tests/studies/test_en03m.py::test_{name}" for name in (
+        "base_at_m_g_on_a_fixed_structure_is_en02", "en03m_study_dataset_and_report",
+        "the_normal_preload_does_not_carry")),
+    *(f"tests/dynamics/solvers/test_solvers.py::test_{name}" for name in (
+        "a_step_the_integrator_cannot_take_stops_cleanly", "adaptive_methods_meet_their_tolerance",
+        "radau5_accurate_far_beyond_the_explicit_limit",
+        "radau5_step_is_set_by_the_slow_dynamics_at_large_mu",
+        "scipy_peer_agrees_with_the_native_port",
+        # compiles a probe of each implicit kind's workspace (33 s on a cold cache)
+        "implicit_workspaces_are_laid_out_by_their_slot_names")),
+    "tests/dynamics/test_progress.py::test_a_run_failing_at_its_first_step_has_one_row",
+    # the CF module's fixture of every dataset kind runs work-precision's implicit methods
+    *(f"tests/store/test_cf.py::test_{name}" for name in (
+        "cf_xarray_and_pint_xarray_read_every_dataset",
+        "read_dataset_gives_back_what_the_study_made",
+        "one_unit_per_kind_of_angle_and_one_meaning_per_name")),
+    *(f"tests/studies/test_stability_map.py::test_{name}" for name in (
+        "break_scales_like_eps", "rk4_break_brackets_linear_limit", "run_resolved_end_to_end")),
+    *(f"tests/studies/test_work_precision.py::test_{name}" for name in (
+        "a_newly_registered_method_is_benchmarked_without_editing",
+        "a_peer_that_is_not_installed_is_left_out_and_said_so",
+        "harness_measures_the_native_error_on_the_same_solution")),
 )
 
 
@@ -166,7 +236,7 @@ def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item
         path = item.nodeid.split("::", 1)[0]
         name = item.nodeid.split("[", 1)[0]
         modules.add(path)
-        for entry in (path, name):
+        for entry in (path, name, item.nodeid):
             if entry in LONG:
                 item.add_marker(long_mark)
                 used.add(entry)
