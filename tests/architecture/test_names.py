@@ -18,8 +18,8 @@ WHERE = ("src", "tests", "docs", "scripts", "workflows", "conf", "README.md", "S
          "Makefile", ".ci", "pyproject.toml")
 #: A dotted module path, possibly broken across a line before a dot (the house style).
 DOTTED = re.compile(r"\bcreatio((?:\n?\.)[A-Za-z_][A-Za-z_0-9]*)+")
-#: A file path under src/creatio or tests.
-FILE = re.compile(r"\b(?:src/creatio|tests)/[A-Za-z_0-9/]+\.py\b")
+#: A file path under src/creatio or tests, or a page of docs/.
+FILE = re.compile(r"\b(?:(?:src/creatio|tests)/[A-Za-z_0-9/]+\.py|docs/[A-Za-z_0-9]+\.md)\b")
 
 
 def _files() -> list[Path]:
@@ -91,6 +91,7 @@ def test_no_stale_module_or_file_name() -> None:
     "see creatio.pipeline.io",
     "see creatio.dynamics.solvers\n.radau_vo, the stepper",
     "see tests/dynamics/solvers/test_radau.py",
+    "see docs/solvers.md",
 ])
 def test_a_planted_stale_name_is_found(planted: str) -> None:
     """The check fails on an old name (a module or a test file renamed away) and passes the

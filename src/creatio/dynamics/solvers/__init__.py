@@ -235,7 +235,7 @@ class Method:
 
 #: Jacobian reuse threshold of the radau_high_order methods (radau.f's THET): the Jacobian is
 #: recomputed after a step whose Newton contraction was worse. Measured on EN-02 and EN-02R
-#: (scripts/radau_thet.py): see docs/solvers.md.
+#: (scripts/radau_thet.py): see docs/running.md, "Integrators".
 _THET = 1e-3
 
 #: The registry: every method the driver runs, by config name.
