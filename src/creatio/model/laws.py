@@ -86,8 +86,11 @@ KIND_CODES: dict[LawKind, int] = {kind: code for code, kind in enumerate(LawKind
 COSINE_RAMP = KIND_CODES[LawKind.cosine_ramp]
 #: The trapezoid's code: delta travels the trapezoid step of ramp fraction L_RAMP.
 TRAPEZOID = KIND_CODES[LawKind.trapezoid]
-#: The codes whose delta travels the quintic step (every kind without a step of its own).
-QUINTIC_CODES = frozenset(KIND_CODES.values()) - {COSINE_RAMP, TRAPEZOID}
+#: The codes whose delta travels the quintic step through its NumPy twin (quintic_step: the
+#: quintic itself, and the kinds without a step of their own, whose delta is 0); every other
+#: kind, a new one included, gets the step law_eval computes (step_of), with no list to edit.
+QUINTIC_CODES = frozenset(KIND_CODES[k] for k in (LawKind.constant, LawKind.linear,
+                                                   LawKind.quintic, LawKind.sinusoid))
 #: How close (in tau) to a switch of the trapezoid a time is taken to be on it.
 SWITCH_TOL = 1e-12
 
