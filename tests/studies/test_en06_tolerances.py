@@ -227,7 +227,7 @@ def test_parts_include_the_tolerances(cfg: Any) -> None:
     """One part per dataset, in report order."""
     assert [p.name for p in en06.parts(cfg)] == [
         "en06_strain", "en06_fatigue", "en06_tilt", "en06_sobol", "en06_allocation",
-        "en06_joint"]
+        "en06_joint", "en06_ribs"]
 
 
 @pytest.mark.parametrize(("override", "key", "rule"), [

@@ -12,7 +12,7 @@ import numpy as np
 import xarray as xr
 
 from creatio.reports.answer import num
-from creatio.reports.common import fmt, table
+from creatio.reports.common import fmt, save_figure, table
 
 __all__ = ["ASSUMPTION", "answer", "error_histogram", "ribs_section", "section", "summary",
            "transport_figure"]
@@ -87,7 +87,7 @@ def transport_figure(ds: xr.Dataset, path: Path) -> Path:
                  fontsize=9)
     ax.legend(fontsize=7)
     fig.tight_layout()
-    fig.savefig(path, dpi=120)
+    save_figure(fig, path, dpi=120)
     plt.close(fig)
     return path
 
@@ -111,7 +111,7 @@ def error_histogram(ds: xr.Dataset, path: Path) -> Path:
                  f"{float(ds.attrs['sigma_e']):g}, sigma_d = {float(ds.attrs['sigma_d_deg']):g} "
                  f"deg ({err.size} seeds)\nassumption: spline skin", fontsize=9)
     fig.tight_layout()
-    fig.savefig(path, dpi=120)
+    save_figure(fig, path, dpi=120)
     plt.close(fig)
     return path
 
