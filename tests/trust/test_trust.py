@@ -858,16 +858,18 @@ def test_a_cached_config_is_the_validated_one_for_every_study(config_cache):
 def test_ctrl_c_inside_the_compiled_loop_exits_130_in_one_line(tmp_path):
     """The issue's example: Ctrl-C during a run printed "SystemError: CPUDispatcher(...)
     returned a result with an exception set", exit 1. It is an interrupt: one line, 130,
-    and no dataset (none half-written). The two timesteps run one after the other
-    (CREATIO_FORK=off): with a free core they run at once, and the first "wrote" line can
-    then come after the second is done, leaving no loop to interrupt."""
+    and no dataset (none half-written). The two timesteps run one after the other in the
+    command's own process (CREATIO_FORK=off), so the loop Ctrl-C reaches is its own; Ctrl-C's
+    default disposition is restored for the command, as a terminal gives it (a shell that
+    starts the suite in the background, `cmd &`, passes SIGINT on ignored)."""
     import signal
     import time
 
     proc = subprocess.Popen(
         [sys.executable, "-m", "creatio.cli", "run", "study=en02", "solver.dt=0.00005"],
         cwd=tmp_path, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-        env={**os.environ, "CREATIO_DEBUG": "", "CREATIO_FORK": "off"})
+        env={**os.environ, "CREATIO_DEBUG": "", "CREATIO_FORK": "off"},
+        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     lines = []
     for line in proc.stdout:  # (Hydra logs to stdout) the first run written: the second,
         lines.append(line)  # at dt / 2 = 2.5e-5 s, is in its compiled loop for seconds
