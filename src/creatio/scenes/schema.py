@@ -23,6 +23,7 @@ from creatio.studies.schema import (
     GeometryConfig,
     PhasesConfig,
     check_angle_deg,
+    check_bases,
     require,
 )
 
@@ -171,11 +172,7 @@ class SphereSceneConfig:
         a base; the frame interval divides each run and is a multiple of its fixed step."""
         s = self.scene
         require(len(s.studies) >= 1, "scene.studies", list(s.studies), "needs a study")
-        for name, base in self.bases.items():
-            try:
-                base.check()
-            except ConfigError as e:
-                raise ConfigError(f"bases.{name}.{e.key}", e.value, e.rule) from None
+        check_bases(self.bases)
         for name in s.studies:
             require(name in self.bases, "scene.studies", list(s.studies),
                     f"{name!r} has no config under bases (bases: {sorted(self.bases)})")

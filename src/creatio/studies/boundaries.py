@@ -45,7 +45,14 @@ from creatio.model.sphere import (
 )
 from creatio.model.surface import Frame, Motion, Surface, wavenumber
 from creatio.studies.registry import Part
-from creatio.studies.schema import MISSING, DynamicConfig, require, require_samples, vary
+from creatio.studies.schema import (
+    MISSING,
+    DynamicConfig,
+    check_bases,
+    require,
+    require_samples,
+    vary,
+)
 
 if TYPE_CHECKING:
     import xarray as xr
@@ -243,11 +250,7 @@ class BoundariesConfig:
     def check(self) -> None:
         """The base valid (errors named under bases.en02), then every setting on it."""
         require(BASE in self.bases, "bases", sorted(self.bases), f"needs the base {BASE!r}")
-        for name, base in self.bases.items():
-            try:
-                base.check()
-            except ConfigError as e:
-                raise ConfigError(f"bases.{name}.{e.key}", e.value, e.rule) from None
+        check_bases(self.bases)
         self.study.check("study", self.bases[BASE])
 
     @property

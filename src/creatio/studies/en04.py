@@ -30,7 +30,6 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from creatio.dynamics import SimulationResult, SphereProblem, stability_limit
-from creatio.errors import ConfigError
 from creatio.model import actuation as act
 from creatio.model.cavity import (
     bottom_curvatures,
@@ -55,6 +54,7 @@ from creatio.studies.schema import (
     MAX_SAMPLES,
     MISSING,
     DynamicConfig,
+    check_bases,
     culprit,
     require,
     require_runs,
@@ -304,11 +304,7 @@ class En04Config:
 
     def check(self) -> None:
         """Every base valid (errors named under bases.<study>), then the study's rules."""
-        for name, base in self.bases.items():
-            try:
-                base.check()
-            except ConfigError as e:
-                raise ConfigError(f"bases.{name}.{e.key}", e.value, e.rule) from None
+        check_bases(self.bases)
         self.study.check("study", self.bases)
 
     def step_limit(self) -> float:

@@ -17,6 +17,7 @@ from creatio.errors import ConfigError
 from creatio.studies.schema import (
     MISSING,
     DynamicConfig,
+    check_bases,
     culprit,
     require,
     require_runs,
@@ -297,11 +298,7 @@ class En05Config:
     def check(self) -> None:
         """The base valid (errors named under bases.en02), then every group on it."""
         require(BASE in self.bases, "bases", sorted(self.bases), f"needs the base {BASE!r}")
-        for name, base in self.bases.items():
-            try:
-                base.check()
-            except ConfigError as e:
-                raise ConfigError(f"bases.{name}.{e.key}", e.value, e.rule) from None
+        check_bases(self.bases)
         st = self.study
         st.sensitivity.check("study.sensitivity")
         st.camera.check("study.camera")

@@ -24,6 +24,7 @@ from creatio.studies.schema import (
     DynamicConfig,
     GeometryConfig,
     PhasesConfig,
+    check_bases,
     require,
     require_runs,
     require_samples,
@@ -470,11 +471,7 @@ class En06Config:
         self.geometry.check("geometry")
         self.study.check("study", self.geometry.Ka)
         require(BASE in self.bases, "bases", sorted(self.bases), f"needs the base {BASE!r}")
-        for name, base in self.bases.items():
-            try:
-                base.check()
-            except ConfigError as e:
-                raise ConfigError(f"bases.{name}.{e.key}", e.value, e.rule) from None
+        check_bases(self.bases)
         self.study.tolerances.check("study.tolerances", self.base)
         self.study.tilt_check.check("study.tilt_check", self.base)
 

@@ -14,7 +14,6 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 
-from creatio.errors import ConfigError
 from creatio.studies.en06_schema import StrainGrid
 from creatio.studies.material_schema import MaterialConfig
 from creatio.studies.platform_schema import PlatformConfig
@@ -24,6 +23,7 @@ from creatio.studies.schema import (
     MISSING,
     ControlGroup,
     DynamicConfig,
+    check_bases,
     check_inertia,
     check_positive_list,
     culprit,
@@ -267,9 +267,5 @@ class En07Config:
 
     def check(self) -> None:
         """Every base valid (errors named under bases.<study>), then the study's rules."""
-        for name, base in self.bases.items():
-            try:
-                base.check()
-            except ConfigError as e:
-                raise ConfigError(f"bases.{name}.{e.key}", e.value, e.rule) from None
+        check_bases(self.bases)
         self.study.check("study", self.bases)

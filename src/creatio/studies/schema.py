@@ -43,6 +43,7 @@ from creatio.model.sphere import inertia
 from creatio.model.surface import Motion, Surface
 
 __all__ = [
+    "check_bases",
     "AngleUnit",
     "Confinement",
     "ControlGroup",
@@ -259,6 +260,16 @@ MAX_RUNS = 200_000
 #: The most values one list of a config may hold: each is a run, a grid line or a sampled
 #: point (the defaults hold 22 at most), so a longer list is a mistake or a sweep.
 MAX_ITEMS = 10_000
+
+
+def check_bases(bases: Mapping[str, Any]) -> None:
+    """Check every base config a study or scene holds under ``bases``, its refusal named
+    under bases.<name> (bases.en02.sphere.mu, not sphere.mu)."""
+    for name, base in bases.items():
+        try:
+            base.check()
+        except ConfigError as e:
+            raise ConfigError(f"bases.{name}.{e.key}", e.value, e.rule) from None
 
 
 def require_runs(key: str, value: Any, n: float, what: str) -> None:

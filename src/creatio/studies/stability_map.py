@@ -41,7 +41,7 @@ from creatio.errors import ConfigError
 from creatio.model.numerics import steps_in
 from creatio.model.sphere import slip_relaxation_rate, stable_step
 from creatio.studies.registry import Part
-from creatio.studies.schema import MISSING, DynamicConfig, require, require_runs, vary
+from creatio.studies.schema import MISSING, DynamicConfig, check_bases, require, require_runs, vary
 
 if TYPE_CHECKING:
     import xarray as xr
@@ -209,11 +209,7 @@ class StabilityMapConfig:
     def check(self) -> None:
         """The base valid (errors named under bases.en02), then every setting on it."""
         require(BASE in self.bases, "bases", sorted(self.bases), f"needs the base {BASE!r}")
-        for name, base in self.bases.items():
-            try:
-                base.check()
-            except ConfigError as e:
-                raise ConfigError(f"bases.{name}.{e.key}", e.value, e.rule) from None
+        check_bases(self.bases)
         self.study.check("study", self.bases[BASE])
 
     @property

@@ -46,12 +46,12 @@ import numpy as np
 
 from creatio.dynamics import METHODS, SphereProblem, stability_limit
 from creatio.dynamics.solvers import IMPLICIT
-from creatio.errors import ConfigError
 from creatio.model.numerics import steps_in
 from creatio.studies.registry import Part
 from creatio.studies.schema import (
     MISSING,
     DynamicConfig,
+    check_bases,
     count,
     require,
     require_runs,
@@ -275,10 +275,7 @@ class WorkPrecisionConfig:
         self.study.check("study")
         require(len(self.bases) >= 1, "bases", list(self.bases), "needs at least 1 base study")
         for name, base in self.bases.items():
-            try:
-                base.check()
-            except ConfigError as e:
-                raise ConfigError(f"bases.{name}.{e.key}", e.value, e.rule) from None
+            check_bases({name: base})
             interval = base.solver.output_interval
             require(steps_in(base.study.duration, interval) is not None,
                     f"bases.{name}.study.duration", base.study.duration,
