@@ -219,6 +219,26 @@ def test_output_sampling_and_interval_validation(en02_problem: SphereProblem) ->
         en02_problem.replace(t_end=1.0001)
 
 
+# ---------------------------------------------------------------- first step (solver.h0)
+
+
+@pytest.mark.parametrize(("dt", "h0", "first"), [
+    (0.002, None, 0.002),      # h0 null: the run's dt, as before h0 existed
+    (0.001, None, 0.001),      # ... the convergence partner's dt
+    (0.002, 1e-3, 1e-3),       # h0 divides the output interval: the first step is h0
+    (0.001, 1e-3, 1e-3),       # ... whatever dt names the run
+    (0.002, 1.5e-3, 0.1 / 67),  # it does not: the interval in ceil(0.1 / h0) = 67 steps
+])
+def test_an_adaptive_run_takes_h0_as_its_first_step(en02_problem: SphereProblem, dt: float,
+                                                    h0: float | None, first: float) -> None:
+    """radau5 with a budget of 2 evaluations (the start's, then the first try's) stops
+    before its second try: its stop time is where the first step landed."""
+    res = simulate(en02_problem.replace(method="radau5", dt=dt, h0=h0, max_rhs_evals=2))
+    c = res.counts
+    assert (c.status, c.steps, c.rejected_steps) == ("budget_exceeded", 1, 0)
+    assert c.stop_time == pytest.approx(first, rel=1e-15)
+
+
 # ---------------------------------------------------------------- stability limit
 
 

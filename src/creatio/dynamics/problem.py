@@ -302,9 +302,10 @@ class Start:
 class Solver:
     """How a run is integrated: a method of the registry (creatio.dynamics.solvers.METHODS)
     at the constant step dt (RK4, or any method with fixed_step) or under local error control
-    to rtol / atol (dt is then the first step); ``dense_output`` samples the output grid from
-    each step's interpolant instead of cutting steps to land on it (a fixed dt need not then
-    divide the interval; the last step lands on t_end). A run stops with status
+    to rtol / atol from the first step h0 (None: dt; a fixed step refuses h0, every step being
+    dt); ``dense_output`` samples the output grid from each step's interpolant instead of
+    cutting steps to land on it (a fixed dt need not then divide the interval; the last step
+    lands on t_end). A run stops with status
     budget_exceeded after ``max_rhs_evals`` right-hand-side evaluations (the budget never
     changes a step), an adaptive run with step_size_collapse when its step size falls below
     the floors of creatio.dynamics.status (UNDERFLOW, COLLAPSE_TRIES), and it prints a line of
@@ -319,10 +320,17 @@ class Solver:
     allow_unstable: bool = False
     max_rhs_evals: int = MAX_RHS_EVALS
     progress_interval: float = PROGRESS_INTERVAL
+    h0: float | None = None
 
     def __post_init__(self) -> None:
         solvers.get(self.method)
         _positive(self, "dt", "rtol", "atol")
+        if self.h0 is not None:
+            _positive(self, "h0")
+            if not self.adaptive:
+                raise ValueError(f"h0 is the first step of an adaptive run; {self.method} at "
+                                 f"a fixed step takes dt = {self.dt} every step, got h0 = "
+                                 f"{self.h0}")
         if int(self.max_rhs_evals) != self.max_rhs_evals or self.max_rhs_evals < 1:
             raise ValueError(f"max_rhs_evals must be a positive integer, got "
                              f"{self.max_rhs_evals}")
@@ -334,6 +342,11 @@ class Solver:
     def adaptive(self) -> bool:
         """Whether the step is chosen by error control (adaptive method, not fixed_step)."""
         return solvers.get(self.method).adaptive and not self.fixed_step
+
+    @property
+    def first_step(self) -> float:
+        """The step the run starts with: h0 (None: dt); a fixed step's every step is dt."""
+        return self.dt if self.h0 is None else self.h0
 
 
 @dataclass(frozen=True)

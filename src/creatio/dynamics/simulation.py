@@ -131,7 +131,8 @@ def _run_arguments(problem: SphereProblem) -> tuple[tuple, dict]:
     parameters, laws, initial state, a preallocated history table, and the step plan.
 
     Fixed-step runs take n_steps = t_end / dt steps with a history row every
-    interval / dt; adaptive ones, and dense output, write a row per output time.
+    interval / dt; adaptive ones start with the solver's first_step (h0, else dt) and, like
+    dense output, write a row per output time.
     """
     sv, out = problem.solver, problem.output
     rot, en = problem.rotation_integrated, bool(out.energy)
@@ -144,7 +145,7 @@ def _run_arguments(problem: SphereProblem) -> tuple[tuple, dict]:
     args = (solvers.get(sv.method), problem.run_parameters(), problem.law_matrix(),
             problem.initial_state(rot, en), table)
     kwargs = {
-        "t_end": out.t_end, "interval": out.interval, "h0": sv.dt,
+        "t_end": out.t_end, "interval": out.interval, "h0": sv.first_step,
         "n_steps": 0 if problem.adaptive else n_steps, "stride": stride,
         "rtol": sv.rtol, "atol": sv.atol, "fixed": not problem.adaptive,
         "max_evals": sv.max_rhs_evals, "progress": sv.progress_interval,

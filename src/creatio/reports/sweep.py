@@ -44,6 +44,7 @@ KEY_LABELS = {
     "sphere.m": "sphere mass m (kg)",
     "phases.T": "cycle duration T (s)",
     "solver.dt": "timestep dt (s)",
+    "solver.h0": "first step h0 (s)",
     "geometry.A": "corrugation amplitude A (m)",
     "study.initial.R": "initial contact radius R (m)",
 }

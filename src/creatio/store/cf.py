@@ -77,7 +77,7 @@ SUFFIX_UNITS = (("_m_s", "m s-1"), ("_rad_s", "rad s-1"), ("_deg", "degree"), ("
 CONFIG_UNITS = {
     "sphere.mu": "1", "sphere.eps": "m s-1", "sphere.b": "m", "sphere.m": "kg",
     "sphere.g": "m s-2", "sphere.beta_deg": "degree", "sphere.psi_deg": "degree",
-    "phases.T": "s", "study.duration": "s", "solver.dt": "s",
+    "phases.T": "s", "study.duration": "s", "solver.dt": "s", "solver.h0": "s",
     "solver.rtol": "1", "solver.output_interval": "s",
 }
 #: Numeric variables whose unit depends on another variable: written without units.

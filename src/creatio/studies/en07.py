@@ -89,6 +89,8 @@ def scale_config(cfg: DynamicConfig, s: float, a_ratio: float) -> DynamicConfig:
         "study.initial.alphadot": st.initial.alphadot * f.rate,
         "solver.dt": sv.dt * f.time, "solver.output_interval": sv.output_interval * f.time,
     }
+    if sv.h0 is not None:
+        changes["solver.h0"] = sv.h0 * f.time
     for name in ("r", "a", "gamma"):
         law = getattr(cfg.phases, name)
         changes[f"phases.{name}.rate"] = law.rate * f.rate

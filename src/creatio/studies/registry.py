@@ -79,9 +79,10 @@ def _one_part(study_id: str) -> Callable[[Any], list[Part]]:
 
 
 def _timestep_parts(study_id: str) -> Callable[[Any], list[Part]]:
-    """A sphere study's datasets: one per timestep (dt and dt / refine), named by dt."""
-    return lambda cfg: [Part(f"{study_id}_dt{float(dt)!r}", {"dt": float(dt)})
-                        for dt in cfg.solver.timesteps()]
+    """A sphere study's datasets: one per run of its convergence pair (the solver's rungs,
+    dt and dt / refine), named by the rung's label; the run looks its rung up by dt."""
+    return lambda cfg: [Part(f"{study_id}_{r.label}", {"dt": r.dt})
+                        for r in cfg.solver.rungs()]
 
 
 def _en02f_parts(cfg: Any) -> list[Part]:
@@ -92,8 +93,8 @@ def _en02f_parts(cfg: Any) -> list[Part]:
 def _en03_parts(cfg: Any) -> list[Part]:
     """EN-03's datasets: the single run at each timestep, then the inertia sweep at each."""
     return _timestep_parts("en03")(cfg) + [
-        Part(f"en03_inertia_dt{float(dt)!r}", {"dt": float(dt), "sweep": True})
-        for dt in cfg.solver.timesteps()]
+        Part(f"en03_inertia_{r.label}", {"dt": r.dt, "sweep": True})
+        for r in cfg.solver.rungs()]
 
 
 @dataclass(frozen=True)

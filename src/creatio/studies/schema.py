@@ -64,6 +64,7 @@ __all__ = [
     "PhasePairConfig",
     "PhasesConfig",
     "ProbeConfig",
+    "Rung",
     "SolverConfig",
     "SphereConfig",
     "StructureConfig",
@@ -530,22 +531,45 @@ class SphereConfig:
                            math.radians(self.beta_deg or 0.0), math.radians(self.psi_deg or 0.0))
 
 
+@dataclass(frozen=True)
+class Rung:
+    """One run of a study's convergence pair, each job solver.dt once did in a field of its
+    own: ``label`` names the run's datasets (``en02_dt0.002.nc``), ``step`` is the constant
+    step of a fixed-step run (None: adaptive), ``h0`` the first step of an adaptive run (None:
+    a fixed step), ``rtol``/``atol`` the tolerances it runs at (an adaptive run's error
+    control; an implicit method's Newton stop at a fixed step; unused by RK4). ``dt`` is the
+    value the run is named and looked up by (creatio.studies.registry passes it to the run)."""
+
+    dt: float
+    label: str
+    step: float | None
+    h0: float | None
+    rtol: float
+    atol: float
+
+
 @dataclass
 class SolverConfig:
     """Time integration: method, step, refinement for the convergence pair, output sampling.
 
-    rk4 (and any method with fixed_step) takes the constant step dt. The adaptive methods
-    control the local error to rtol/atol; their convergence pair is the run at rtol/atol and
-    the run at the tolerances divided by refine**order (the error ratio a dt / refine pair of
-    that order gives when the global error is proportional to the tolerance), and their
-    datasets are still named by dt and dt / refine. dense_output samples the output grid from
-    each step's interpolant instead of cutting steps to land on it (then a fixed dt need not
-    divide output_interval). max_rhs_evals is each run's budget of right-hand-side
-    evaluations: a run that spends it stops with status budget_exceeded.
+    Each study runs a convergence pair, one :class:`Rung` per run (:meth:`rungs`): the run
+    named by dt and its partner named by dt / refine (datasets ``<id>_dt0.002.nc``,
+    ``<id>_dt0.001.nc``). rk4 (and any method with fixed_step) takes the constant step dt,
+    and its partner dt / refine. The adaptive methods control the local error to rtol/atol,
+    and their partner runs at the tolerances divided by refine**order (the error ratio a dt /
+    refine pair of that order gives when the global error is proportional to the tolerance);
+    their first step is h0, or while h0 is null the run's dt (dt, then dt / refine: the
+    behaviour before h0 existed). h0 is refused for a fixed step. dense_output samples the
+    output grid from each step's interpolant instead of cutting steps to land on it (then a
+    fixed dt need not divide output_interval). max_rhs_evals is each run's budget of
+    right-hand-side evaluations: a run that spends it stops with status budget_exceeded.
     """
 
     method: Method = Method.rk4
     dt: float = 0.002
+    #: The first step of an adaptive method (s); null: each run's dt. Left out of the
+    #: canonical text while null, so every config without it keeps its hash.
+    h0: float | None = field(default=None, metadata={OMIT_NULL: True})
     refine: int = 2
     output_interval: float = 0.1
     allow_unstable: bool = False
@@ -561,9 +585,10 @@ class SolverConfig:
         return METHODS[str(self.method)].adaptive and not self.fixed_step
 
     def check(self, path: str) -> None:
-        """dt > 0, refine >= 2, tolerances > 0, a budget >= 1, output_interval a multiple of a
-        fixed dt."""
+        """dt > 0, h0 finite and > 0 for an adaptive method only, refine >= 2, tolerances > 0
+        (the partner's too), a budget >= 1, output_interval a multiple of a fixed dt."""
         require(self.dt > 0.0, f"{path}.dt", self.dt, "must be > 0")
+        self._check_h0(path)
         require(self.max_rhs_evals >= 1, f"{path}.max_rhs_evals", self.max_rhs_evals,
                 "must be a positive integer (right-hand-side evaluations per run)")
         require(self.refine >= 2, f"{path}.refine", self.refine, "must be an integer >= 2")
@@ -572,7 +597,7 @@ class SolverConfig:
         require(math.isfinite(self.atol) and self.atol > 0.0, f"{path}.atol", self.atol,
                  "must be finite and > 0")
         if self.adaptive:
-            finest = self.tolerances(self.dt / self.refine)[0]
+            finest = self.rungs()[-1].rtol
             require(finest >= 100 * sys.float_info.epsilon, f"{path}.rtol", self.rtol,
                      f"divided by refine**order (the convergence partner) gives {finest:.3g}, "
                      f"below 100 x machine epsilon = 2.2e-14: raise it or lower solver.refine")
@@ -592,14 +617,41 @@ class SolverConfig:
             f"must be a positive integer multiple of solver.dt = {self.dt}",
         )
 
-    def tolerances(self, dt: float) -> tuple[float, float]:
-        """(rtol, atol) of the run named by dt: scaled by (dt / solver.dt)**order."""
+    def _check_h0(self, path: str) -> None:
+        """h0 null, or a finite positive first step of an adaptive method: a fixed step has no
+        first step of its own (every step is dt), so h0 there is refused, never ignored."""
+        if self.h0 is None:
+            return
+        require(math.isfinite(self.h0) and self.h0 > 0.0, f"{path}.h0", self.h0,
+                "must be finite and > 0 s (the first step of an adaptive method; null: dt)")
+        fixed = ("solver.fixed_step=true makes every step solver.dt" if self.fixed_step
+                 else f"{self.method} takes the constant step solver.dt")
+        require(self.adaptive, f"{path}.h0", self.h0,
+                f"applies to adaptive methods only: {fixed}; leave h0 null")
+
+    def rung(self, dt: float) -> Rung:
+        """The run named by dt: its label, its fixed step (dt) or its first step (h0, or dt
+        while h0 is null), and tolerances scaled by (dt / solver.dt)**order (the partner's
+        are rtol, atol / refine**order)."""
+        dt = float(dt)
         scale = (dt / self.dt) ** METHODS[str(self.method)].order
-        return self.rtol * scale, self.atol * scale
+        adaptive = self.adaptive
+        return Rung(dt=dt, label=f"dt{dt!r}", step=None if adaptive else dt,
+                    h0=(dt if self.h0 is None else self.h0) if adaptive else None,
+                    rtol=self.rtol * scale, atol=self.atol * scale)
+
+    def rungs(self) -> list[Rung]:
+        """The convergence pair: the run named by dt, then its partner named by dt / refine."""
+        return [self.rung(self.dt), self.rung(self.dt / self.refine)]
+
+    def tolerances(self, dt: float) -> tuple[float, float]:
+        """(rtol, atol) of the run named by dt (:meth:`rung`), for the datasets' attributes."""
+        r = self.rung(dt)
+        return r.rtol, r.atol
 
     def timesteps(self) -> list[float]:
-        """The compared steps: dt and dt / refine."""
-        return [self.dt, self.dt / self.refine]
+        """The values that name the convergence pair's runs: dt and dt / refine."""
+        return [r.dt for r in self.rungs()]
 
 
 def check_positive_list(path: str, values: Sequence[float], minimum: int = 1) -> None:
@@ -758,7 +810,7 @@ class DynamicConfig:
         require_samples(key, value, longest / sv.output_interval,
                         f"history rows ({longest:g} s / solver.output_interval)")
         if not sv.adaptive:  # a fixed step: the finest run's steps, each >= 1 evaluation
-            steps = longest / (sv.dt / sv.refine)
+            steps = longest / min(r.step for r in sv.rungs() if r.step is not None)
             key, value = (("solver.refine", sv.refine) if longest / sv.dt <= sv.max_rhs_evals
                           else ("solver.dt", sv.dt)
                           if longest / default.dt * sv.refine <= sv.max_rhs_evals else where)
@@ -817,7 +869,7 @@ class DynamicConfig:
     def _build_problem(self, dt: float) -> SphereProblem:
         """The problem of this config at timestep dt: model, start, solver, output, events."""
         ph, sp, sv, st = self.phases, self.sphere, self.solver, self.study
-        rtol, atol = sv.tolerances(dt)
+        rung = sv.rung(dt)
         phi_r, phi_a, gamma = ph.laws()
         problem = SphereProblem(
             model=core.Model(surface=self.geometry.surface(),
@@ -825,7 +877,10 @@ class DynamicConfig:
                              sphere=sp.sphere(), structure=self.run_structure()),
             start=core.Start(R=st.initial.R, alpha=math.radians(st.initial.alpha_deg),
                              Rdot=st.initial.Rdot, alphadot=st.initial.alphadot),
-            solver=core.Solver(method=str(sv.method), dt=dt, rtol=rtol, atol=atol,
+            # h0 stays None while solver.h0 is null: the first step then follows dt, also
+            # through problem.replace(dt=...), as it always has
+            solver=core.Solver(method=str(sv.method), dt=rung.dt, rtol=rung.rtol,
+                               atol=rung.atol, h0=None if sv.h0 is None else rung.h0,
                                fixed_step=sv.fixed_step, dense_output=sv.dense_output,
                                allow_unstable=sv.allow_unstable,
                                max_rhs_evals=sv.max_rhs_evals),
@@ -892,8 +947,8 @@ _MAX_PROBLEMS = 256
 _PROBLEM_KEYS = {
     "R0": "geometry.R0", "dR": "geometry.dR", "A": "geometry.A", "Kr": "geometry.Kr",
     "Ka": "geometry.Ka", "m": "sphere.m", "b": "sphere.b", "eps": "sphere.eps",
-    "g": "sphere.g", "mu": "sphere.mu", "dt": "solver.dt", "rtol": "solver.rtol",
-    "atol": "solver.atol", "max_rhs_evals": "solver.max_rhs_evals",
+    "g": "sphere.g", "mu": "sphere.mu", "dt": "solver.dt", "h0": "solver.h0",
+    "rtol": "solver.rtol", "atol": "solver.atol", "max_rhs_evals": "solver.max_rhs_evals",
     "interval": "solver.output_interval", "t_end": "study.duration",
     "phi_r": "phases.r", "phi_a": "phases.a", "gamma": "phases.gamma",
     "rotation": "study.outputs", "equilibrium": "sphere.g", "inertia": "structure.inertia",
