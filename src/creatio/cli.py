@@ -54,7 +54,7 @@ commands:
             creatio task report ct02 OUTDIR DATASET.nc [DATASET.nc ...]
             creatio task compare OUTDIR EN02.nc EN02R.nc
             creatio task scene dataset en02 OUT.nc [--override K=V ...] [--reuse en02=NC]
-            creatio task en05 batch|sobol|track --config-file CONFIG.yaml   (EN-05's steps)
+            creatio task en05 pilot|batch|sobol|track --config-file CONFIG.yaml   (EN-05's steps)
 
 Studies: {studies} (snakemake all); {beyond} (snakemake beyond); en05 (snakemake en05).
 Configs live in {conf}.

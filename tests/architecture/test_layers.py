@@ -4,6 +4,7 @@ libraries, and planning a workflow loads neither the compiler nor xarray."""
 from __future__ import annotations
 
 import ast
+import functools
 import os
 import re
 import subprocess
@@ -32,10 +33,16 @@ ALLOWED = {
 SHARED = {"errors", "__init__"}
 
 
+@functools.cache
+def _parse(text: str) -> ast.Module:
+    """A source's syntax tree, parsed once for the three checks that walk every module."""
+    return ast.parse(text)
+
+
 def _imports(path: Path) -> list[tuple[str, list[str]]]:
     """(module, names) of every `import creatio...` / `from creatio... import ...` in a file."""
     out = []
-    for node in ast.walk(ast.parse(path.read_text())):
+    for node in ast.walk(_parse(path.read_text())):
         if isinstance(node, ast.ImportFrom) and node.module and node.level == 0:
             if node.module == "creatio" or node.module.startswith("creatio."):
                 out.append((node.module, [a.name for a in node.names]))
@@ -77,7 +84,7 @@ def _upward_strings(path: Path, layer: str) -> list[str]:
     much an arrow up as an import statement, and the import test cannot see it."""
     allowed = ALLOWED[layer] | SHARED
     bad = []
-    for node in ast.walk(ast.parse(path.read_text())):
+    for node in ast.walk(_parse(path.read_text())):
         if isinstance(node, ast.Constant) and isinstance(node.value, str):
             m = re.match(r"creatio\.(\w+)", node.value)
             if m and m.group(1) in ALLOWED and m.group(1) not in allowed:

@@ -323,3 +323,46 @@ def test_inertia_power_is_the_derivative_of_k_m_along_a_history() -> None:
 
     assert fd_error(d2) <= 1e-7
     assert fd_error(np.zeros_like(d2)) > 1e-2
+
+
+def test_polishing_some_maxima_leaves_the_others_as_the_full_search_does() -> None:
+    """The three local searches are independent: polishing the stroke and max |W_t| only
+    gives them (and the worst point) exactly as polishing all three does, and max |W_tt| as
+    the grid left it, which is below the polished one and the closed form."""
+    t = np.linspace(0.0, 30.0, 601)
+    full = act.normal_rate_maxima(SURFACE, MIXED, t, 24, 9)
+    grid = act.normal_rate_maxima(SURFACE, MIXED, t, 24, 9, polish=False)
+    some = act.normal_rate_maxima(SURFACE, MIXED, t, 24, 9, polish=("stroke", "max_W_t"))
+    assert (some.stroke, some.stroke_point) == (full.stroke, full.stroke_point)
+    assert (some.max_W_t, some.worst) == (full.max_W_t, full.worst)
+    assert some.max_W_tt == grid.max_W_tt < full.max_W_tt
+    _, wtt = act.time_maximum(lambda x: act.normal_rate_bounds(SURFACE, MIXED, x)[1], 0, 30)
+    assert full.max_W_tt == pytest.approx(wtt, rel=1e-9)
+    with pytest.raises(ValueError, match=r"\['W_tt'\] are not maxima"):
+        act.normal_rate_maxima(SURFACE, MIXED, t, 24, 9, polish=("W_tt",))
+
+
+def test_a_looser_polish_tolerance_stops_earlier_near_the_same_maximum(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    """ftol is the Nelder-Mead stop: at 1e-6 the search evaluates W fewer times than at the
+    default 1e-15 and still lands within 1e-5 of the closed-form max |W_t| (the default
+    within 1e-9, as test_normal_rate_closed_forms_equal_the_numeric_maxima)."""
+    t = np.linspace(0.0, 30.0, 601)
+    _, wt = act.time_maximum(lambda x: act.normal_rate_bounds(SURFACE, MIXED, x)[0], 0, 30)
+    calls = []
+    wave = act.Wave
+
+    def counted(*args: object, **kwargs: object) -> object:
+        calls.append(1)
+        return wave(*args, **kwargs)
+
+    monkeypatch.setattr(act, "Wave", counted)
+    counts, values = [], []
+    for ftol in (act.NM_FTOL, 1e-6):
+        calls.clear()
+        values.append(act.normal_rate_maxima(SURFACE, MIXED, t, 48, 33, polish=("max_W_t",),
+                                             ftol=ftol).max_W_t)
+        counts.append(len(calls))
+    assert counts[1] < counts[0]
+    assert values[0] == pytest.approx(wt, rel=1e-9)
+    assert values[1] == pytest.approx(wt, rel=1e-5) and values[1] <= values[0]

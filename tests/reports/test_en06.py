@@ -17,6 +17,7 @@ from creatio.pipeline.config import resolve
 from creatio.reports.en06 import write_report
 from creatio.store.netcdf import write_dataset
 from creatio.studies import en06_tolerances as T
+from creatio.studies.budget import Rung, Verification
 from creatio.studies.en06_schema import nominal_of
 
 
@@ -31,6 +32,21 @@ def _toy(cfg: Any) -> T.Model:
     return model
 
 
+def _toy_at(cfg: Any) -> T.Models:
+    """The toy with a 'solver' error at a rung: the final angle off by 1e3 rtol per m of
+    R0's deviation (5 rtol deg at the declared tolerance)."""
+    model, x0 = _toy(cfg), nominal_of(cfg.base, "geometry.R0")
+
+    def at(rung: Rung) -> T.Model:
+        def run(changes: Mapping[str, float]) -> T.Transport:
+            t = model(changes)
+            d = changes.get("geometry.R0", x0) - x0
+            return T.Transport(t.final_angle_deg + 1e3 * rung.rtol * d, t.final_radius_m,
+                               t.surface_work_J, t.carried, t.status)
+        return run
+    return at
+
+
 @pytest.fixture(scope="module")
 def report(tmp_path_factory: pytest.TempPathFactory) -> tuple[dict[str, Any], dict, dict]:
     """The four parts (tolerances on the toy, the tilt check on EN-02) and their report."""
@@ -38,10 +54,11 @@ def report(tmp_path_factory: pytest.TempPathFactory) -> tuple[dict[str, Any], di
                                          "study.tolerances.sobol.resamples=100",
                                          "study.tolerances.joint.n=50",
                                          "study.tolerances.allocation.iterations=12"]).obj)
-    model = _toy(cfg)
-    parts = {"tilt": T.tilt_dataset(cfg), "sobol": T.sobol_dataset(cfg, model),
-             "allocation": T.allocation_dataset(cfg, model),
-             "joint": T.joint_dataset(cfg, model)}
+    cfg.study.tolerances.budget.candidates = []  # one method: the toy costs alike in each
+    models = _toy_at(cfg)
+    parts = {"tilt": T.tilt_dataset(cfg), "sobol": T.sobol_dataset(cfg, models=models),
+             "allocation": T.allocation_dataset(cfg, models=models),
+             "joint": T.joint_dataset(cfg, models=models)}
     tmp = tmp_path_factory.mktemp("en06")
     files = []
     for name, ds in parts.items():
@@ -104,6 +121,27 @@ def test_answer_sections_and_figure(report: tuple[dict[str, Any], dict, dict]) -
     assert paths["tolerances"].stat().st_size > 10_000
     assert list(s)[:1] == ["study"] and list(s).index("tilt_check") < list(s).index(
         "tolerances")
+
+
+def test_accuracy_budgets_reach_the_report(report: tuple[dict[str, Any], dict, dict]
+                                          ) -> None:
+    """tolerances.accuracy.<part> holds each dataset's check, and each section prints its
+    line. The toy errs by up to 5 rtol deg in the angle: the Sobol' budget (1e-3 of the
+    angle's spread, 50 x 5 mm / sqrt(3) deg, halved by the pilot: 7.2e-5) takes rtol 1e-5;
+    the joint's (0.01 deg) and the allocation's (R0's boundary is the radius') the loosest."""
+    s, parts, paths = report
+    text = paths["md"].read_text()
+    for part in ("sobol", "allocation", "joint"):
+        v = Verification.from_attrs(parts[part].attrs)
+        a = s["tolerances"]["accuracy"][part]
+        assert a["line"] == v.line() and a["ok"] and a["tightened"] == 0
+        want = 1e-5 if part == "sobol" else 1e-4
+        assert (part, a["method"], a["rtol"]) == (part, "radau5", want)
+        assert a["line"].startswith("numerical error <= ") and a["line"] in text
+        assert all(a["observed"][k] <= a["budget"][k] for k in a["budget"])
+    assert s["tolerances"]["accuracy"]["joint"]["budget"] == {
+        "final_angle_error": 0.01, "final_radius_error": 1e-4}
+    assert s["tolerances"]["accuracy"]["allocation"]["points"] == 2  # R0's two sides
 
 
 @pytest.mark.long

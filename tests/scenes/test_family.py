@@ -6,11 +6,10 @@ page would not fit."""
 from __future__ import annotations
 
 import math
-import subprocess
-import sys
 
 import numpy as np
 import pytest
+from inproc import run_cli
 
 from creatio.errors import ConfigError
 from creatio.scenes.config import resolve, route
@@ -207,11 +206,9 @@ def test_the_scene_dataset_carries_its_family_and_the_page_packs_it(short_family
 
 def test_the_family_batch_step_refuses_a_scene_without_axes_in_one_line(tmp_path):
     out = tmp_path / "b.nc"
-    proc = subprocess.run(
-        [sys.executable, "-m", "creatio.cli", "task", "scene", "family-batch", "en02", str(out),
-         "--batch", "0", "--override", "scene.axes.sphere.mu=null", "--override",
-         "scene.axes.phases.T=null"],
-        capture_output=True, text=True, timeout=300)
+    proc = run_cli("task", "scene", "family-batch", "en02", str(out), "--batch", "0",
+                   "--override", "scene.axes.sphere.mu=null", "--override",
+                   "scene.axes.phases.T=null")
     assert proc.returncode == 2
     assert proc.stderr.strip().splitlines() == [
         "creatio task scene: invalid config: scene.axes={}: scene en02 declares no axis: it "

@@ -17,6 +17,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from inproc import run_cli
 
 from creatio.errors import ConfigError
 from creatio.pipeline.config import resolve as resolve_study
@@ -155,9 +156,8 @@ def test_refused_scene_configs(override, key):
 
 
 def test_a_refused_scene_config_is_one_line_exit_2(tmp_path):
-    proc = subprocess.run([sys.executable, "-m", "creatio.cli", "task", "scene", "dataset",
-                           "en04", str(tmp_path / "scene.nc"), "--override",
-                           "scene.playback.fps=7"], capture_output=True, text=True, timeout=300)
+    proc = run_cli("task", "scene", "dataset", "en04", str(tmp_path / "scene.nc"),
+                   "--override", "scene.playback.fps=7")
     assert proc.returncode == 2, proc.stderr
     lines = proc.stderr.strip().splitlines()
     assert len(lines) == 1 and "scene.playback" in lines[0] and "path_interval" in lines[0]

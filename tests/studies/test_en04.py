@@ -214,6 +214,17 @@ def test_report_contract_on_short_cycles(tmp_path) -> None:
     assert 4.0 < c["open_loop_boundary_T_s"] < 14.0
     assert [set(r) >= {"mu", "mass_factor", "closed_loop_carried", "open_loop_carried"}
             for r in c["robustness"]] == [True]
+    # the accuracy budgets: the bisection's (1e-2 of its 0.5 s resolution) on its final
+    # bracket, the arrivals' (1e-2 of the 2-ms step) on every case of a grid this small
+    checks = report["control_checks"]
+    boundary, arrival = checks["quintic_boundary_accuracy"], checks["arrival_accuracy"]
+    assert boundary["budget_s"] == pytest.approx(5e-3) and boundary["points"] == 2
+    assert boundary["ok"] and boundary["observed_s"] == 0.0
+    assert arrival["budget_s"] == pytest.approx(2e-5) and arrival["points"] == 2
+    assert arrival["reference_dt_s"] == pytest.approx(5e-4)
+    assert arrival["ok"] == (arrival["observed_s"] <= arrival["budget_s"])
+    md = (root / "reports" / "en04.md").read_text()
+    assert boundary["line"] in md and arrival["line"] in md
     for suffix in (".md", ".png", "_history.csv", "_trajectory.png", "_convergence.png",
                    "_control.png", "_control_paths.png", "_control_powers.png"):
         assert (root / "reports" / f"en04{suffix}").stat().st_size > 0

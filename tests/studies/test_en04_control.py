@@ -178,3 +178,124 @@ def test_actuation_figures_along_a_controlled_run_against_its_closed_forms(cfg) 
     work = h.surface_work[-1] - h.surface_work[0] + K[-1] - K[0]
     assert f["E_actuator"] == pytest.approx(work, rel=5e-5)
     assert f["K_m_closed_form_rel_error"] < 1e-12
+
+
+def _fake_runs(boundary):
+    """run(T, dt) of a search whose carried set is T >= boundary(dt): no integration."""
+    from types import SimpleNamespace
+
+    def run(T: float, dt: float):
+        return SimpleNamespace(carried=T >= boundary(dt), counts=SimpleNamespace(status="ok"))
+    return run
+
+
+def _grid_end(b: float, lo: float = 4.0, hi: float = 14.0, halvings: int = 10) -> float:
+    """The upper end of the bisection bracket of [lo, hi] halved ``halvings`` times that holds
+    b (b off the grid): ceil((b - lo) / w) w + lo with w = (hi - lo) / 2^halvings."""
+    w = (hi - lo) / 2**halvings
+    return lo + math.ceil((b - lo) / w) * w
+
+
+def test_bisection_budget_holds_when_the_step_barely_moves_the_boundary() -> None:
+    """A boundary that moves by 1e-6 s between dt and dt / 4 stays in its final bracket: the
+    reported T is the bracket's end above it (10 halvings of [4, 14] to 0.01 s), error 0."""
+    from creatio.studies.en04_control import BisectionConfig, budgeted_bisection
+
+    q = BisectionConfig(4.0, 14.0, 0.01)
+    bisection, check = budgeted_bisection(q, _fake_runs(lambda dt: 6.9 + 5e-4 * dt), 0.002)
+    tried, lo, hi, _, found = bisection
+    assert found and hi == _grid_end(6.9 + 1e-6) and hi - lo == 10.0 / 1024
+    assert len(tried) == 12
+    assert check.ok and check.observed == 0.0 and check.points == 2
+    assert check.budget == pytest.approx(1e-4) and check.reference_dt == 0.0005
+    assert check.line() == "numerical error <= 0 s (budget 0.0001 s, checked on 2 points)"
+
+
+def test_bisection_budget_broken_by_a_loose_step_is_detected_and_tightened() -> None:
+    """A deliberately loose step (boundary 6.9 + 50 dt: 7.0 s at 2 ms, 6.925 s at 0.5 ms)
+    flips an end of the final bracket at dt / 4: the error is the bracket's width, the
+    bisection is redone at 1 ms, then 0.5 ms, and still broken it says so."""
+    from creatio.studies.en04_control import BisectionConfig, budgeted_bisection
+
+    q = BisectionConfig(4.0, 14.0, 0.01)
+    bisection, check = budgeted_bisection(q, _fake_runs(lambda dt: 6.9 + 50.0 * dt), 0.002)
+    _, lo, hi, _, _ = bisection
+    assert check.tightened == 2 and check.dt == 0.0005 and not check.ok
+    assert hi == _grid_end(6.925) and check.observed == hi - lo
+    assert "broken at first, the bisection redone 2 time(s)" in check.line()
+    # one tightening is enough when the boundary settles: 6.9 + 50 dt above 1 ms, fixed below
+    settle = _fake_runs(lambda dt: 6.9 + 50.0 * dt if dt > 1e-3 else 6.9031)
+    bisection, check = budgeted_bisection(q, settle, 0.002)
+    assert check.ok and check.tightened == 1 and bisection[2] == _grid_end(6.9031)
+
+
+def _ramp(dt: float, rate: float = -0.5, carried: bool = True, t_end: float = 15.0):
+    """A fake run whose contact angle turns at a constant rate, recorded every dt."""
+    from types import SimpleNamespace
+
+    t = np.arange(0.0, t_end + 0.5 * dt, dt)
+    return SimpleNamespace(histories=SimpleNamespace(t=t, alpha=0.3 + rate * t),
+                           carried=carried, counts=SimpleNamespace(status="ok"))
+
+
+def test_crossing_is_the_arrival_between_steps() -> None:
+    """On a constant turn the band |theta - goal| <= tol is reached at (|goal| - tol) / rate,
+    whatever the step (linear between steps is exact); measure's arrival is the step after."""
+    from creatio.studies.en04_control import crossing
+
+    goal, tol = -2.0 * math.pi, math.radians(2.0)
+    exact = (2.0 * math.pi - tol) / 0.5
+    for dt in (0.002, 0.01, 0.1):
+        assert crossing(_ramp(dt), goal, tol) == pytest.approx(exact, abs=1e-12)
+    assert math.isnan(crossing(_ramp(0.01, rate=-0.1), goal, tol))
+
+
+def test_arrival_budget_detects_a_lost_case_and_a_late_arrival() -> None:
+    """The grid's check (16 seeded cases of 40 rerun at dt / 4): the same runs give error 0;
+    reruns 1 ms later (rate changed by 1e-4 relative) give that delay, over the 2e-5 s budget;
+    a rerun that is lost where the run carried gives inf."""
+    from creatio.studies.en04_control import check_arrivals
+
+    goal, tol = -2.0 * math.pi, math.radians(2.0)
+    runs = [_ramp(0.002, rate=-0.5 - 0.01 * i) for i in range(40)]
+    same = check_arrivals(runs, lambda i, dt: _ramp(dt, rate=-0.5 - 0.01 * i), goal, tol, 0.002)
+    assert same.ok and same.points == 16 and same.observed < 1e-12
+    assert same.budget == pytest.approx(2e-5) and same.reference_dt == 0.0005
+    late = check_arrivals(runs, lambda i, dt: _ramp(dt, rate=(-0.5 - 0.01 * i) / (1 + 1e-4)),
+                          goal, tol, 0.002)
+    worst = max((2.0 * math.pi - tol) / (0.5 + 0.01 * i) * 1e-4 for i in range(40))
+    assert not late.ok and 0.5 * worst < late.observed <= worst * (1 + 1e-9)
+    lost = check_arrivals(runs, lambda i, dt: _ramp(dt, carried=False), goal, tol, 0.002)
+    assert not lost.ok and lost.observed == math.inf
+
+
+def test_the_compiled_servo_and_the_skipped_search_change_no_figure(cfg, monkeypatch) -> None:
+    """Along a controlled EN-02 run: servo_along's (u, delta) are the controller's scalar
+    formula per step (Controller.acceleration) bit for bit, and the figures with only the
+    searches they use (DEMAND_POLISHED) equal, exactly, those with every search polished."""
+    from creatio.model import actuation as act
+    from creatio.studies import en04_control as ec
+
+    c = cfg.study.control
+    base = cfg.bases[c.base]
+    nominal = base.sphere_problem().replace(t_end=c.duration, interval=base.solver.dt)
+    Ka = float(base.geometry.Ka)
+    ctl = controller(c, nominal, en04.closed_forms(base).roll_alpha ** 2,
+                     ControllerPoint(2.0, 20.0, 4.0, 20.0))
+    res = simulate(nominal.replace(control=ctl))
+    h = res.histories
+    u, delta = ec.servo_along(res, ctl, Ka)
+    want = ctl.acceleration(Ka, h.alpha, h.alphadot, h.phi_a, h.phi_a_rate)
+    assert np.array_equal(u, want[0]) and np.array_equal(delta, want[1])
+    assert np.max(np.abs(u)) > 0.0 and u.size == h.t.size
+    surface = base.geometry.surface()
+    rule = act.quadrature(surface, 23, 15)
+    args = (res, surface, nominal.model.motion, ctl, rule, ec.DemandSettings(), base.sphere.g,
+            c.path_interval, u)
+    some = ec.demand_figures(*args)
+    monkeypatch.setattr(ec, "DEMAND_POLISHED", True)
+    every = ec.demand_figures(*args)
+    assert some.figures.keys() == every.figures.keys()
+    for key, value in every.figures.items():
+        assert np.array_equal(some.figures[key], value, equal_nan=True), key
+    assert np.array_equal(some.t, every.t)

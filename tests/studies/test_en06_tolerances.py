@@ -21,6 +21,7 @@ from scipy import stats
 
 from creatio.errors import ConfigError
 from creatio.pipeline.config import resolve, validate
+from creatio.studies import budget as bd
 from creatio.studies import en06
 from creatio.studies import en06_tolerances as T
 from creatio.studies import sphere as en02
@@ -61,6 +62,105 @@ def toy(cfg: Any) -> T.Model:
     return model
 
 
+def toy_at(cfg: Any, c: float) -> T.Models:
+    """The toy with a 'solver' error: at a rung its final angle is off by rtol x c x (1 +
+    u_A) deg (u_A centred and scaled, as in toy), so an error from the nominal is
+    rtol x c x u_A; rtol 0 is the toy itself."""
+    exact = toy(cfg)
+    dists = {d.key: (d.low, d.high) for d in T.distributions(cfg.study.tolerances, cfg.base)}
+
+    def u(changes: Mapping[str, float], key: str) -> float:
+        lo, hi = dists[key]
+        return (2.0 * changes.get(key, nominal_of(cfg.base, key)) - lo - hi) / (hi - lo)
+
+    def at(rung: bd.Rung) -> T.Model:
+        def model(changes: Mapping[str, float]) -> T.Transport:
+            t = exact(changes)
+            e = rung.rtol * c
+            return T.Transport(t.final_angle_deg + e * (1.0 + u(changes, "geometry.A")),
+                               t.final_radius_m, t.surface_work_J, t.carried, t.status)
+        return model
+    return at
+
+
+def test_budgeted_sobol_on_a_toy_solver_chooses_checks_and_agrees(cfg: Any) -> None:
+    """The toy solver errs by 100 rtol |u_A| deg over a spread of about 0.12 deg: the pilot
+    takes the loosest rung whose error against rtol 1e-10 on its 16 points is within half
+    the budget there (1e-7), every row's error from the exact toy is within the recorded
+    budget, and the indices equal the exact toy's within their bootstrap half-widths."""
+    c = copy.deepcopy(cfg)
+    c.study.tolerances.sobol.base_sizes = [256]
+    c.study.tolerances.sobol.resamples = 200
+    c.study.tolerances.budget.candidates = []  # one method: the toy costs alike in each
+    ds = T.sobol_dataset(c, models=toy_at(c, 100.0))
+    exact = T.sobol_dataset(c, toy(c))
+    v = bd.Verification.from_attrs(ds.attrs)
+    pilot = bd.subsample(ds.sizes["point"], 16, c.study.tolerances.budget.seed)
+    a = list(ds.input.values).index("A")
+    lo, hi = ds.input_low.values[a], ds.input_high.values[a]
+    u_a = (2.0 * ds.input_value.values[pilot, a] - lo - hi) / (hi - lo)
+    limit = bd.SAFETY * 1e-3 * np.std(exact.final_angle_error.values[pilot] + 1e-8 * u_a)
+    want = max(r.rtol for r in c.study.tolerances.budget.rungs()
+               if 100.0 * (r.rtol - 1e-10) * np.abs(u_a).max() <= limit)
+    assert v.rung.rtol == want == 1e-7 and v.ok and v.tightened == 0
+    assert v.budget["final_angle_error"] == pytest.approx(1e-3 * np.std(
+        ds.final_angle_error.values), rel=1e-12)
+    err = np.abs(ds.final_angle_error.values - exact.final_angle_error.values)
+    assert err.max() <= v.budget["final_angle_error"]
+    assert v.observed["final_angle_error"] <= err.max() + 1e-15
+    assert ds.attrs["accuracy_line"].startswith("numerical error <= ")
+    for key in ("S1", "ST"):
+        j = list(ds.output.values).index("final_angle_error")
+        diff = np.abs(ds[key].values[-1, j] - exact[key].values[-1, j])
+        assert (diff <= exact[f"{key}_conf"].values[-1, j]).all(), (key, diff)
+
+
+def test_a_loose_ladder_is_caught_tightened_and_reported(cfg: Any) -> None:
+    """A ladder of one loose rung (rtol 1e-4, an error of 1e-2 deg against a budget of about
+    1.2e-4): the pilot has no choice, the check breaks the budget, the part tightens 10x and
+    reruns until it holds (1e-7: 1e-5 deg), records the count and the report says so."""
+    from creatio.reports import en06_tolerances as R
+
+    c = copy.deepcopy(cfg)
+    c.study.tolerances.sobol.base_sizes = [64]
+    c.study.tolerances.sobol.resamples = 200
+    bgt = c.study.tolerances.budget
+    bgt.loosest_rtol, bgt.rtol, bgt.atol, bgt.candidates = 1e-4, 1e-4, 1e-6, []
+    ds = T.sobol_dataset(c, models=toy_at(c, 100.0))
+    v = bd.Verification.from_attrs(ds.attrs)
+    exact = T.sobol_dataset(c, toy(c))
+    err = np.abs(ds.final_angle_error.values - exact.final_angle_error.values)
+    assert v.ok and v.tightened >= 1 and v.rung.rtol == 1e-4 / 10**v.tightened
+    assert err.max() <= v.budget["final_angle_error"]
+    # one tightening fewer broke it: the error there (10x this one) exceeds the budget
+    assert err.max() * 10 > v.budget["final_angle_error"]
+    out: dict[str, Any] = {}
+    R.SUMMARIES["sobol"](ds, out)
+    text = "\n".join(R.section({"sobol": ds}, out, None))
+    assert f"tightened {v.tightened} time(s) by 10x" in text and v.line() in text
+
+
+def test_budgeted_joint_and_allocation_on_the_toy_match_the_exact_toy(cfg: Any) -> None:
+    """Joint (400 draws) and allocation on the toy solver: the same count within spec as the
+    exact toy, and every boundary within one bisection resolution of the exact toy's, with
+    the check within its budget."""
+    c = copy.deepcopy(cfg)
+    c.study.tolerances.joint.n = 400
+    c.study.tolerances.allocation.iterations = 12
+    c.study.tolerances.budget.candidates = []
+    models = toy_at(c, 100.0)
+    ds, exact = T.joint_dataset(c, models=models), T.joint_dataset(c, toy(c))
+    v = bd.Verification.from_attrs(ds.attrs)
+    assert v.ok and v.budget == {"final_angle_error": 1e-2, "final_radius_error": 1e-4}
+    assert int(ds.within_count) == int(exact.within_count)
+    al, al0 = T.allocation_dataset(c, models=models), T.allocation_dataset(c, toy(c))
+    v = bd.Verification.from_attrs(al.attrs)
+    assert v.ok and v.points >= 2 and v.budget == {"boundary": 1e-2}
+    res = al0.cap.values / c.study.tolerances.allocation.scan / 2.0**12
+    on = al0.allocated.values == 1
+    assert (np.abs(al.allocation.values - al0.allocation.values)[on] <= res[on]).all()
+
+
 def test_sobol_path_gives_the_toy_closed_form_indices(cfg: Any) -> None:
     """The part's own path (EN-05's design, inverse CDFs and estimators) on the toy at
     N = 1024: each index within 3 bootstrap half-widths and 0.03 of the closed form, the
@@ -93,11 +193,24 @@ def test_sobol_path_gives_the_toy_closed_form_indices(cfg: Any) -> None:
 
 @pytest.mark.long
 def test_sobol_rows_are_direct_en02_runs(cfg: Any) -> None:
-    """At N = 4 on EN-02 (32 runs): two rows of the design rerun directly through
-    sphere.run give the same final angle, radius, W_surface and carried, from the nominal."""
+    """At N = 4 on EN-02 (32 runs) under the budget: two rows of the design rerun directly
+    through sphere.run at the recorded method and tolerances give the same final angle,
+    radius, W_surface and carried, from the nominal; every row agrees with the design run
+    100x tighter within the recorded budget, and the indices with its within their
+    bootstrap half-widths."""
     ds = T.sobol_dataset(cfg)
     assert ds.sizes["point"] == 4 * 8 and (ds.status.values == "ok").all()
-    base = cfg.base
+    v = bd.Verification.from_attrs(ds.attrs)
+    assert v.ok and v.points == 16 and ds.attrs["method"] == v.rung.method
+    base = vary(cfg.base, v.rung.changes())
+    tight = vary(cfg.base, v.rung.tighter().changes())
+    ref = T.sobol_dataset(cfg, lambda ch: T.evaluate(tight, ch))
+    for name in T.BUDGETED:
+        assert np.abs(ds[name].values - ref[name].values).max() <= v.budget[name], name
+    j = list(ds.output.values).index("final_angle_error")
+    for key in ("S1", "ST"):
+        diff = np.abs(ds[key].values[-1, j] - ref[key].values[-1, j])
+        assert (diff <= ref[f"{key}_conf"].values[-1, j]).all(), key
     nom = en02.run(base, base.solver.dt)
     assert float(ds.nominal_final_angle) == float(nom.centre_azimuth.values[-1])
     for i in (0, 17):
@@ -127,15 +240,24 @@ def test_boundary_finds_a_known_threshold_to_its_resolution() -> None:
 
 @pytest.mark.long
 def test_allocation_boundary_is_confirmed_by_direct_runs(cfg: Any) -> None:
-    """R0 and the tilt alone on EN-02: the allocated deviation is within spec and the first
-    deviation out of spec is not, each rerun directly (every azimuth when tilted); R0
+    """R0 and the tilt alone on EN-02 under the budget: each boundary within one bisection
+    resolution of the search run 100x tighter; the allocated deviation is within spec and
+    the first deviation out of spec is not, each rerun directly at the recorded method and
+    tolerances (every azimuth when tilted); R0
     shifts the final radius by itself, so its allocation is the 1 cm spec to the search's
     resolution (cap / scan / 2^iterations)."""
     c = copy.deepcopy(cfg)
     tol = c.study.tolerances
     tol.inputs = {k: tol.inputs[k] for k in ("R0", "beta")}
     ds = T.allocation_dataset(c)
-    base, spec, al = c.base, tol.spec, tol.allocation
+    v = bd.Verification.from_attrs(ds.attrs)
+    assert v.ok and v.points == 3
+    tight = vary(c.base, v.rung.tighter().changes())
+    ref = T.allocation_dataset(c, lambda ch: T.evaluate(tight, ch))
+    res = ds.cap.values / tol.allocation.scan / 2.0**tol.allocation.iterations
+    on = ds.allocated.values == 1
+    assert (np.abs(ds.allocation.values - ref.allocation.values)[on] <= res[on]).all()
+    base, spec, al = vary(c.base, v.rung.changes()), tol.spec, tol.allocation
     nom = T.evaluate(base, {})
 
     def direct(name: str, sign: float, dev: float) -> bool:
@@ -261,6 +383,15 @@ def test_parts_include_the_tolerances(cfg: Any) -> None:
      "more than 200,000"),
     ("study.tolerances.spec.radius_m=0", "study.tolerances.spec.radius_m", "must be > 0"),
     ("study.tilt_check.beta_deg=0", "study.tilt_check.beta_deg", "must lie in (0, 90)"),
+    ("study.tolerances.budget.points=8", "study.tolerances.budget.points", "must be >= 16"),
+    ("study.tolerances.budget.method=rk4", "study.tolerances.budget.method",
+     "must be an adaptive method"),
+    ("study.tolerances.budget.candidates=[dop853,rk4]",
+     "study.tolerances.budget.candidates[1]", "must be an adaptive method"),
+    ("study.tolerances.budget.loosest_rtol=1e-10", "study.tolerances.budget.loosest_rtol",
+     "must be >= rtol"),
+    ("study.tolerances.budget.sobol_fraction=2", "study.tolerances.budget.sobol_fraction",
+     "must lie in (0, 1]"),
     ("study.tilt_check.cycle_s=1e9", "study.tilt_check.cycle_s", "more than 2,000,000"),
     ("study.tilt_check.cycle_s=nan", "study.tilt_check.cycle_s", "must be a finite number"),
 ])

@@ -6,7 +6,6 @@ with exit status 2 and writes nothing."""
 
 from __future__ import annotations
 
-import os
 import re
 import subprocess
 import sys
@@ -16,6 +15,7 @@ from pathlib import Path
 from typing import Any
 
 import pytest
+from inproc import run_cli
 
 from creatio.errors import ConfigError
 from creatio.studies import registry
@@ -50,7 +50,7 @@ SIZES: dict[str, list[tuple[str, Any]]] = {
     "en05": [("study.sensitivity.base_sizes", [2**20]), ("study.sensitivity.resamples", 10**7),
              ("study.calibration.seeds", 10**6), ("study.calibration.spread_seeds", 10**6),
              ("study.camera.rate_hz", 1e9), ("study.calibration.cycle_s", 1e9),
-             ("study.design.cycles_s", [1e9])],
+             ("study.design.cycles_s", [1e9]), ("study.sensitivity.budget.points", 10**7)],
     "en06": [*((f"study.{g}.{n}", 10**7) for g in ("strain", "beyond", "fatigue")
                for n in ("n_alpha", "n_R", "n_t")),
              ("study.fatigue_check.samples_per_half_turn", 10**7),
@@ -85,7 +85,7 @@ NOT_SIZES = {
     "solver.max_rhs_evals": "the budget itself (it bounds a run's steps)",
     "phases.T": "a law's cycle length: the run's length is study.duration",
     "study.sensitivity.seed": "a seed",
-    "study.sensitivity.batch_size": "splits the design into jobs (0: about eight)",
+    "study.sensitivity.batch_size": "splits the design into jobs (0: about two)",
     "study.calibration.example_seed": "one of the seeds (below seeds)",
     "study.actuation.sample_interval": "a multiple of the base's dt (its rows <= steps)",
     "study.control.path_interval": "a multiple of the run's step (its rows <= the run's)",
@@ -100,6 +100,9 @@ NOT_SIZES = {
     "study.tolerances.sobol.seed": "a seed: no allocation",
     "study.tolerances.joint.seed": "a seed: no allocation",
     "study.tolerances.allocation.iterations": "bisections, bounded to [1, 60] by their own rule",
+    "study.tolerances.budget.points": "the accuracy check's subsample: at most the part's own runs",
+    "study.tolerances.budget.seed": "a seed: no allocation",
+    "study.tolerances.budget.max_tighten": "10x tightenings, bounded to [0, 6] by its own rule",
 }
 #: Studies whose config holds no list (nothing for test_every_list_is_bounded to walk).
 NO_LISTS: set[str] = set()
@@ -301,9 +304,8 @@ def test_a_sweep_hydra_cannot_read_says_what_is_wrong(text, words):
 
 
 def _creatio(*args: str, cwd: Path) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-m", "creatio.cli", *args], capture_output=True,
-                          text=True, cwd=cwd, env={**os.environ, "CREATIO_DEBUG": ""},
-                          timeout=300)
+    """The command in this process (inproc.py): its refusal is the test, not the process."""
+    return run_cli(*args, cwd=cwd)
 
 
 @pytest.mark.parametrize(("args", "words"), [

@@ -16,6 +16,7 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 import xarray as xr
+from inproc import run_cli
 
 from creatio.errors import ConfigError
 from creatio.pipeline.release import (
@@ -127,8 +128,8 @@ def test_an_empty_output_is_not_released(tmp_path):
 
 
 def creatio(*args: str, cwd: Path | None = None) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-m", "creatio.cli", *args], capture_output=True,
-                          text=True, cwd=cwd, env={**os.environ, "CREATIO_DEBUG": ""})
+    """The command in this process (inproc.py): what it says and returns is the test."""
+    return run_cli(*args, cwd=cwd)
 
 
 @pytest.mark.parametrize(("args", "code", "words"), [
@@ -167,7 +168,10 @@ def test_run_help_presents_creatio_and_only_the_groups_a_user_picks():
 
 
 def test_info_prints_once():
-    out = creatio("run", "--info", "defaults").stdout
+    """In a process of its own: Hydra's logging set-up is what printed it twice."""
+    out = subprocess.run([sys.executable, "-m", "creatio.cli", "run", "--info", "defaults"],
+                         capture_output=True, text=True,
+                         env={**os.environ, "CREATIO_DEBUG": ""}).stdout
     assert out.count("Defaults List") == 1, out
 
 
@@ -179,8 +183,7 @@ def test_info_prints_once():
     ("creatio probe geometry.K", {"geometry.Ka=", "geometry.Kr="}),
 ])
 def test_shell_completion_completes_commands_groups_and_keys(line, expected):
-    proc = subprocess.run([sys.executable, "-m", "creatio.cli", "-sc", "query=bash"],
-                          capture_output=True, text=True, env={**os.environ, "COMP_LINE": line})
+    proc = run_cli("-sc", "query=bash", env={"COMP_LINE": line})
     assert proc.returncode == 0, proc.stderr
     assert set(proc.stdout.split()) == expected
 

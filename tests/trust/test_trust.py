@@ -13,6 +13,7 @@ from pathlib import Path
 
 import pytest
 import yaml
+from inproc import run_cli
 
 REPO = Path(__file__).resolve().parents[2]
 
@@ -30,9 +31,9 @@ def snakemake(workdir: Path, *args: str, timeout: float = 900) -> subprocess.Com
 
 def creatio(*args: str, cwd: Path | None = None, env: dict[str, str] | None = None
             ) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-m", "creatio.cli", *args], capture_output=True,
-                          text=True, cwd=cwd,
-                          env={**os.environ, "CREATIO_DEBUG": "", **(env or {})})
+    """The command in this process (inproc.py): what it says, writes and returns is the
+    test; the tests about the process itself (Ctrl-C, a closed stderr) start their own."""
+    return run_cli(*args, cwd=cwd, env=env)
 
 
 def one_line(proc: subprocess.CompletedProcess, code: int, words: str) -> None:

@@ -9,7 +9,10 @@
 # The ishigami, calibration and experiment datasets are the study's registry parts (the
 # generic study_dataset rule); the sample's batches (en05_points) go to the point store
 # data/sweeps/en05/<sample>/ (points reused by config hash), its indices to en05_sobol.nc.
-# EN05 (creatio.pipeline.points.En05Runs) is planned with the invocation.
+# Under the sample's accuracy budget (study.sensitivity.budget) a pilot (en05_pilot) first
+# chooses the tolerance the batches run at (<sample>/rung.json), and en05_sobol checks it on
+# other points 100x tighter. EN05 (creatio.pipeline.points.En05Runs) is planned with the
+# invocation.
 from creatio.pipeline.calibrate import EXAMPLE_OVERRIDES, EXAMPLE_TRACK
 
 
@@ -27,9 +30,26 @@ rule en05:
         lambda wc: EN05.targets(),
 
 
-rule en05_points:
+rule en05_pilot:
     input:
         lambda wc: EN05.sample(wc.name).config_file,
+    output:
+        "data/sweeps/en05/{name}/rung.json",
+    params:
+        creatio=CREATIO,
+        code=code_version("datasets"),
+    threads: 1
+    conda:
+        "../envs/creatio.yaml"
+    log:
+        "data/sweeps/en05/{name}/logs/pilot.log",
+    shell:
+        "{params.creatio} task en05 pilot --config-file {input} --out {output} 2> {log}"
+
+
+rule en05_points:
+    input:
+        unpack(lambda wc: EN05.sample(wc.name).inputs),
     output:
         "data/sweeps/en05/{name}/batches/p{size}-{batch}.nc",
     wildcard_constraints:
@@ -44,8 +64,8 @@ rule en05_points:
     log:
         "data/sweeps/en05/{name}/logs/p{size}-{batch}.log",
     shell:
-        "{params.creatio} task en05 batch --config-file {input} --batch {wildcards.batch} "
-        "--batch-size {wildcards.size} --out {output} 2> {log}"
+        "{params.creatio} task en05 batch --config-file {input.config} "
+        "--batch {wildcards.batch} --batch-size {wildcards.size} --out {output} 2> {log}"
 
 
 rule en05_sobol:

@@ -24,7 +24,7 @@ Nothing here runs a simulation: a study passes in the histories of one.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Collection, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -35,6 +35,8 @@ from creatio.model.surface import Frame, Motion, Surface, Wave
 
 __all__ = [
     "INTEGRALS",
+    "NM_FTOL",
+    "POLISHED",
     "POWERS",
     "ActuationDemand",
     "Convergence",
@@ -357,6 +359,13 @@ def angular_law_bounds(surface: Surface, motion: Motion) -> dict[str, float]:
             "max_W_tt": A * float(np.sqrt(np.max(sq(c))))}
 
 
+#: The maxima of :class:`NormalExtrema` that :func:`normal_rate_maxima` can polish.
+POLISHED = ("stroke", "max_W_t", "max_W_tt")
+
+#: The Nelder-Mead polish's default stop: the simplex's values within this relative spread.
+NM_FTOL = 1e-15
+
+
 @dataclass(frozen=True)
 class NormalExtrema:
     """Numeric extrema of the normal motion W over the surface and a set of times.
@@ -374,11 +383,16 @@ class NormalExtrema:
 
 
 def normal_rate_maxima(surface: Surface, motion: Motion, t: ArrayLike, n_alpha: int,
-                       n_R: int, polish: bool = True) -> NormalExtrema:
+                       n_R: int, polish: bool | Collection[str] = True,
+                       ftol: float = NM_FTOL) -> NormalExtrema:
     """Stroke, max |W_t|, max |W_tt| over an (alpha, R) grid (n_alpha x n_R, both edges of
     [0, dR] included) and the times t, then each maximum polished by a local search in
-    (alpha, R, t) (Nelder-Mead from the best grid point; the stroke's search is in (alpha,
-    R) with the extremes over t taken on the samples). Independent of the closed forms."""
+    (alpha, R, t) (Nelder-Mead from the best grid point, stopping at relative spread ftol;
+    the stroke's search is in (alpha, R) with the extremes over t taken on the samples).
+    Independent of the closed forms. ``polish``: True (every maximum), False (none) or the
+    names of POLISHED to polish; a caller skips those it does not use (the searches are
+    independent, so the others are unchanged)."""
+    polished = _polished(polish)
     t = np.atleast_1d(np.asarray(t, float))
     alpha = 2.0 * math.pi * np.arange(n_alpha) / n_alpha
     R = np.linspace(0.0, surface.dR, n_R)
@@ -411,37 +425,51 @@ def normal_rate_maxima(surface: Surface, motion: Motion, t: ArrayLike, n_alpha: 
     max_wt = float(best_wt[wi])
     worst = (float(alpha[wi[0]]), float(R[wi[1]]))
     max_wtt = best_tt[0]
-    if polish:
-        t0, t1 = float(t[0]), float(t[-1])
+    t0, t1 = float(t[0]), float(t[-1])
 
-        def at(x: Sequence[float], name: str) -> float:
-            a_, r_, s_ = x
-            if not (0.0 <= r_ <= surface.dR and t0 <= s_ <= t1):
-                return 0.0
-            return float(abs(getattr(Wave(surface, motion, a_, r_, s_), name)))
+    def at(x: Sequence[float], name: str) -> float:
+        a_, r_, s_ = x
+        if not (0.0 <= r_ <= surface.dR and t0 <= s_ <= t1):
+            return 0.0
+        return float(abs(getattr(Wave(surface, motion, a_, r_, s_), name)))
 
+    def span(x: Sequence[float]) -> float:
+        a_, r_ = x
+        if not 0.0 <= r_ <= surface.dR:
+            return 0.0
+        w = Wave(surface, motion, a_, r_, t).W
+        return float(w.max() - w.min())
+
+    if "max_W_t" in polished:
         x, max_wt = _nelder_mead(lambda x: at(x, "W_t"),
-                                 [worst[0], worst[1], float(best_t[wi])], max_wt)
+                                 [worst[0], worst[1], float(best_t[wi])], max_wt, ftol)
         worst = (float(x[0]), float(x[1]))
+    if "max_W_tt" in polished:
         _, max_wtt = _nelder_mead(lambda x: at(x, "W_tt"),
-                                  [best_tt[2], best_tt[3], best_tt[1]], max_wtt)
-
-        def span(x: Sequence[float]) -> float:
-            a_, r_ = x
-            if not 0.0 <= r_ <= surface.dR:
-                return 0.0
-            w = Wave(surface, motion, a_, r_, t).W
-            return float(w.max() - w.min())
-
-        x, stroke = _nelder_mead(span, list(stroke_point), stroke)
+                                  [best_tt[2], best_tt[3], best_tt[1]], max_wtt, ftol)
+    if "stroke" in polished:
+        x, stroke = _nelder_mead(span, list(stroke_point), stroke, ftol)
         stroke_point = (float(x[0]), float(x[1]))
     return NormalExtrema(stroke, stroke_point, max_wt, max_wtt, worst)
 
 
-def _nelder_mead(fun: Callable[[Sequence[float]], float], x0: list[float], f0: float
-                 ) -> tuple[list[float], float]:
-    """Maximise fun from x0 (a plain Nelder-Mead, relative steps 1e-2): the better of the
-    search's result and the start."""
+def _polished(polish: bool | Collection[str]) -> frozenset[str]:
+    """The maxima of NormalExtrema that ``polish`` asks to polish (True: all, False: none)."""
+    if polish is True or polish is False:
+        return frozenset(POLISHED) if polish else frozenset()
+    names = frozenset(polish)
+    unknown = sorted(names - set(POLISHED))
+    if unknown:
+        raise ValueError(f"polish names {unknown} are not maxima of NormalExtrema; known: "
+                         f"{', '.join(POLISHED)}")
+    return names
+
+
+def _nelder_mead(fun: Callable[[Sequence[float]], float], x0: list[float], f0: float,
+                 ftol: float = NM_FTOL) -> tuple[list[float], float]:
+    """Maximise fun from x0 (a plain Nelder-Mead, relative steps 1e-2, stopping when the
+    simplex's values spread by at most ftol relative): the better of the search's result
+    and the start."""
     n = len(x0)
     pts = [np.array(x0, float)]
     for i in range(n):
@@ -453,7 +481,7 @@ def _nelder_mead(fun: Callable[[Sequence[float]], float], x0: list[float], f0: f
         order = np.argsort(vals)
         pts = [pts[i] for i in order]
         vals = [vals[i] for i in order]
-        if abs(vals[-1] - vals[0]) <= 1e-15 * max(1.0, abs(vals[0])):
+        if abs(vals[-1] - vals[0]) <= ftol * max(1.0, abs(vals[0])):
             break
         centre = np.mean(pts[:-1], axis=0)
         xr = centre + (centre - pts[-1])
@@ -606,7 +634,8 @@ def actuation_demand(surface: Surface, motion: Motion, t: ArrayLike, P_surface: 
                      grid: ArrayLike | None = None, sample_interval: float | None = None,
                      span: tuple[float, float] | None = None,
                      extrema: tuple[int, int] = (48, 33), energy_fraction: float = 0.99,
-                     polish: bool = True, xtol: float = 1e-13) -> ActuationDemand:
+                     polish: bool | Collection[str] = True, xtol: float = 1e-13,
+                     ftol: float = NM_FTOL) -> ActuationDemand:
     """What the actuators deliver along one run whose surface moves by ``motion`` (its laws,
     or a controlled phase by :func:`sampled_motion`), from the load power P_surface the run
     put into the sphere at its sample times t (:func:`load_power`).
@@ -615,10 +644,10 @@ def actuation_demand(surface: Surface, motion: Motion, t: ArrayLike, P_surface: 
     + P_damping, the largest K_m refined between samples (:func:`refine_maximum` to ``xtol``
     s: a sampled phase is itself known to far less than the default); the normal
     motion's numeric extrema on ``grid`` (default t; ``extrema`` is the (alpha, R) start
-    grid, ``polish`` the local search of :func:`normal_rate_maxima`), the closed-form maxima
-    of |W_t| and |W_tt| and the largest local frequency over ``span`` (default the grid's
-    ends) by :func:`time_maximum`, and the energy frequency of W_t at the worst point on the
-    grid, spaced ``sample_interval`` (default the grid's mean step).
+    grid, ``polish`` and ``ftol`` the local search of :func:`normal_rate_maxima`), the
+    closed-form maxima of |W_t| and |W_tt| and the largest local frequency over ``span``
+    (default the grid's ends) by :func:`time_maximum`, and the energy frequency of W_t at
+    the worst point on the grid, spaced ``sample_interval`` (default the grid's mean step).
     """
     t = np.atleast_1d(np.asarray(t, float))
     P_s = np.asarray(P_surface, float)
@@ -635,7 +664,7 @@ def actuation_demand(surface: Surface, motion: Motion, t: ArrayLike, P_surface: 
 
     t_K, K_max = (refine_maximum(K_quad, t, mi.kinetic, xtol) if t.size
                   else (math.nan, math.nan))
-    ex = normal_rate_maxima(surface, motion, grid_t, extrema[0], extrema[1], polish)
+    ex = normal_rate_maxima(surface, motion, grid_t, extrema[0], extrema[1], polish, ftol)
     _, wt_cf = time_maximum(lambda x: normal_rate_bounds(surface, motion, x)[0], t0, t1)
     _, wtt_cf = time_maximum(lambda x: normal_rate_bounds(surface, motion, x)[1], t0, t1)
     W_t_worst = Wave(surface, motion, ex.worst[0], ex.worst[1], grid_t).W_t

@@ -14,7 +14,11 @@ written; so is a track whose points lie outside the membrane's annulus (R0 .. R0
 or take the sphere's radius), with the unit its numbers look like. The fit stays within each
 key's physical range (conf/uncertainty/<study>.yaml): a key whose best fit lies beyond it is
 held at the bound (not identifiable when its whole interval lies beyond), and a key not
-identifiable comes with what would pin it (EN-05's design of the experiment). Output
+identifiable comes with what would pin it (EN-05's design of the experiment). The fit
+searches on a cheap model (radau5 at the loosest tolerance whose error is within 1e-2 of the
+noise, with one Jacobian reused), then polishes on the study's own solver; the model error,
+checked at the estimate 100x tighter, is recorded ("numerical error <= X (budget Y, checked on
+N points)"). Output
 (default ``data/calibration/<track name>-<hash>/``): ``calibration.nc``, ``.json`` (the
 record `creatio ls` lists), ``.md`` and ``.png`` (creatio.reports.calibration).
 """
@@ -201,7 +205,7 @@ def bounded_fit(cfg: Any, track: Any, keys: Sequence[str], start: Sequence[float
     held: dict[str, float] = {}
     beyond: dict[str, tuple[float, float]] = {}
     kept: dict[str, tuple[np.ndarray, str | None]] = {}
-    evaluations = first.evaluations
+    evaluations, rhs = first.evaluations, first.rhs_evals
     while True:
         out = [j for j, (k, x) in enumerate(zip(fit.keys, fit.estimate, strict=True))
                if k in ranges and not ranges[k][0] <= x <= ranges[k][1]]
@@ -222,8 +226,10 @@ def bounded_fit(cfg: Any, track: Any, keys: Sequence[str], start: Sequence[float
             break
         guess = [min(max(float(x), ranges[k][0]), ranges[k][1]) if k in ranges else float(x)
                  for k, x in zip(fit.keys, fit.estimate, strict=True) if k in free]
-        fit = fit_track(fixed, track, free, guess, ranges)
+        fit = fit_track(fixed, track, free, guess, ranges,
+                        rung=first.verification.rung if first.verification else None)
         evaluations += fit.evaluations
+        rhs += fit.rhs_evals
     if not held:
         return first, {}
     p = len(keys)
@@ -262,7 +268,9 @@ def bounded_fit(cfg: Any, track: Any, keys: Sequence[str], start: Sequence[float
         s2, condition, message = float(np.sum(r * r) / dof), math.nan, "every key held"
     return Fit(keys, first.start, estimate, stderr, ival, corr, r, M,
                float(np.sqrt(np.mean(r * r))), s2, dof, condition, status, carried,
-               evaluations, message, {k: flags[k] for k in keys if k in flags}), beyond
+               evaluations, message, {k: flags[k] for k in keys if k in flags},
+               fit.verification if fit is not None and fit.verification else first.verification,
+               rhs), beyond
 
 
 def design_pointer(report: Path = EN05_REPORT) -> str:
@@ -370,6 +378,8 @@ def calibrate(args: Sequence[str]) -> dict[str, Path]:
     for j, k in enumerate(fit.keys):
         held = " (held at the bound of its physical range)" if k in beyond else ""
         log.info("%s = %.4g%s%s", k, fit.estimate[j], _unit_suffix(k), held)
+    if fit.verification:
+        log.info("model: %s", fit.verification.describe())
     for k, why in fit.flags.items():
         log.warning("%s: %s", k, why)
     if fit.flags:
@@ -438,7 +448,9 @@ def _dataset(resolved: Resolved, track: Any, fit: Any, noise: float, source: str
                 "noise_m": noise, "residual_rms_m": fit.residual_rms_m,
                 "s2": fit.s2, "dof": fit.dof, "condition": fit.condition,
                 "status": fit.status, "carried": int(fit.carried),
-                "evaluations": fit.evaluations, "optimizer": fit.optimizer,
+                "evaluations": fit.evaluations, "rhs_evals": fit.rhs_evals,
+                "optimizer": fit.optimizer,
+                **(fit.verification.attrs() if fit.verification else {}),
                 "flags": "\n".join(f"{k}: {v}" for k, v in fit.flags.items())}
     return ds
 

@@ -15,6 +15,22 @@ EN-05's sample (:func:`en05_sample`): the Sobol' design of the largest base size
 inputs of ``uncertainty``, run on EN-02 as bases.en02 with study.sensitivity.overrides on
 top. Planning it needs no design (N (d + 2) points); a batch job computes the design
 (SALib, seeded: the same on every machine) and runs its slice.
+
+Its accuracy budget (study.sensitivity.budget; creatio.studies.budget): numerical error <=
+fraction x each output's standard deviation over the sample. A pilot job (:func:`pilot`)
+runs a seeded subsample at a ladder of tolerances, from budget.loosest_rtol down to the
+overrides' own, against 100x tighter than the latter, and writes the loosest rung that
+meets the budget to ``rung.json`` in the point store; every batch job runs its points with
+that rung's overrides on top. The step that writes ``en05_sobol.nc`` reruns another seeded
+subsample 100x tighter than the rung (creatio.studies.budget.verify) and records the
+:class:`~creatio.studies.budget.Verification` in the dataset's attributes; a broken budget
+tightens the rung 10x and reruns every point in that step's process (the rare path, said in
+its log). An output whose spread over the sample is within the overrides' own relative
+tolerance of its size (the final radius: 3e-10 of its 1.11 m), or whose budget even the
+overrides' own tolerance misses, has no budget any rung could meet: it is named
+``unresolved`` beside the check (its indices are numerical noise), never silently dropped.
+budget: null runs every point at the overrides' own tolerances, unchecked (the sample as
+before budgets, under the same name).
 """
 
 from __future__ import annotations
@@ -24,25 +40,47 @@ import json
 import logging
 import math
 import sys
-from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any
 
 from creatio.errors import ConfigError
 from creatio.pipeline.config import Resolved, compose, resolve
 from creatio.pipeline.planning import one_line_errors
-from creatio.pipeline.sweep import MAX_BATCH, TARGET_BATCHES, SweepPlan, _interpolations, run_batch
+from creatio.pipeline.sweep import (
+    SweepPlan,
+    _base,
+    _interpolations,
+    point_changes,
+    run_batch,
+)
 from creatio.store.regular import check_regular, read_text
 from creatio.studies import registry
+from creatio.studies.budget import Rung, Verification
+from creatio.studies.en05_schema import ACCURACY_PREFIX, BudgetConfig
 
-__all__ = ["En05Runs", "En05Sample", "PointPlan", "collect", "en05_sample", "main",
-           "sobol_dataset"]
+__all__ = ["En05Runs", "En05Sample", "PointPlan", "accuracy", "collect", "en05_sample", "main",
+           "pilot", "sobol_dataset", "unresolved"]
 
 log = logging.getLogger("creatio")
 
 #: Where EN-05's points live (a point store: their rows carry EN-05's outputs).
 EN05_STORE = "en05"
+#: EN-05's default batching (study.sensitivity.batch_size 0): about this many batch jobs,
+#: of at most EN05_MAX_BATCH points. A job costs about 3 s before its first point (a fresh
+#: interpreter's imports, the compiled loops, the config's checks, the design, the base
+#: composed) and a point about 10 ms at the budget's tolerance: few large jobs, one per
+#: core for `-c 2` (the study's other parts fill the cores meanwhile).
+EN05_BATCHES = 2
+EN05_MAX_BATCH = 4096
+#: The pilot estimates each output's spread on SPREAD x budget.points points at the
+#: loosest rung (cheap), its errors on budget.points.
+SPREAD = 8
+#: The pilot's choice, in the sample's point store: the batch jobs' input.
+RUNG_FILE = "rung.json"
+#: How many 10x tightenings a broken budget may take before the dataset says it is broken.
+MAX_TIGHTEN = 3
 
 
 @dataclass(frozen=True)
@@ -77,6 +115,29 @@ class PointPlan(SweepPlan):
 
             row.update(getattr(importlib.import_module(module), name)(ds, obj))
         return row
+
+    def typed_axes(self) -> tuple[tuple[str, tuple[Any, ...]], ...]:
+        """Values written as Python writes a float (a design's: ``0.05``, ``1e-05``) are
+        that float, as Hydra reads them; any other is parsed by Hydra's grammar. A design of
+        4,096 points x 6 inputs took 5.8 s of Hydra parsing per batch job."""
+        from hydra.core.override_parser.overrides_parser import OverridesParser
+
+        parser = None
+        out = []
+        for key, vals in self.axes:
+            typed: list[Any] = []
+            for v in vals:
+                try:
+                    x: float | None = float(v)
+                except ValueError:
+                    x = None
+                if x is not None and repr(x) == v:
+                    typed.append(x)
+                    continue
+                parser = parser or OverridesParser.create()
+                typed.append(parser.parse_override(f"{key}={v}").value())
+            out.append((key, tuple(typed)))
+        return tuple(out)
 
     def batch_file(self, k: int) -> str:
         """Path of batch k's rows (p: listed points)."""
@@ -146,10 +207,22 @@ def base_overrides(resolved: Resolved) -> list[str]:
     return [*diff, *resolved.obj.study.sensitivity.overrides]
 
 
+def merged_overrides(*groups: Sequence[str]) -> list[str]:
+    """Hydra overrides in order, an earlier one of the same key dropped (a rung's
+    ``solver.rtol`` replaces the base's): the list a plan composes and records."""
+    keyed: dict[str, str] = {}
+    for text in (t for group in groups for t in group):
+        key = text.partition("=")[0].lstrip("+~")
+        keyed.pop(key, None)
+        keyed[key] = text
+    return list(keyed.values())
+
+
 @dataclass(frozen=True)
 class En05Sample:
     """EN-05's Sobol' sample as the workflow plans it: its point store, size and batches
-    (no design needed), and the config that rebuilds its :class:`PointPlan`."""
+    (no design needed), the config that rebuilds its :class:`PointPlan`, and its accuracy
+    budget (None: none)."""
 
     resolved: Resolved
     name: str
@@ -157,6 +230,7 @@ class En05Sample:
     n_points: int
     batch_size: int
     base: tuple[str, ...]
+    budget: BudgetConfig | None = None
 
     @property
     def n_batches(self) -> int:
@@ -169,8 +243,31 @@ class En05Sample:
         return [f"{self.outdir}/batches/p{self.batch_size}-{k:05d}.nc"
                 for k in range(self.n_batches)]
 
-    def plan(self) -> PointPlan:
-        """The full plan: the design (SALib) as the axes' values."""
+    @property
+    def rung_file(self) -> str | None:
+        """The pilot's choice, which every batch job reads (None: no budget)."""
+        return None if self.budget is None else f"{self.outdir}/{RUNG_FILE}"
+
+    def pilot_record(self) -> dict[str, Any]:
+        """The pilot's record (:func:`pilot`); refused in one line when it has not run."""
+        path = Path(str(self.rung_file))
+        if not path.is_file():
+            raise ConfigError("study.sensitivity.budget", "on", f"the sample's runs need the "
+                              f"pilot's choice {path} first (creatio task en05 pilot; "
+                              "snakemake en05 runs it)")
+        return json.loads(read_text(path))
+
+    def rung(self) -> Rung | None:
+        """The rung the pilot chose (None: no budget, the overrides' own tolerances)."""
+        if self.budget is None:
+            return None
+        r = self.pilot_record()["rung"]
+        return Rung(str(r["method"]), float(r["rtol"]), float(r["atol"]))
+
+    def plan(self, rung: Rung | None = None, outdir: str | None = None) -> PointPlan:
+        """The full plan: the design (SALib) as the axes' values, run at rung (its
+        overrides on top of the base's; None: the base's own), in outdir (default the
+        sample's point store)."""
         from creatio.studies.en05 import sobol_design, to_inputs
 
         cfg = self.resolved.obj
@@ -179,49 +276,271 @@ class En05Sample:
                       sobol_design(unc.names, max(sens.base_sizes), sens.seed))
         axes = tuple((d.key, tuple(repr(float(x)) for x in X[:, j]))
                      for j, d in enumerate(unc.distributions))
-        return PointPlan(unc.study, axes, self.base, self.name, self.outdir, self.batch_size,
-                         figures="creatio.studies.en05:point_outputs")
+        base = tuple(merged_overrides(self.base, rung.overrides() if rung else ()))
+        return PointPlan(unc.study, axes, base, self.name, outdir or self.outdir,
+                         self.batch_size, figures="creatio.studies.en05:point_outputs")
 
 
 def en05_sample(resolved: Resolved, data_dir: str = "data") -> En05Sample:
     """Plan EN-05's sample: N_max (d + 2) points of EN-02, named by what defines them (the
-    base overrides, the inputs, N_max and the seed)."""
+    base overrides, the inputs, N_max, the seed and the accuracy budget)."""
     cfg = resolved.obj
     sens, unc = cfg.study.sensitivity, cfg.uncertainty
     n = max(sens.base_sizes) * (len(unc.inputs) + 2)
     base = tuple(base_overrides(resolved))
-    spec = json.dumps({"study": unc.study, "base": list(base),
-                       "inputs": resolved.data["uncertainty"]["inputs"],
-                       "N": max(sens.base_sizes), "seed": sens.seed}, sort_keys=True)
-    name = f"{unc.study}-{hashlib.sha256(spec.encode()).hexdigest()[:12]}"
-    size = sens.batch_size or min(MAX_BATCH, max(1, math.ceil(n / TARGET_BATCHES)))
-    return En05Sample(resolved, name, f"{data_dir}/sweeps/{EN05_STORE}/{name}", n, size, base)
+    spec: dict[str, Any] = {"study": unc.study, "base": list(base),
+                            "inputs": resolved.data["uncertainty"]["inputs"],
+                            "N": max(sens.base_sizes), "seed": sens.seed}
+    if sens.budget is not None:  # none: the name of the sample before budgets
+        spec["budget"] = resolved.data["study"]["sensitivity"]["budget"]
+    text = json.dumps(spec, sort_keys=True)
+    name = f"{unc.study}-{hashlib.sha256(text.encode()).hexdigest()[:12]}"
+    size = sens.batch_size or min(EN05_MAX_BATCH, max(1, math.ceil(n / EN05_BATCHES)))
+    return En05Sample(resolved, name, f"{data_dir}/sweeps/{EN05_STORE}/{name}", n, size, base,
+                      sens.budget)
+
+
+# ------------------------------------------------------------------------ the budget
+class _Runs:
+    """Listed points of a sample run in this process at any rung (the pilot's and the
+    check's): the base composed once, each (rung, points) computed once."""
+
+    def __init__(self, sample: En05Sample) -> None:
+        from creatio.studies.en05 import OUTPUTS
+
+        self.plan = sample.plan()
+        self.base = _base(self.plan)
+        self.entry = registry.get(self.plan.study)
+        self.names = list(OUTPUTS)
+        s = self.base.obj.solver
+        self.configured = Rung(str(getattr(s.method, "value", s.method)), float(s.rtol),
+                               float(s.atol))
+        self.adaptive = bool(s.adaptive)
+        self.done: dict[tuple[Rung, tuple[int, ...]], dict[str, Any]] = {}
+
+    def __call__(self, rung: Rung, idx: Any) -> dict[str, Any]:
+        """The outputs of points idx at rung (NaN where a point is refused or fails)."""
+        import numpy as np
+
+        key = (rung, tuple(int(i) for i in idx))
+        if key not in self.done:
+            cols = {name: np.full(len(key[1]), np.nan) for name in self.names}
+            for i, index in enumerate(key[1]):
+                row = self._row(rung, index)
+                for name in self.names:
+                    cols[name][i] = float(row.get(name, math.nan))
+            self.done[key] = cols
+        return self.done[key]
+
+    def _row(self, rung: Rung, index: int) -> dict[str, Any]:
+        from creatio.errors import interrupted
+        from creatio.studies.schema import vary
+
+        changes = {**point_changes(self.plan, self.base, index), **rung.changes()}
+        try:
+            return self.plan.row(self.entry, vary(self.base.obj, changes))
+        except Exception as e:  # noqa: BLE001 - a refused or failed point has no outputs
+            if interrupted(e):
+                raise KeyboardInterrupt from e
+            log.info("en05: point %d at %s: %s", index, rung.label(), str(e).splitlines()[0]
+                     if str(e) else type(e).__name__)
+            return {}
+
+
+def unresolved(configured: Mapping[str, Any], tight: Mapping[str, Any],
+               spread: Mapping[str, Any], budget: Mapping[str, float], rtol: float
+               ) -> dict[str, str]:
+    """The outputs no rung resolves (name -> why): a spread over the points of ``spread``
+    within rtol (the configured tolerance) of the output's size, or a budget that even the
+    configured tolerance misses (``configured`` against ``tight``). Their spread is at the
+    level of the runs' own numerical error (the final radius: 3e-10 of its 1.11 m), so no
+    rung of the ladder could meet a fraction of it and their indices are numerical noise:
+    left out of the choice and of the check's verdict, and named beside it."""
+    import numpy as np
+
+    from creatio.studies.budget import errors
+
+    err = errors(configured, tight, list(budget))
+    out = {}
+    for k, b in budget.items():
+        v = np.asarray(spread[k], dtype=float)
+        v = v[np.isfinite(v)]
+        if b <= 0.0 or v.size == 0:
+            continue
+        sd, size = float(np.std(v)), float(np.max(np.abs(v)))
+        if sd <= rtol * size:
+            out[k] = (f"its spread {sd:.2g} is within the configured rtol {rtol:.2g} of its "
+                      f"size {size:.3g}: numerically constant, its indices are noise")
+        elif err[k] > b:
+            out[k] = (f"the configured tolerance's own error {err[k]:.2g} exceeds its budget "
+                      f"{b:.2g}: its spread is numerical noise")
+    return out
+
+
+def pilot(sample: En05Sample, out: str | Path | None = None) -> Path:
+    """Choose the sample's rung (creatio.studies.budget.choose): the loosest of the ladder
+    from budget.loosest_rtol down to the configured tolerance whose error on budget.points
+    seeded points (seed: study.sensitivity.seed) is within the budget's safety margin,
+    against 100x tighter than the configured; written as JSON for the batch jobs."""
+    import numpy as np
+
+    from creatio.store.atomic import atomic_write
+    from creatio.studies.budget import SAFETY, choose, errors, ladder, sobol_budget, subsample
+
+    b = sample.budget
+    if b is None:
+        raise ConfigError("study.sensitivity.budget", None, "is off: the sample has no pilot")
+    runs = _Runs(sample)
+    ref = runs.configured
+    if not runs.adaptive:
+        raise ConfigError("study.sensitivity.budget", "on", f"needs an adaptive solver in "
+                          f"study.sensitivity.overrides ({ref.method} takes fixed steps): "
+                          "set study.sensitivity.budget=null")
+    seed = sample.resolved.obj.study.sensitivity.seed
+    rungs = ladder(ref, b.loosest_rtol)
+    idx = subsample(sample.n_points, b.points, seed)
+    # the spread: SPREAD x as many points at the loosest rung (an error of a few 1e-3 of it
+    # moves a standard deviation by less), since 16 points underestimate a heavy tail's
+    spread = runs(rungs[0], subsample(sample.n_points, SPREAD * b.points, seed + 2))
+    full = sobol_budget(spread, b.fraction)
+    tight = runs(rungs[-1].tighter(), idx)
+    noise = unresolved(runs(ref, idx), tight, spread, full, ref.rtol)
+    budget = {k: v for k, v in full.items() if k not in noise}
+    chosen = choose(runs, rungs, idx, lambda Y: budget)
+    tried = []
+    for rung in rungs:
+        if (rung, tuple(int(i) for i in idx)) not in runs.done:
+            continue
+        err = errors(runs(rung, idx), tight, list(full))
+        ratio = {k: err[k] / v for k, v in budget.items() if v > 0.0}
+        worst = max(ratio, key=ratio.__getitem__) if ratio else ""
+        tried.append({"rung": asdict(rung), "worst_output": worst,
+                      "worst_error_over_budget": ratio.get(worst, 0.0),
+                      "error": err})
+        log.info("en05 pilot: %s: %s", rung.label(), f"worst {worst}: error "
+                 f"{ratio[worst]:.3g} x its budget" if worst else "no budgeted output")
+    for k, why in noise.items():
+        log.info("en05 pilot: %s unresolved: %s", k, why)
+    record = {"rung": asdict(chosen), "configured": asdict(ref),
+              "reference": asdict(rungs[-1].tighter()), "fraction": b.fraction,
+              "safety": SAFETY, "seed": seed, "points": [int(i) for i in idx],
+              "budget": full, "unresolved": noise, "tried": tried,
+              "sample": sample.name, "overrides": chosen.overrides()}
+    target = Path(out) if out is not None else Path(str(sample.rung_file))
+    with atomic_write(target) as fh:
+        fh.write(json.dumps(record, indent=1, sort_keys=True, allow_nan=False) + "\n")
+    log.info("en05 pilot: %s on %d points (configured %s) -> %s", chosen.label(),
+             int(np.size(idx)), ref.label(), target)
+    return target
+
+
+def _stale(plan: PointPlan, k: int) -> bool:
+    """Whether batch k is absent or was computed with other base overrides (another rung)."""
+    path = Path(plan.batch_file(k))
+    if not path.is_file():
+        return True
+    import xarray as xr
+
+    check_regular(path)
+    with xr.open_dataset(path, engine="netcdf4") as ds:
+        base = json.loads(str(ds.attrs.get("config_yaml", "{}"))).get("base")
+    return base != list(plan.base)
+
+
+def _checked(sample: En05Sample, plan: PointPlan, rows: dict[str, Any]
+             ) -> tuple[dict[str, Any], Verification, dict[str, Any], PointPlan]:
+    """Verify the sample's rows 100x tighter on a seeded subsample (seed + 1: not the
+    pilot's) against each output's budget over the whole sample, the pilot's unresolved
+    outputs apart (with their observed error, when the check does not find them within
+    their budget after all); a broken budget tightens the rung 10x and reruns every point
+    here, at most MAX_TIGHTEN times (then the Verification says so)."""
+    from dataclasses import replace
+
+    from creatio.studies.budget import sobol_budget, verify
+    from creatio.studies.en05 import OUTPUTS
+
+    b = sample.budget
+    assert b is not None
+    record = sample.pilot_record()
+    rung = sample.rung()
+    assert rung is not None
+    runs = _Runs(sample)
+    seed = sample.resolved.obj.study.sensitivity.seed + 1
+    tightened = 0
+    while True:
+        outputs = {k: rows[k] for k in OUTPUTS}
+        full = verify(runs, outputs, rung, sobol_budget(outputs, b.fraction), seed, b.points)
+        noise = {k: {"why": why, "observed": full.observed[k], "budget": full.budget[k]}
+                 for k, why in record["unresolved"].items()
+                 if k in full.budget and full.observed[k] > full.budget[k]}
+        check = replace(full, budget={k: v for k, v in full.budget.items() if k not in noise},
+                        observed={k: v for k, v in full.observed.items() if k not in noise},
+                        tightened=tightened)
+        log.info("en05 check: %s", check.describe())
+        for k, v in noise.items():
+            log.info("en05 check: %s unresolved (error %.2g, a budget of %.2g): %s", k,
+                     v["observed"], v["budget"], v["why"])
+        if check.ok or tightened >= MAX_TIGHTEN:
+            return rows, check, noise, plan
+        rung = rung.tighter(10.0)
+        tightened += 1
+        plan = sample.plan(rung, f"{sample.outdir}-rtol{rung.rtol:g}")
+        log.warning("en05: the budget is broken on the check (%s): every point rerun at "
+                    "%s in this process, into %s", check.line(), rung.label(), plan.outdir)
+        for k in range(plan.n_batches):
+            if _stale(plan, k):
+                run_batch(plan, k)
+        rows = collect(plan, list(OUTPUTS))
 
 
 def sobol_dataset(resolved: Resolved, sample: En05Sample | None = None,
                   compute_missing: bool = False) -> Any:
-    """EN-05's Sobol' dataset from the sample's batch files (computing absent ones first in
-    this process with compute_missing), with the provenance of the EN-05 config."""
+    """EN-05's Sobol' dataset from the sample's batch files (computing the pilot and absent
+    or stale batches first in this process with compute_missing), checked against its
+    accuracy budget, with the provenance of the EN-05 config."""
     from creatio.pipeline.provenance import provenance
     from creatio.studies import en05
 
     sample = sample or en05_sample(resolved)
-    plan = sample.plan()
-    if compute_missing:
-        for k in range(plan.n_batches):
-            if not Path(plan.batch_file(k)).is_file():
-                run_batch(plan, k)
+    if sample.budget is not None and compute_missing and not Path(
+            str(sample.rung_file)).is_file():
+        pilot(sample)
+    plan = sample.plan(sample.rung())
+    for k in range(plan.n_batches):
+        if _stale(plan, k):
+            if not compute_missing:
+                raise ConfigError("batch", plan.batch_file(k), "is absent or was computed at "
+                                  f"other settings than {' '.join(plan.base)}: rerun its job")
+            run_batch(plan, k)
     rows = collect(plan, list(en05.OUTPUTS))
+    check, noise = None, {}
+    if sample.budget is not None:
+        rows, check, noise, plan = _checked(sample, plan, rows)
     ds = en05.sobol_dataset(resolved.obj, rows)
     ds.attrs["point_store"] = plan.outdir
     ds.attrs["sample_base_overrides"] = " ".join(plan.base)
+    if check is not None:
+        ds.attrs.update(check.attrs(ACCURACY_PREFIX))
+        ds.attrs[f"{ACCURACY_PREFIX}fraction"] = sample.budget.fraction
+        ds.attrs[f"{ACCURACY_PREFIX}unresolved"] = json.dumps(noise, sort_keys=True)
+        ds.attrs[f"{ACCURACY_PREFIX}describe"] = check.describe()
     title = "EN-05 Sobol' indices of EN-02's outputs"
     ds.attrs = {**provenance(resolved.id, resolved.yaml, resolved.sha256, title), **ds.attrs}
     return ds
 
 
+def accuracy(attrs: Mapping[str, Any]) -> tuple[Verification, dict[str, Any]] | None:
+    """The check recorded in a Sobol' dataset's attributes and its unresolved outputs (None:
+    a sample without a budget)."""
+    if f"{ACCURACY_PREFIX}outputs" not in attrs:
+        return None
+    unresolved = json.loads(str(attrs.get(f"{ACCURACY_PREFIX}unresolved", "{}")))
+    return Verification.from_attrs(attrs, ACCURACY_PREFIX), unresolved
+
+
 def run_study_sample(resolved: Resolved, root: Path) -> list[Path]:
-    """`creatio run study=en05`: the sample's batches in this process, then its dataset."""
+    """`creatio run study=en05`: the sample's pilot and batches in this process, then its
+    dataset."""
     from creatio.store.netcdf import write_dataset
 
     out = Path(resolved.entry.dataset_dir(str(root))) / "en05_sobol.nc"
@@ -254,8 +573,12 @@ class En05Runs:
             for p in self.runs.plans.values():
                 s = en05_sample(p.resolved, self.data_dir)
                 self._samples.setdefault(p.root, (s.name, s))
+                budget = ("no accuracy budget" if s.budget is None else
+                          f"numerical error <= {s.budget.fraction:g} sd, pilot of "
+                          f"{s.budget.points} points first")
                 print(f"creatio: en05 sample {s.name}: {s.n_points} points in {s.n_batches} "
-                      f"batch(es) of {s.batch_size} -> {s.outdir}", file=sys.stderr)
+                      f"batch(es) of {s.batch_size} ({budget}) -> {s.outdir}",
+                      file=sys.stderr)
         return self._samples
 
     @one_line_errors
@@ -278,18 +601,28 @@ class En05Runs:
 
     @one_line_errors
     def batches(self, root: str) -> list[str]:
-        """The batch files of the sample of the config under root."""
+        """The batch files of the sample of the config under root, and the pilot's choice
+        they were run at (with a budget)."""
         samples = self._plan()
         if root not in samples:
             raise ConfigError("output", f"{root}/studies/en05/en05_sobol.nc",
                               "no EN-05 configuration of this invocation writes there")
-        return samples[root][1].batches
+        sample = samples[root][1]
+        return [*sample.batches, *([sample.rung_file] if sample.rung_file else [])]
 
 
 @dataclass(frozen=True)
 class _SampleJob:
+    """A sample's job inputs: the config file, and the pilot's choice with a budget."""
+
     sample: En05Sample
     config_file: str
+
+    @property
+    def inputs(self) -> dict[str, str]:
+        """The named inputs of a batch job (``config``, and ``rung`` with a budget)."""
+        rung = self.sample.rung_file
+        return {"config": self.config_file, **({"rung": rung} if rung else {})}
 
 
 # ------------------------------------------------------------------------------- tasks
@@ -305,15 +638,19 @@ def _config(path: Path) -> Resolved:
 
 
 def main(argv: Sequence[str], say: Callable[[str], None] | None = None) -> int:
-    """`creatio task en05 batch|sobol|track ...`: one step of EN-05 as its rules call it."""
+    """`creatio task en05 pilot|batch|sobol|track ...`: one step of EN-05 as its rules call
+    it."""
     from creatio.errors import Parser
 
     ap = Parser(prog="creatio task en05", description="One step of EN-05.")
     sub = ap.add_subparsers(dest="step", required=True)
+    r = sub.add_parser("pilot", help="choose the tolerance of the Sobol' sample's runs under "
+                       "its accuracy budget")
     b = sub.add_parser("batch", help="compute one batch of the Sobol' sample's points")
-    s = sub.add_parser("sobol", help="the Sobol' dataset from the sample's batches")
+    s = sub.add_parser("sobol", help="the Sobol' dataset from the sample's batches, checked "
+                       "against its accuracy budget")
     t = sub.add_parser("track", help="write the synthetic example track (CSV)")
-    for p in (b, s, t):
+    for p in (r, b, s, t):
         p.add_argument("--config-file", type=Path, default=None,
                        help="EN-05's resolved config (default: conf/ with --override)")
         p.add_argument("--override", action="append", default=[], metavar="KEY=VALUE")
@@ -334,14 +671,16 @@ def main(argv: Sequence[str], say: Callable[[str], None] | None = None) -> int:
             log.info("en05: example track %s", path)
             return 0
         sample = en05_sample(resolved)
-        if args.step == "batch":
+        if args.step == "pilot":
+            pilot(sample, args.out)
+        elif args.step == "batch":
             if args.batch_size is not None and args.batch_size != sample.batch_size:
                 raise ConfigError("--batch-size", args.batch_size,
                                   f"the config plans batches of {sample.batch_size}")
             if not 0 <= args.batch < sample.n_batches:
                 raise ConfigError("--batch", args.batch,
                                   f"must lie in [0, {sample.n_batches - 1}]")
-            run_batch(sample.plan(), args.batch, args.out)
+            run_batch(sample.plan(sample.rung()), args.batch, args.out)
         else:
             from creatio.store.netcdf import write_dataset
 

@@ -45,6 +45,7 @@ __all__ = [
     "grammar_error",
     "parse_axes",
     "plan_sweep",
+    "point_changes",
     "run_batch",
     "write_sweep",
 ]
@@ -119,6 +120,15 @@ class SweepPlan:
     def row(self, entry: registry.Study, obj: Any) -> dict[str, Any]:
         """The figures a batch keeps of one computed point: its study's summary."""
         return _run_point(entry, obj)
+
+    def typed_axes(self) -> tuple[tuple[str, tuple[Any, ...]], ...]:
+        """Every axis value parsed to its Hydra type (once per batch job, by Hydra's
+        override grammar: ``5`` an int, ``0.5`` a float, ``abc`` a string)."""
+        from hydra.core.override_parser.overrides_parser import OverridesParser
+
+        parser = OverridesParser.create()
+        return tuple((key, tuple(parser.parse_override(f"{key}={v}").value() for v in vals))
+                     for key, vals in self.axes)
 
     def overrides(self, index: int) -> tuple[str, ...]:
         """The sweep overrides of the point with flat index `index`."""
@@ -337,8 +347,6 @@ class _Base:
 def _base(plan: SweepPlan) -> _Base:
     """Compose the base config once (unchecked: a point's values may make it valid), parse
     every axis value to its Hydra type once, and find the interpolations a swept key feeds."""
-    from hydra.core.override_parser.overrides_parser import OverridesParser
-
     from creatio.pipeline.config import compose, composed, override_error, validate
 
     try:  # no base override: the default composition, shared (only read here)
@@ -346,10 +354,7 @@ def _base(plan: SweepPlan) -> _Base:
     except Exception as e:  # noqa: BLE001 - Hydra refused a base override
         raise override_error(plan.study, list(plan.base), e) from None
     obj = validate(cfg, check=False).obj
-    parser = OverridesParser.create()
-    values = tuple(
-        (key, tuple(parser.parse_override(f"{key}={v}").value() for v in vals))
-        for key, vals in plan.axes)
+    values = plan.typed_axes()
     links: dict[str, list[str]] = {}
     for key, source in _interpolations(cfg):
         if source is None:
@@ -359,6 +364,16 @@ def _base(plan: SweepPlan) -> _Base:
             continue
         links.setdefault(source, []).append(key)
     return _Base(obj, values, {k: tuple(v) for k, v in links.items()})
+
+
+def point_changes(plan: SweepPlan, base: _Base, index: int) -> dict[str, Any]:
+    """The typed values point `index` sets, with the keys that follow them (schema.vary's
+    changes of the base config)."""
+    idx = plan.indices(index)
+    changes = {key: vals[i] for (key, vals), i in zip(base.values, idx, strict=True)}
+    changes.update({dep: changes[src] for src, deps in base.links.items()
+                    if src in changes for dep in deps})
+    return changes
 
 
 def _interpolations(cfg: Any, prefix: str = "") -> list[tuple[str, str | None]]:
@@ -528,10 +543,7 @@ def run_batch(plan: SweepPlan, k: int, out: str | Path | None = None,
     compute_s = 0.0
     t0 = last = time.perf_counter()
     for done, index in enumerate(indices, start=1):
-        idx = plan.indices(index)
-        changes = {key: vals[i] for (key, vals), i in zip(base.values, idx, strict=True)}
-        changes.update({dep: changes[src] for src, deps in base.links.items()
-                        if src in changes for dep in deps})
+        changes = point_changes(plan, base, index)
         try:
             obj = vary(base.obj, changes)
         except ConfigError as e:

@@ -72,9 +72,25 @@ def calibration_summary(ds: xr.Dataset) -> dict[str, Any]:
         "status": status,
         "run_status": run,
         "evaluations": int(ds.attrs["evaluations"]),
+        "numerical_error": _accuracy(ds),
         "config_sha256": str(ds.attrs.get("config_sha256", "")),
         "created": str(ds.attrs.get("date_created", "")),
     }
+
+
+def _accuracy(ds: xr.Dataset) -> dict[str, Any]:
+    """The fit's checked model error (creatio.studies.budget.Verification): its line, the
+    observed error and budget (m), the points, the setting; {} for a dataset without one."""
+    from creatio.studies.budget import Verification
+
+    try:
+        v = Verification.from_attrs(ds.attrs)
+    except KeyError:
+        return {}
+    name = v.worst() or next(iter(v.budget))
+    return {"line": v.line(), "observed_m": v.observed[name], "budget_m": v.budget[name],
+            "points": v.points, "ok": v.ok, "tightened": v.tightened, "rung": v.rung.label(),
+            "reference": v.reference.label()}
 
 
 def _markdown(s: dict[str, Any]) -> list[str]:
@@ -85,6 +101,12 @@ def _markdown(s: dict[str, Any]) -> list[str]:
              f"stated noise {fmt(s['noise_m'])} m; run at the estimate: {s['run_status']}; "
              f"{s['evaluations']} model runs; condition of J^T J (scaled, dimensionless) "
              f"{fmt(s['condition'])}.", ""]
+    acc = s["numerical_error"]
+    if acc:
+        lines += [f"Model: {acc['line']}, searched at {acc['rung']}, checked against "
+                  f"{acc['reference']}" + (f"; tightened {acc['tightened']} time(s)"
+                                          if acc["tightened"] else "")
+                  + ("" if acc["ok"] else "; BUDGET BROKEN") + ".", ""]
 
     def cell(k: str, x: float) -> str:
         return "-" if not math.isfinite(x) else fmt(x)

@@ -447,7 +447,10 @@ def _answer(s: dict, ds: xr.Dataset) -> list[str]:
         what.append(f"{k['cases']} closed-loop controllers")
         basis.append(f"RK4 at dt = {num(k['dt_s'], 's')} checked at {num(k['fine_dt_s'], 's')} "
                      f"(carried runs differ by at most "
-                     f"{num(k['max_timestep_difference_carried_m'], 'm', 3)})")
+                     f"{num(k['max_timestep_difference_carried_m'], 'm', 3)})"
+                     + "".join(f"; {name}: {acc['line']}" for name, acc in (
+                         ("arrivals", k.get("arrival_accuracy")),
+                         ("quintic boundary", k.get("quintic_boundary_accuracy"))) if acc))
     if not answers:
         return []
     basis.append(f"config sha256 `{str(ds.attrs.get('config_sha256', ''))[:12]}`")
@@ -508,6 +511,14 @@ def _control_lines(c: dict, k: dict, figures: dict[str, Path]) -> list[str]:
                   f"{trap['a_max_rad_s2']:.4g} rad/s^2 (asked {trap['Omega_max_asked_rad_s']:g}"
                   f", {trap['a_max_asked_rad_s2']:g}: switch times on the step grid)"),
              ]), "",
+             *([f"The boundary's bisection (to {acc['resolution_s']:g} s): {acc['line']}, "
+                f"its final bracket rerun at dt = {acc['reference_dt_s']:g} s"
+                + ("." if acc["ok"] else ": BUDGET BROKEN."), ""]
+               if (acc := k.get("quintic_boundary_accuracy")) else []),
+             *([f"The arrivals (on the {acc['resolution_s']:g}-s steps): {acc['line']}, "
+                f"a seeded subsample of the controllers rerun at dt = "
+                f"{acc['reference_dt_s']:g} s" + ("." if acc["ok"] else ": BUDGET BROKEN."), ""]
+               if (acc := k.get("arrival_accuracy")) else []),
              "The first arrival can come with an overshoot; the case that settles first "
              "(stays within the band to the end of the run) settles at "
              f"{f(k['fastest_settling_s'])} s"
@@ -691,6 +702,8 @@ def _control(ds: xr.Dataset) -> tuple[dict, dict]:
         "quintic_boundary_arrival_s": _num(ds.attrs["quintic_boundary_arrival"]),
         "quintic_bisection": [{"T_s": float(T), "carried": bool(c)} for T, c in
                               zip(ds.quintic_T.values, ds.quintic_carried.values, strict=True)],
+        "quintic_boundary_accuracy": _accuracy(ds.attrs, "quintic_accuracy_"),
+        "arrival_accuracy": _accuracy(ds.attrs, "arrival_accuracy_"),
         "robustness_quintic_T_s": float(ds.attrs["robust_quintic_T"]),
         "robustness_controller": {k: float(ds.attrs[f"default_{k}"]) for k in
                                   ("omega_max", "delta_max_deg", "omega_c", "omega_n")},
@@ -702,6 +715,19 @@ def _control(ds: xr.Dataset) -> tuple[dict, dict]:
     if demand:
         checks["demand"] = _demand_checks(ds)
     return contract, checks
+
+
+def _accuracy(a: Any, prefix: str) -> dict[str, Any] | None:
+    """An accuracy budget as the dataset recorded it under prefix (None in a dataset written
+    before it was): resolution, budget and observed error (s), points, steps, the line."""
+    if f"{prefix}line" not in a:
+        return None
+    return {"resolution_s": float(a[f"{prefix}resolution"]),
+            "budget_s": _num(a[f"{prefix}budget"]),
+            "observed_s": _num(a[f"{prefix}observed"]), "points": int(a[f"{prefix}points"]),
+            "dt_s": float(a[f"{prefix}dt"]), "reference_dt_s": float(a[f"{prefix}reference_dt"]),
+            "ok": bool(a[f"{prefix}ok"]), "tightened": int(a[f"{prefix}tightened"]),
+            "line": str(a[f"{prefix}line"])}
 
 
 def _demand_checks(ds: xr.Dataset) -> dict[str, Any]:

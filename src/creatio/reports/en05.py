@@ -12,6 +12,7 @@ here recomputes.
 from __future__ import annotations
 
 import csv
+import json
 import math
 from collections.abc import Sequence
 from pathlib import Path
@@ -23,8 +24,10 @@ import xarray as xr
 from creatio.reports.answer import answer_lines, num
 from creatio.reports.common import fmt, plt, save_figure, strict_json, table, write_text
 from creatio.store.atomic import atomic_write
+from creatio.studies.budget import Verification
+from creatio.studies.en05_schema import ACCURACY_PREFIX
 
-__all__ = ["en05_summary", "residual_axes", "write_report"]
+__all__ = ["accuracy_summary", "en05_summary", "residual_axes", "write_report"]
 
 _INDICES = ("S1", "ST", "S1_conf", "ST_conf")
 
@@ -75,6 +78,30 @@ def sobol_summary(ds: xr.Dataset) -> dict[str, Any]:
     return out
 
 
+def accuracy_summary(ds: xr.Dataset) -> dict[str, Any] | None:
+    """The sample's accuracy check (creatio.pipeline.points): the line "numerical error <= X
+    (budget Y, checked on N points)", the setting the runs used and the check's reference,
+    each output's budget and observed error, the outputs no setting resolves (with why);
+    None for a sample run without a budget."""
+    if f"{ACCURACY_PREFIX}outputs" not in ds.attrs:
+        return None
+    check = Verification.from_attrs(ds.attrs, ACCURACY_PREFIX)
+    unresolved = json.loads(str(ds.attrs.get(f"{ACCURACY_PREFIX}unresolved", "{}")))
+    return {
+        "line": check.line(), "describe": check.describe(), "ok": check.ok,
+        "worst_output": check.worst(), "points": check.points, "seed": check.seed,
+        "tightened": check.tightened,
+        "fraction": float(ds.attrs.get(f"{ACCURACY_PREFIX}fraction", math.nan)),
+        "rung": {"method": check.rung.method, "rtol": check.rung.rtol,
+                 "atol": check.rung.atol},
+        "reference": {"method": check.reference.method, "rtol": check.reference.rtol,
+                      "atol": check.reference.atol},
+        "outputs": {k: {"budget": check.budget[k], "observed": check.observed[k],
+                        "checked": check.budget[k] > 0.0} for k in check.budget},
+        "unresolved": unresolved,
+    }
+
+
 def mass_check(ds: xr.Dataset) -> dict[str, Any]:
     """Per base size and kinematic output: the ST of m, its half-width, whether zero lies in
     that interval, and the estimator's noise (the output's largest half-width)."""
@@ -122,6 +149,7 @@ def en05_summary(datasets: Sequence[xr.Dataset]) -> dict[str, Any]:
                              for i, N in enumerate(ish.base_size.values)},
         },
         "carried_fraction": float(sob.attrs["carried_fraction"]),
+        "sample_accuracy": accuracy_summary(sob),
         "mass_invariance": mass_check(sob),
         "calibration": {
             "truth": _mapping(keys, cal.truth.values),
@@ -140,6 +168,8 @@ def en05_summary(datasets: Sequence[xr.Dataset]) -> dict[str, Any]:
             "alone": {"key": str(cal.attrs["alone_key"]), "seeds": int(cal.sizes["spread_seed"]),
                       "spread": float(cal.attrs["alone_spread"]),
                       "cramer_rao_sigma": float(cal.attrs["cramer_rao_sigma"])},
+            "numerical_error": _check_line(cal.attrs, "accuracy_"),
+            "example_numerical_error": _check_line(cal.attrs, "example_accuracy_"),
         },
         "design": {
             "T_s": Ts, "mu": mus,
@@ -156,8 +186,17 @@ def en05_summary(datasets: Sequence[xr.Dataset]) -> dict[str, Any]:
                                                               strict=True) if p]
                                 for i, mu in enumerate(mus)},
             "target": float(exp.attrs["target"]),
+            "numerical_error": _check_line(exp.attrs, "accuracy_"),
         },
     }
+
+
+def _check_line(attrs: Any, prefix: str) -> str | None:
+    """The line of a part's accuracy check ("numerical error <= X (budget Y, checked on N
+    points)"), or None for a dataset made before budgets."""
+    if f"{prefix}outputs" not in attrs:
+        return None
+    return Verification.from_attrs(attrs, prefix).line()
 
 
 # ------------------------------------------------------------------------------ figures
@@ -165,6 +204,7 @@ def _index_figure(ds: xr.Dataset, path: Path) -> None:
     """S1 and ST with their intervals per input, one panel per output, each base size."""
     names = [str(n) for n in ds.input.values]
     outs = [str(o) for o in ds.output.values]
+    acc = accuracy_summary(ds)
     n_b = ds.sizes["base_size"]
     cols = 4
     rows = math.ceil(len(outs) / cols)
@@ -191,7 +231,8 @@ def _index_figure(ds: xr.Dataset, path: Path) -> None:
                        label=f"{key}, N = {int(N)}")
         ax.set_xticks(x, names)
         ax.axhline(0.0, color="k", lw=0.6)
-        ax.set_title(name, fontsize=10)
+        noise = acc["unresolved"] if acc else {}
+        ax.set_title(name + (" (not resolved: noise)" if name in noise else ""), fontsize=10)
         ax.set_ylim(-0.15, 1.1)
         ax.grid(alpha=0.3, axis="y")
     for ax in list(axes.flat)[len(outs):]:
@@ -199,7 +240,8 @@ def _index_figure(ds: xr.Dataset, path: Path) -> None:
     axes.flat[0].legend(fontsize=7, loc="upper right")
     fig.suptitle("EN-05: first-order (S1) and total (ST) Sobol' indices of EN-02's outputs, "
                  f"bootstrap {ds.attrs['confidence']:.0%} intervals; carried fraction "
-                 f"{ds.attrs['carried_fraction']:.3f}", fontsize=11)
+                 f"{ds.attrs['carried_fraction']:.3f}"
+                 + (f"\nruns: {acc['line']}" if acc else ""), fontsize=11)
     fig.tight_layout()
     save_figure(fig, path, dpi=110)
     plt.close(fig)
@@ -311,8 +353,10 @@ def _answer(summary: dict[str, Any]) -> list[str]:
     N = max(summary["sobol"], key=int)
     per = summary["sobol"][N]
     drivers = []
+    acc = summary.get("sample_accuracy")
+    noise = acc["unresolved"] if acc else {}
     for out, e in per.items():
-        if e["computed"]:
+        if e["computed"] and out not in noise:
             finite = {n: v for n, v in e["ST"].items() if v is not None and math.isfinite(v)}
             if finite:
                 name, st = max(finite.items(), key=lambda kv: kv[1])
@@ -338,11 +382,41 @@ def _answer(summary: dict[str, Any]) -> list[str]:
     ish = summary["ishigami"]
     worst = max(abs(ish[k][n] - ish[f"{k}_closed_form"][n]) for k in ("S1", "ST")
                 for n in ish["S1"])
-    basis = (f"{100 * summary['carried_fraction']:.1f} % of the sample runs carried; the same "
+    checks = [f"{part}: {line}" for part, line in
+              (("the sample", (summary.get("sample_accuracy") or {}).get("line")),
+               ("the round trip", cal.get("numerical_error")),
+               ("the design", des.get("numerical_error"))) if line]
+    basis = ((f"model accuracy checked, {'; '.join(checks)}; " if checks else "")
+             + f"{100 * summary['carried_fraction']:.1f} % of the sample runs carried; the same "
              f"estimators on the Ishigami function within {worst:.3f} of its closed forms; "
              f"central differences at two steps agree to "
              f"{num(des['max_step_disagreement'], digits=2)} (relative).")
     return answer_lines(what, answer, basis)
+
+
+def _accuracy_lines(acc: dict[str, Any] | None) -> list[str]:
+    """The section on the sample's numerical accuracy: the check's line, the setting, each
+    output's error beside its budget, the outputs no setting resolves."""
+    if acc is None:
+        return ["## Numerical accuracy of the sample", "",
+                "No accuracy budget (study.sensitivity.budget: null): every run at the "
+                "sample's own tolerances, unchecked.", ""]
+    r, ref = acc["rung"], acc["reference"]
+    out = ["## Numerical accuracy of the sample", "",
+           f"**{acc['line']}** (worst output: {acc['worst_output'] or 'none'}). The budget is "
+           f"{acc['fraction']:g} of each output's standard deviation over the sample; the runs "
+           f"used {r['method']} at rtol {r['rtol']:g}, atol {r['atol']:g} (chosen by a pilot), "
+           f"checked on {acc['points']} seeded points rerun at rtol {ref['rtol']:g}"
+           + (f"; the budget was broken at first and the rung tightened "
+              f"{acc['tightened']} time(s) by 10x" if acc["tightened"] else "")
+           + ("." if acc["ok"] else "; **the budget is broken**."), ""]
+    rows = [[k, v["observed"], v["budget"] if v["checked"] else "constant: none",
+             ("yes" if v["observed"] <= v["budget"] else "no") if v["checked"] else ""]
+            for k, v in acc["outputs"].items()]
+    rows += [[k, v["observed"], v["budget"], f"not resolved: {v['why']}"]
+             for k, v in acc["unresolved"].items()]
+    out += table(["output", "largest error on the check", "budget", "within"], rows) + [""]
+    return out
 
 
 def _markdown(summary: dict[str, Any], sob: xr.Dataset) -> str:
@@ -353,16 +427,22 @@ def _markdown(summary: dict[str, Any], sob: xr.Dataset) -> str:
              f"; sample runs with `{sob.attrs['sample_base_overrides']}` over EN-02.", "",
              f"Carried fraction (status ok and never out of its cavity): "
              f"{summary['carried_fraction']:.4f} of {int(sob.sizes['point'])} runs.", ""]
+    acc = summary.get("sample_accuracy")
+    noise = acc["unresolved"] if acc else {}
+    lines += _accuracy_lines(acc)
     for N, per in summary["sobol"].items():
         lines += [f"## Sobol' indices, N = {N} ({next(iter(per.values()))['runs']} runs, "
                   f"{next(iter(per.values()))['runs_not_ok']} not ok)", ""]
+        if acc:
+            lines += [f"Numerical accuracy of the runs: {acc['line']}.", ""]
         rows = []
         for out, e in per.items():
             if not e["computed"]:
                 rows.append([out, e["why"], *["" for _ in names]])
                 continue
-            rows.append([out, "S1", *[f"{e['S1'][n]:.3f} +- {e['S1_conf'][n]:.3f}"
-                                      for n in names]])
+            label = f"{out} (not resolved: noise)" if out in noise else out
+            rows.append([label, "S1", *[f"{e['S1'][n]:.3f} +- {e['S1_conf'][n]:.3f}"
+                                        for n in names]])
             rows.append(["", "ST", *[f"{e['ST'][n]:.3f} +- {e['ST_conf'][n]:.3f}"
                                      for n in names]])
         lines += table(["output", "index", *names], rows) + [""]

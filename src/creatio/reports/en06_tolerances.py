@@ -15,6 +15,7 @@ import xarray as xr
 
 from creatio.reports.answer import num
 from creatio.reports.common import fixed_layout, fmt, plt, save_figure, table
+from creatio.studies.budget import Verification
 
 __all__ = ["SUMMARIES", "answer", "figure", "section"]
 
@@ -55,7 +56,8 @@ def _tolerances(ds: xr.Dataset, out: dict[str, Any]) -> dict[str, Any]:
                           "final_radius_m": _f(ds.nominal_final_radius),
                           "surface_work_J": _f(ds.nominal_surface_work),
                           "status": str(ds.attrs["nominal_status"]),
-                          "method": str(ds.attrs["method"]), "dt_s": float(ds.attrs["dt"])}
+                          "method": str(ds.attrs["method"]), "dt_s": float(ds.attrs["dt"]),
+                          "budgeted": "accuracy_method" in ds.attrs}
         tol["assumption"] = str(ds.attrs["assumptions"])
         tol["inputs"] = {str(n): {"key": str(k), "units": str(u), "nominal": float(x0),
                                   "low": float(lo), "high": float(hi)}
@@ -64,6 +66,25 @@ def _tolerances(ds: xr.Dataset, out: dict[str, Any]) -> dict[str, Any]:
                              ds.input_nominal.values, ds.input_low.values, ds.input_high.values,
                              strict=True)}
     return tol
+
+
+def _accuracy(ds: xr.Dataset, tol: dict[str, Any], part: str) -> None:
+    """tolerances.accuracy.<part>: the accuracy budget's check recorded in the dataset
+    (creatio.studies.budget): the line, the method and tolerances it chose, per output the
+    budget and the largest error observed, the points checked and the tightenings; or why
+    there is none."""
+    acc = tol.setdefault("accuracy", {})
+    if "accuracy_method" not in ds.attrs:
+        acc[part] = {"note": str(ds.attrs.get("accuracy_budget",
+                                              "none (bases.en02's own solver)"))}
+        return
+    v = Verification.from_attrs(ds.attrs)
+    acc[part] = {"line": v.line(), "describe": v.describe(), "worst": v.worst(),
+                 "method": v.rung.method,
+                 "rtol": v.rung.rtol, "atol": v.rung.atol, "budget": v.budget,
+                 "observed": v.observed, "points": v.points, "seed": v.seed,
+                 "tightened": v.tightened, "ok": v.ok,
+                 "units": str(ds.attrs.get("accuracy_units", "the output's"))}
 
 
 def _sobol_summary(ds: xr.Dataset, out: dict[str, Any]) -> None:
@@ -88,6 +109,7 @@ def _sobol_summary(ds: xr.Dataset, out: dict[str, Any]) -> None:
         "carried_fraction": float(np.mean(ds.carried.values)),
         "seed": int(ds.attrs["seed"]), "resamples": int(ds.attrs["resamples"]),
         "confidence": float(ds.attrs["confidence"])}
+    _accuracy(ds, tol, "sobol")
 
 
 def _allocation_summary(ds: xr.Dataset, out: dict[str, Any]) -> None:
@@ -116,6 +138,7 @@ def _allocation_summary(ds: xr.Dataset, out: dict[str, Any]) -> None:
     tol["allocation"] = alloc
     tol["allocation_search"] = {k: int(ds.attrs[k]) for k in ("scan", "iterations",
                                                                "azimuths")}
+    _accuracy(ds, tol, "allocation")
 
 
 def _joint_summary(ds: xr.Dataset, out: dict[str, Any]) -> None:
@@ -133,6 +156,7 @@ def _joint_summary(ds: xr.Dataset, out: dict[str, Any]) -> None:
                   "interval_method": str(ds.attrs["interval_method"]),
                   "seed": int(ds.attrs["seed"])})
     tol["joint"] = joint
+    _accuracy(ds, tol, "joint")
 
 
 #: Each part's summary (creatio.reports.en06 reads them with its own).
@@ -262,8 +286,9 @@ def section(parts: dict[str, xr.Dataset], s: dict[str, Any], path: Path | None) 
               f"|final radius error| <= {fmt(spec['radius_m'])} m, from the nominal run "
               f"(final angle {fmt(nom['final_angle_deg'])} deg, radius "
               f"{fmt(nom['final_radius_m'])} m, W_surface {fmt(nom['surface_work_J'])} J; "
-              f"{nom['method']} at dt = {fmt(nom['dt_s'])} s). Each input is uniform on its "
-              "declared tolerance:", "",
+              + (f"{nom['method']}, each part at the tolerances its accuracy budget chose"
+                 if nom.get("budgeted") else f"{nom['method']} at dt = {fmt(nom['dt_s'])} s")
+              + "). Each input is uniform on its declared tolerance:", "",
               *table(["input", "key", "units", "nominal", "low", "high"],
                      [[n, v["key"], v["units"], v["nominal"], v["low"], v["high"]]
                       for n, v in tol["inputs"].items()]), "",
@@ -283,7 +308,9 @@ def section(parts: dict[str, xr.Dataset], s: dict[str, Any], path: Path | None) 
                   f"{fmt(runs['confidence'])}; largest N shown. An output constant over the "
                   f"design (carried, when every run carries: carried fraction "
                   f"{fmt(runs['carried_fraction'])}) has no indices (nan).", "",
-                  *table(["output", "input", "S1", "ST"], rows), ""]
+                  *table(["output", "input", "S1", "ST"], rows), "",
+                  *_accuracy_lines(tol, "sobol", "of each output's standard deviation over "
+                                   "the design")]
     if path is not None:
         lines += [f"![tolerances]({path.name})", ""]
     if "allocation" in tol:
@@ -313,7 +340,9 @@ def section(parts: dict[str, xr.Dataset], s: dict[str, Any], path: Path | None) 
                   f"bisections; a tilted point is within spec only at every one of "
                   f"{srch['azimuths']} azimuths. '-' : the side is not allocated.", "",
                   *table(["input", "key", "deviation", "declared (-/+)", "allocated (-/+)",
-                          "first out of spec (-/+)", "cap (-/+)", "note", "runs"], rows), ""]
+                          "first out of spec (-/+)", "cap (-/+)", "note", "runs"], rows), "",
+                  *_accuracy_lines(tol, "allocation", "of the bisection's resolution (numbers "
+                                   "in resolutions: each boundary's shift)")]
     if "joint" in tol:
         j = tol["joint"]
         lo, hi = j["interval"]
@@ -321,5 +350,24 @@ def section(parts: dict[str, xr.Dataset], s: dict[str, Any], path: Path | None) 
                   f"{j['n']} independent draws at the declared tolerances (seed {j['seed']}): "
                   f"{j['within']} within spec, fraction {fmt(j['fraction_within_spec'])}, "
                   f"{fmt(100.0 * j['confidence'])} % interval [{fmt(lo)}, {fmt(hi)}] "
-                  f"({j['interval_method']}); {j['carried']} carried.", ""]
+                  f"({j['interval_method']}); {j['carried']} carried.", "",
+                  *_accuracy_lines(tol, "joint", "of the spec's bounds")]
     return lines
+
+
+def _accuracy_lines(tol: dict[str, Any], part: str, what: str) -> list[str]:
+    """The part's accuracy paragraph: the budget's line, the method it ran at, any
+    tightening (nothing when the dataset records no budget)."""
+    a = tol.get("accuracy", {}).get(part)
+    if a is None:
+        return []
+    if "line" not in a:
+        return [f"Accuracy budget: {a['note']}.", ""]
+    text = (f"Accuracy ({a['worst']}, the output nearest its budget): {a['line']}; the budget "
+            f"a fraction {what}; run at {a['method']} rtol {a['rtol']:g}, atol {a['atol']:g}, "
+            "the first setting a pilot found within budget, checked 100x tighter")
+    if a["tightened"]:
+        text += f"; the check broke the budget: tightened {a['tightened']} time(s) by 10x"
+    if not a["ok"]:
+        text += "; BUDGET STILL BROKEN at the last tightening"
+    return [text + ".", ""]

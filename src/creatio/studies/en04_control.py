@@ -18,7 +18,16 @@ One dataset, ``en04_control``, from the sphere of ``bases.<control.base>`` (EN-0
 * what the actuators delivered along each controlled run (every grid case, the robustness
   runs' controller) and along the three paths: the figures of docs/model.md s.12.1 from the
   run's recorded histories (creatio.model.actuation with the controlled phase as samples),
-  the membrane quadrature converged once, on the fastest case (:func:`demand_figures`).
+  the membrane quadrature converged once, on the fastest case (:func:`demand_figures`);
+* the accuracy budgets of the answers computed at the base's fixed step: the
+  quintic boundary within 1e-2 of its bisection's resolution, checked on its final bracket,
+  and the grid's arrivals within 1e-2 of the step, checked on a seeded subsample of 16
+  cases, each rerun at dt / 4 (:class:`StepCheck`, attributes ``quintic_accuracy_*`` and
+  ``arrival_accuracy_*``); a broken bisection budget halves the step and redoes it.
+
+The costly part is not the integrations (about a tenth of the CPU) but the actuation
+figures along each run; the controller's u and lead along a run are computed once
+(:func:`servo_along`), and the paths other than the reference case get only their histories.
 
 The gains come from the design rule of docs/model.md s.12.2: k_alpha is the square of the
 rolling sphere's small-oscillation frequency along alpha in the base's still cavity
@@ -28,7 +37,8 @@ rolling sphere's small-oscillation frequency along alpha in the base's still cav
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field, replace
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -50,7 +60,9 @@ if TYPE_CHECKING:
     import xarray as xr
 
 __all__ = ["DEMAND_FIGURES", "ControlConfig", "ControllerPoint", "DemandSettings",
-           "ExtremaGridConfig", "controller", "demand_figures", "run_control"]
+           "ExtremaGridConfig", "StepCheck", "budgeted_bisection", "check_arrivals",
+           "check_bracket", "controller", "crossing", "demand_figures", "run_control",
+           "servo_along"]
 
 
 @dataclass
@@ -197,6 +209,161 @@ class ControlConfig:
 
 
 # ------------------------------------------------------------------------------- runs
+def _carried(res: SimulationResult) -> bool:
+    """Whether res carried the sphere through its whole run without a numerical failure."""
+    return bool(res.carried and res.counts.status == "ok")
+
+
+#: A bisection's outcome: the cycles tried (and whether each carried), the final bracket's
+#: lo and hi, the run at hi, whether the bracket held a boundary.
+Bisection = tuple[list[tuple[float, bool]], float, float, SimulationResult, bool]
+
+
+def _bisect(q: BisectionConfig, run: Callable[[float, float], SimulationResult], dt: float
+            ) -> Bisection:
+    """The quintic cycle's carried boundary by bisection of [q.lo, q.hi] to q.tol with runs
+    at step dt: (the cycles tried and whether each carried, the final bracket lo and hi, the
+    run at hi, whether the bracket held a boundary at all)."""
+    lo, hi = q.lo, q.hi
+    tried: list[tuple[float, bool]] = []
+    hi_res = run(hi, dt)
+    tried.append((hi, _carried(hi_res)))
+    tried.append((lo, _carried(run(lo, dt))))
+    found = tried[0][1] and not tried[1][1]
+    best = hi_res
+    while found and hi - lo > q.tol:
+        mid = 0.5 * (lo + hi)
+        r = run(mid, dt)
+        ok = _carried(r)
+        tried.append((mid, ok))
+        if ok:
+            hi, best = mid, r
+        else:
+            lo = mid
+    return tried, lo, hi, best, found
+
+
+#: The verification's step refinement of a fixed-step search: RK4's error shrinks as dt^4,
+#: so dt / 4 is 256 times tighter (the budget asks for at least 100 times).
+CHECK_REFINE = 4
+
+
+@dataclass(frozen=True)
+class StepCheck:
+    """The accuracy budget of an answer computed at a fixed step (docs/studies.md "EN-04"): its
+    resolution and budget (1e-2 of it), the largest error observed on ``points`` reruns at the
+    reference step, the step it ran at; ``found`` False when there was nothing to check."""
+
+    resolution: float
+    budget: float
+    observed: float
+    points: int
+    dt: float
+    reference_dt: float
+    found: bool
+    tightened: int = 0
+
+    @property
+    def ok(self) -> bool:
+        """The observed error is within the budget (nothing to check: ok)."""
+        return not self.found or self.observed <= self.budget
+
+    def line(self) -> str:
+        """"numerical error <= X (budget Y, checked on N points)"."""
+        if not self.found:
+            return "nothing to check"
+        text = (f"numerical error <= {self.observed:.2g} s (budget {self.budget:.2g} s, "
+                f"checked on {self.points} points)")
+        if self.tightened:
+            text += (f"; broken at first, the bisection redone {self.tightened} time(s) at "
+                     "half the step")
+        return text
+
+    def attrs(self, prefix: str) -> dict[str, float | int | str]:
+        """Flat netCDF attributes of the check."""
+        return {f"{prefix}resolution": self.resolution, f"{prefix}budget": self.budget,
+                f"{prefix}observed": self.observed,
+                f"{prefix}points": self.points, f"{prefix}dt": self.dt,
+                f"{prefix}reference_dt": self.reference_dt, f"{prefix}ok": int(self.ok),
+                f"{prefix}tightened": self.tightened, f"{prefix}line": self.line()}
+
+
+def check_bracket(q: BisectionConfig, run: Callable[[float, float], SimulationResult],
+                  dt: float, bisection: Bisection) -> StepCheck:
+    """The bisection's budget (1e-2 of q.tol, creatio.studies.budget.resolution_budget)
+    checked on its final bracket: both ends rerun at dt / CHECK_REFINE. When both keep
+    their outcome, the boundary at the tighter step lies in the same bracket, and (the
+    carried set being an interval above the boundary, as bisection assumes) every earlier
+    decision holds too: the reported boundary is the same, error 0. An end that flips moves
+    it by at least a bracket: the error is recorded as the bracket's width, over budget."""
+    from creatio.studies.budget import resolution_budget
+
+    _, lo, hi, _, found = bisection
+    fine = dt / CHECK_REFINE
+    if not found:
+        return StepCheck(q.tol, resolution_budget(q.tol), math.nan, 0, dt, fine, False)
+    flipped = [_carried(run(T, fine)) != ok for T, ok in ((lo, False), (hi, True))]
+    observed = (hi - lo) if any(flipped) else 0.0
+    return StepCheck(q.tol, resolution_budget(q.tol), observed, 2, dt, fine, True)
+
+
+#: The seed and size of the grid's verification subsample (creatio.studies.budget.subsample).
+CHECK_SEED = 0
+CHECK_POINTS = 16
+
+
+def crossing(res: SimulationResult, goal: float, tol: float) -> float:
+    """The arrival of :func:`measure` between recorded steps: the time at which |theta - goal|
+    first falls to tol, linear between the step before and the step of the arrival (NaN
+    when it never does); a continuous measure of the arrival, to compare runs at two steps."""
+    h = res.histories
+    if h.t.size == 0:
+        return math.nan
+    e = np.abs(h.alpha - h.alpha[0] - goal) - tol
+    within = np.flatnonzero(e <= 0.0)
+    if within.size == 0:
+        return math.nan
+    j = int(within[0])
+    if j == 0:
+        return float(h.t[0])
+    return float(h.t[j - 1] + (h.t[j] - h.t[j - 1]) * e[j - 1] / (e[j - 1] - e[j]))
+
+
+def check_arrivals(runs: Sequence[SimulationResult],
+                   rerun: Callable[[int, float], SimulationResult], goal: float, tol: float,
+                   dt: float) -> StepCheck:
+    """The grid's budget: its arrivals, known to the step dt, within 1e-2 of it. A seeded
+    subsample of CHECK_POINTS cases is rerun at dt / CHECK_REFINE (``rerun(i, step)``) and
+    the largest difference of :func:`crossing` recorded (inf when a case's carried flips)."""
+    from creatio.studies.budget import resolution_budget, subsample
+
+    fine = dt / CHECK_REFINE
+    idx = subsample(len(runs), CHECK_POINTS, CHECK_SEED)
+    observed = 0.0
+    for i in idx:
+        a, b = runs[i], rerun(int(i), fine)
+        if _carried(a) != _carried(b):
+            observed = math.inf
+        elif _carried(a):
+            observed = max(observed, abs(crossing(a, goal, tol) - crossing(b, goal, tol)))
+    return StepCheck(dt, resolution_budget(dt), observed, int(idx.size), dt, fine,
+                     bool(idx.size))
+
+
+def budgeted_bisection(q: BisectionConfig, run: Callable[[float, float], SimulationResult],
+                       dt: float, max_tighten: int = 2) -> tuple[Bisection, StepCheck]:
+    """The bisection at step dt and its check (:func:`check_bracket`); a broken budget
+    halves the step and redoes the bisection, at most max_tighten times (then ``ok`` is
+    False), and the check says so (``tightened``)."""
+    tightened = 0
+    while True:
+        bisection = _bisect(q, run, dt)
+        check = check_bracket(q, run, dt, bisection)
+        if check.ok or tightened >= max_tighten:
+            return bisection, replace(check, tightened=tightened)
+        dt, tightened = dt / 2.0, tightened + 1
+
+
 def controller(cfg: ControlConfig, problem: SphereProblem, k_alpha: float, point: ControllerPoint
                ) -> Controller:
     """The controller of one grid point on problem's start, gains by the design rule."""
@@ -284,17 +451,45 @@ def _rows(res: SimulationResult, interval: float) -> np.ndarray:
     return rows
 
 
+def servo_along(res: SimulationResult, ctl: Controller, Ka: float
+                ) -> tuple[np.ndarray, np.ndarray]:
+    """(u, delta) at every recorded step of res by the controller's own formula, compiled
+    (creatio.dynamics.control_loop): computed once per run and handed to :func:`measure` and
+    :func:`demand_figures`, which need both."""
+    from creatio.dynamics.control_loop import servo_histories  # the compiler, when run
+
+    h = res.histories
+    u, delta, _ = servo_histories(ctl, Ka, h.alpha, h.alphadot, h.phi_a, h.phi_a_rate)
+    return u, delta
+
+
 def _motion_along(res: SimulationResult, motion: Motion, ctl: Controller | None, Ka: float,
-                  rows: np.ndarray) -> Motion:
+                  rows: np.ndarray, u: np.ndarray | None = None) -> Motion:
     """The surface's motion along res at its rows: the laws of an open-loop run, or the
-    controlled phase as samples (phi_a, its rate, and u recomputed by the controller)."""
+    controlled phase as samples (phi_a, its rate, and u recomputed by the controller, or
+    taken from ``u`` at every recorded step when given)."""
     if ctl is None:
         return motion
     h = res.histories
-    u, _, _ = ctl.acceleration(Ka, h.alpha[rows], h.alphadot[rows], h.phi_a[rows],
-                               h.phi_a_rate[rows])
+    if u is None:
+        from creatio.dynamics.control_loop import servo_histories
+
+        u, _, _ = servo_histories(ctl, Ka, h.alpha[rows], h.alphadot[rows], h.phi_a[rows],
+                                  h.phi_a_rate[rows])
+    else:
+        u = u[rows]
     return act.sampled_motion(motion, h.t[rows], h.phi_a[rows], h.phi_a_rate[rows],
                               np.asarray(u, float))
+
+
+#: The maxima of W whose local search the figures use: the stroke and the worst point of
+#: |W_t| (its spectrum is the bandwidth); max |W_tt| is the closed form's, so its search,
+#: independent of the others, is skipped.
+DEMAND_POLISHED = ("stroke", "max_W_t")
+
+#: The golden-section tolerance (s) of K_m's largest value between recorded steps: a sampled
+#: phase is known to far less than refine_maximum's default (creatio.model.actuation).
+REFINE_XTOL = 1e-9
 
 
 def _around_peaks(rows: np.ndarray, samples: list[np.ndarray], fraction: float = 0.5,
@@ -316,10 +511,11 @@ def _around_peaks(rows: np.ndarray, samples: list[np.ndarray], fraction: float =
 
 def demand_figures(res: SimulationResult, surface: Surface, motion: Motion,
                    ctl: Controller | None, rule: act.Quadrature, settings: DemandSettings,
-                   g: float, interval: float) -> DemandAlong:
+                   g: float, interval: float, u: np.ndarray | None = None) -> DemandAlong:
     """What the actuators delivered along res (docs/model.md s.12.1). ``motion`` is the
     run's (its angular law replaced by the controlled phase, sampled at every recorded step,
-    when ``ctl`` is given).
+    when ``ctl`` is given; ``u`` the controller's u at every step when the caller has it,
+    :func:`servo_along`).
 
     The load power at every recorded step; the membrane integrals by ``rule`` at the rows
     every ``interval``, and again at every recorded step around the largest samples of
@@ -338,14 +534,15 @@ def demand_figures(res: SimulationResult, surface: Surface, motion: Motion,
         return DemandAlong({k: math.nan for k, *_ in DEMAND_FIGURES}, h.t, {})
     s = settings
     t_all = h.t
-    m = _motion_along(res, motion, ctl, float(surface.Ka), np.arange(n))
+    m = _motion_along(res, motion, ctl, float(surface.Ka), np.arange(n), u)
     P_all = act.load_power(surface, m, t_all, h.R, h.alpha, h.N, h.f)
     rows = _rows(res, interval)
     t = t_all[rows]
     d = act.actuation_demand(surface, m, t, P_all[rows], rule, s.sigma, s.c_d, g,
                              span=(float(t[0]), float(t[-1])),
                              extrema=(s.extrema_n_alpha, s.extrema_n_R),
-                             energy_fraction=s.energy_fraction, xtol=1e-9)
+                             energy_fraction=s.energy_fraction, xtol=REFINE_XTOL,
+                             polish=DEMAND_POLISHED)
     coarse = d.powers()
     near = np.setdiff1d(_around_peaks(rows, [coarse["P_actuator"], coarse["P_inertia"]]),
                         rows)
@@ -382,6 +579,42 @@ def demand_figures(res: SimulationResult, surface: Surface, motion: Motion,
     return DemandAlong(figures, t_all[np.concatenate([rows, near])[order]], histories)
 
 
+def _histories_along(res: SimulationResult, surface: Surface, motion: Motion,
+                     ctl: Controller | None, rule: act.Quadrature, settings: DemandSettings,
+                     g: float, u: np.ndarray | None = None) -> DemandAlong:
+    """The powers and K_m of :func:`demand_figures` at every recorded step of res, without its
+    figures (a path's histories: the same numbers, none of the searches)."""
+    h = res.histories
+    if h.t.size < 3:
+        return DemandAlong({}, h.t, {})
+    m = _motion_along(res, motion, ctl, float(surface.Ka), np.arange(h.t.size), u)
+    P = act.load_power(surface, m, h.t, h.R, h.alpha, h.N, h.f)
+    mi = act.membrane_integrals(surface, m, h.t, rule, settings.sigma, settings.c_d, g)
+    return DemandAlong({}, h.t, {
+        "P_surface": P, "P_inertia": mi.inertia, "P_gravity": mi.gravity,
+        "P_damping": mi.damping, "P_actuator": P + mi.inertia + mi.gravity + mi.damping,
+        "K_m": mi.kinetic})
+
+
+def _maxima_every_step(res: SimulationResult, surface: Surface, motion: Motion,
+                       ctl: Controller | None, rule: act.Quadrature, settings: DemandSettings,
+                       g: float, u: np.ndarray | None, every: DemandAlong) -> dict[str, float]:
+    """K_m_max and max |W_tt| as :func:`demand_figures` refines them (the same searches and
+    tolerances), from every recorded step of res (``every``: its histories there)."""
+    h = res.histories
+    if h.t.size < 3:
+        return {"K_m_max": math.nan, "max_W_tt": math.nan}
+    m = _motion_along(res, motion, ctl, float(surface.Ka), np.arange(h.t.size), u)
+
+    def K_quad(x: np.ndarray) -> np.ndarray:
+        return act.membrane_integrals(surface, m, x, rule, settings.sigma, 0.0, g).kinetic
+
+    _, K_max = act.refine_maximum(K_quad, every.t, every.histories["K_m"], REFINE_XTOL)
+    _, wtt = act.time_maximum(lambda x: act.normal_rate_bounds(surface, m, x)[1],
+                              float(h.t[0]), float(h.t[-1]))
+    return {"K_m_max": K_max, "max_W_tt": wtt}
+
+
 @dataclass
 class Measured:
     """What one run's histories say against the arrival rule (angles in deg, times in s)."""
@@ -405,11 +638,13 @@ class Measured:
 
 
 def measure(res: SimulationResult, goal: float, tol: float, Ka: float,
-            ctl: Controller | None) -> Measured:
+            ctl: Controller | None, servo: tuple[np.ndarray, np.ndarray] | None = None
+            ) -> Measured:
     """The arrival rule of docs/model.md s.12.2 on theta = alpha - alpha(0): arrival the first
     time |theta - goal| <= tol, settling the time from which it stays so to the end (NaN if
     it does not end so, or the run stopped early), overshoot past the goal; u recomputed from
-    the histories by the controller's own formula."""
+    the histories by the controller's own formula (``servo``: its (u, delta) at every step,
+    :func:`servo_along`, when the caller has them)."""
     h = res.histories
     t = h.t
     if t.size == 0:
@@ -427,12 +662,12 @@ def measure(res: SimulationResult, goal: float, tol: float, Ka: float,
         settling = float(t[outside[-1] + 1]) if outside.size else float(t[0])
     sign = math.copysign(1.0, goal)
     overshoot = max(0.0, float(np.max(sign * err)))
-    delta = np.array([lead(a, p, Ka) for a, p in zip(h.alpha, h.phi_a, strict=True)])
     if ctl is not None:
-        u, _, _ = ctl.acceleration(Ka, h.alpha, h.alphadot, h.phi_a, h.phi_a_rate)
+        u, delta = servo if servo is not None else servo_along(res, ctl, Ka)
         phidot = h.phi_a_rate
         max_u = float(np.max(np.abs(u)))
     else:
+        delta = np.array([lead(a, p, Ka) for a, p in zip(h.alpha, h.phi_a, strict=True)])
         phidot = np.gradient(h.phi_a, t) if t.size > 1 else np.zeros(1)
         max_u = math.nan
     P = np.gradient(h.surface_work, t) if t.size > 1 else np.zeros(1)
@@ -517,15 +752,21 @@ def run_control(cfg: ControlConfig, base: DynamicConfig, k_alpha: float,
     cases: list[Measured] = []
     diffs: list[float] = []
     results: list[SimulationResult] = []
+    servos: list[tuple[np.ndarray, np.ndarray]] = []
     for point in grid:
         ctl = controller(cfg, nominal, k_alpha, point)
         coarse = _simulate(at(dts[0], control=ctl))
         fine = _simulate(at(dts[1], control=ctl))
-        cases.append(measure(coarse, goal, tol, Ka, ctl))
+        servos.append(servo_along(coarse, ctl, Ka))
+        cases.append(measure(coarse, goal, tol, Ka, ctl, servos[-1]))
         diffs.append(_difference(coarse, fine))
         results.append(coarse)
     arrivals = np.array([c.arrival if c.carried else math.nan for c in cases])
     fastest = int(np.nanargmin(arrivals)) if np.isfinite(arrivals).any() else -1
+    arrival_check = check_arrivals(
+        results, lambda i, dt: _simulate(at(dt, control=controller(cfg, nominal, k_alpha,
+                                                                    grid[i]))),
+        goal, tol, dts[0])
 
     # ---- open loop: the quintic cycle's carried boundary
     phase_travel = -Ka * goal
@@ -538,23 +779,10 @@ def run_control(cfg: ControlConfig, base: DynamicConfig, k_alpha: float,
         return _simulate(p.replace(motion=Motion(motion.phi_r, law, motion.gamma)))
 
     q = cfg.quintic
-    lo, hi = q.lo, q.hi
-    tried: list[tuple[float, bool]] = []
-    hi_res = quintic(hi)
-    tried.append((hi, bool(hi_res.carried and hi_res.counts.status == "ok")))
-    lo_res = quintic(lo)
-    tried.append((lo, bool(lo_res.carried and lo_res.counts.status == "ok")))
-    boundary_found = tried[0][1] and not tried[1][1]
-    best_quintic = hi_res
-    while boundary_found and hi - lo > q.tol:
-        mid = 0.5 * (lo + hi)
-        r = quintic(mid)
-        ok = bool(r.carried and r.counts.status == "ok")
-        tried.append((mid, ok))
-        if ok:
-            hi, best_quintic = mid, r
-        else:
-            lo = mid
+    bisection, boundary_check = budgeted_bisection(q, lambda T, dt: quintic(T, at(dt)), dts[0])
+    tried, lo, hi, best_quintic, boundary_found = bisection
+    if boundary_check.tightened and boundary_found:  # the boundary case at the base's step
+        best_quintic = quintic(hi)
     boundary_T = hi if boundary_found else math.nan
     quintic_measure = measure(best_quintic, goal, tol, Ka, None)
 
@@ -584,14 +812,15 @@ def run_control(cfg: ControlConfig, base: DynamicConfig, k_alpha: float,
     open_status = np.full(closed.shape, "", dtype=object)
     robust_dt = np.full(closed.shape, math.nan)
     default_ctl = controller(cfg, nominal, k_alpha, cfg.default)
-    robust_runs: list[SimulationResult] = []
+    robust_runs: list[tuple[SimulationResult, tuple[np.ndarray, np.ndarray]]] = []
     for i, mu in enumerate(rb.mus):
         for j, f in enumerate(rb.mass_factors):
             p = at(dts[0], mu=float(mu), m=nominal.model.sphere.m * f)
             rc = _simulate(p.replace(control=default_ctl))
-            robust_runs.append(rc)
+            robust_runs.append((rc, servo_along(rc, default_ctl, Ka)))
             ro = quintic(rb.quintic_T, p)
-            mc, mo = measure(rc, goal, tol, Ka, default_ctl), measure(ro, goal, tol, Ka, None)
+            mc = measure(rc, goal, tol, Ka, default_ctl, robust_runs[-1][1])
+            mo = measure(ro, goal, tol, Ka, None)
             closed[i, j], opened[i, j] = mc.carried, mo.carried
             closed_arrival[i, j], open_arrival[i, j] = mc.arrival, mo.arrival
             closed_status[i, j], open_status[i, j] = rc.counts.status, ro.counts.status
@@ -687,6 +916,8 @@ def run_control(cfg: ControlConfig, base: DynamicConfig, k_alpha: float,
         "fastest_arrival": float(arrivals[fastest]) if fastest >= 0 else math.nan,
         "open_loop_boundary_T": boundary_T,
         "open_loop_boundary_found": int(boundary_found),
+        **boundary_check.attrs("quintic_accuracy_"),
+        **arrival_check.attrs("arrival_accuracy_"),
         "quintic_boundary_arrival": quintic_measure.arrival,
         "trapezoid_best": best_trap,
         "robust_quintic_T": rb.quintic_T,
@@ -695,25 +926,30 @@ def run_control(cfg: ControlConfig, base: DynamicConfig, k_alpha: float,
         "default_omega_c": cfg.default.omega_c, "default_omega_n": cfg.default.omega_n,
     })
     # ---- what the actuators delivered along each controlled run and along the paths
-    along = [(results[fastest], motion, controller(cfg, nominal, k_alpha, grid[fastest]))
-             ] if fastest >= 0 else []
+    along: list[Along] = [
+        (results[fastest], motion, controller(cfg, nominal, k_alpha, grid[fastest]),
+         servos[fastest][0])] if fastest >= 0 else []
     along.append((best_quintic, Motion(motion.phi_r, Law.quintic(pa0, phase_travel, hi),
-                                       motion.gamma), None))
+                                       motion.gamma), None, None))
     if best_trap >= 0:
         along.append((trap_results[best_trap],
-                      Motion(motion.phi_r, trap_laws[best_trap], motion.gamma), None))
-    cases_along = [(r, motion, controller(cfg, nominal, k_alpha, point))
-                   for r, point in zip(results, grid, strict=True)]
-    robust_along = [(r, motion, default_ctl) for r in robust_runs]
+                      Motion(motion.phi_r, trap_laws[best_trap], motion.gamma), None, None))
+    cases_along: list[Along] = [
+        (r, motion, controller(cfg, nominal, k_alpha, point), sv[0])
+        for r, point, sv in zip(results, grid, servos, strict=True)]
+    robust_along: list[Along] = [(r, motion, default_ctl, sv[0]) for r, sv in robust_runs]
     return _with_demand(ds, cfg, base, demand or DemandSettings(), cases_along,
                         max(fastest, 0), robust_along, along)
 
 
+#: A run whose actuation figures are computed: its result, surface motion, controller (None
+#: on an open loop) and the controller's u at every recorded step (servo_along; None: open).
+Along = tuple[SimulationResult, Motion, Controller | None, np.ndarray | None]
+
+
 def _with_demand(ds: xr.Dataset, cfg: ControlConfig, base: DynamicConfig,
-                 settings: DemandSettings,
-                 cases: list[tuple[SimulationResult, Motion, Controller | None]], reference: int,
-                 robust: list[tuple[SimulationResult, Motion, Controller | None]],
-                 paths: list[tuple[SimulationResult, Motion, Controller | None]]) -> xr.Dataset:
+                 settings: DemandSettings, cases: list[Along], reference: int,
+                 robust: list[Along], paths: list[Along]) -> xr.Dataset:
     """ds with the actuation figures of docs/model.md s.12.1 along every grid case (``case``),
     every robustness run's controller (``mu`` x ``mass_factor``) and the paths (their powers
     and K_m on ``demand_time``).
@@ -728,30 +964,32 @@ def _with_demand(ds: xr.Dataset, cfg: ControlConfig, base: DynamicConfig,
     surface = base.geometry.surface()
     g = base.sphere.g
     s = settings
-    ref_res, ref_motion, ref_ctl = cases[reference]
+    ref_res, ref_motion, ref_ctl, ref_u = cases[reference]
     check_rows = _rows(ref_res, cfg.path_interval)
     conv = act.converge_quadrature(surface, _motion_along(ref_res, ref_motion, ref_ctl,
-                                                          float(surface.Ka), check_rows),
+                                                          float(surface.Ka), check_rows, ref_u),
                                    ref_res.histories.t[check_rows], s.sigma, s.c_d, g,
                                    s.n_alpha, s.n_R, s.rtol, s.growth, s.max_levels)
     levels = conv.levels[-2] if conv.converged else conv.levels[-1]
     rule = act.quadrature(surface, *levels)
 
     def along(res: SimulationResult, motion: Motion, ctl: Controller | None,
-              interval: float = cfg.path_interval) -> DemandAlong:
-        return demand_figures(res, surface, motion, ctl, rule, s, g, interval)
+              u: np.ndarray | None, interval: float = cfg.path_interval) -> DemandAlong:
+        return demand_figures(res, surface, motion, ctl, rule, s, g, interval, u)
 
     case_demand = [along(*c) for c in cases]
-    # the paths at every recorded step (the figure's histories); the fastest case's is the
-    # check of the sampling above
-    path_demand = [along(*p, interval=p[0].counts.dt) for p in paths]
-    every = (path_demand[0] if paths and paths[0][0] is ref_res
-             else along(*cases[reference], interval=ref_res.counts.dt))
+    # the reference case at every recorded step: the check of the sampling above, and the
+    # fastest path's histories; the other paths need only their histories there
+    every = _histories_along(ref_res, surface, ref_motion, ref_ctl, rule, s, g, ref_u)
+    path_demand = [every if p[0] is ref_res else
+                   _histories_along(p[0], surface, p[1], p[2], rule, s, g, p[3])
+                   for p in paths]
     ref = case_demand[reference].figures
     direct = {"P_actuator_peak": float(np.max(np.abs(every.histories["P_actuator"]))),
               "E_actuator": act.time_integral(every.histories["P_actuator"], every.t),
               "P_inertia_peak": float(np.max(np.abs(every.histories["P_inertia"]))),
-              "K_m_max": every.figures["K_m_max"], "max_W_tt": every.figures["max_W_tt"]}
+              **_maxima_every_step(ref_res, surface, ref_motion, ref_ctl, rule, s, g, ref_u,
+                                   every)}
     sampling = {k: _rel(ref[k], v) for k, v in direct.items()}
     robust_demand = [along(*r) for r in robust]
     shape = (ds.sizes["mu"], ds.sizes["mass_factor"])

@@ -16,6 +16,7 @@ from enum import StrEnum
 from creatio.errors import ConfigError
 from creatio.studies.schema import (
     MISSING,
+    OMIT_NULL,
     DynamicConfig,
     check_bases,
     culprit,
@@ -26,7 +27,9 @@ from creatio.studies.schema import (
 )
 
 __all__ = [
+    "ACCURACY_PREFIX",
     "BASE",
+    "BudgetConfig",
     "CameraConfig",
     "CalibrationConfig",
     "DesignConfig",
@@ -44,6 +47,9 @@ BASE = "en02"
 COORDINATES = ("x", "y", "z")
 #: How far a normal distribution's tails are checked (in standard deviations).
 NORMAL_TAIL_SD = 8.0
+#: The Sobol' dataset's attributes that hold its sample's accuracy check (the prefix of
+#: creatio.studies.budget.Verification.attrs; ``<prefix>unresolved`` as JSON beside it).
+ACCURACY_PREFIX = "sample_accuracy_"
 #: The most fits of the round trip (2 windows x seeds + spread_seeds): each fit integrates
 #: the model tens of times (the defaults ask for 500).
 MAX_FITS = 10_000
@@ -145,11 +151,34 @@ class UncertaintyConfig:
 
 
 @dataclass
+class BudgetConfig:
+    """The accuracy budget of the Sobol' sample's runs (creatio.studies.budget): numerical error
+    <= ``fraction`` x each output's standard deviation over the sample. A pilot of
+    ``points`` seeded points picks the loosest rtol from ``loosest_rtol`` down to the
+    sample's own (study.sensitivity.overrides) that meets it; another seeded subsample of
+    as many points rerun 100x tighter checks it."""
+
+    fraction: float = 1e-3
+    loosest_rtol: float = 1e-4
+    points: int = 16
+
+    def check(self, path: str) -> None:
+        """fraction in (0, 1), loosest_rtol in (0, 1), at least 16 points."""
+        require(0.0 < self.fraction < 1.0, f"{path}.fraction", self.fraction,
+                "must lie in (0, 1) (a fraction of each output's standard deviation)")
+        require(0.0 < self.loosest_rtol < 1.0, f"{path}.loosest_rtol", self.loosest_rtol,
+                "must lie in (0, 1)")
+        require(self.points >= 16, f"{path}.points", self.points,
+                "must be >= 16 (the pilot's and the check's subsample)")
+
+
+@dataclass
 class SensitivityConfig:
     """The Sobol' design (docs/model.md s.13.1): base sizes N (powers of 2; the smaller
-    designs are prefixes of the largest), the scrambling seed, the bootstrap, and the Hydra
+    designs are prefixes of the largest), the scrambling seed, the bootstrap, the Hydra
     overrides of the base study for the sample's runs (radau5: an RK4 step would have to
-    shrink below 0.5 ms where mu is large and eps small)."""
+    shrink below 0.5 ms where mu is large and eps small) and their accuracy budget (None:
+    every run at the overrides' own tolerances, unchecked)."""
 
     base_sizes: list[int] = field(default_factory=lambda: [256, 512])
     seed: int = 5
@@ -157,6 +186,8 @@ class SensitivityConfig:
     confidence: float = 0.95
     overrides: list[str] = field(default_factory=lambda: ["solver=radau5"])
     batch_size: int = 0
+    budget: BudgetConfig | None = field(default_factory=BudgetConfig,
+                                        metadata={OMIT_NULL: True})
     ishigami_a: float = 7.0
     ishigami_b: float = 0.1
 
@@ -173,7 +204,9 @@ class SensitivityConfig:
         require(0.0 < self.confidence < 1.0, f"{path}.confidence", self.confidence,
                 "must lie in (0, 1)")
         require(self.batch_size >= 0, f"{path}.batch_size", self.batch_size,
-                "must be >= 0 (0: about eight batches)")
+                "must be >= 0 (0: about two batches)")
+        if self.budget is not None:
+            self.budget.check(f"{path}.budget")
 
 
 @dataclass
@@ -319,6 +352,10 @@ class En05Config:
                      f"runs (the largest base size x ({k} inputs + 2), Saltelli's design)")
         require_samples("study.sensitivity.resamples", s.resamples, s.resamples * n,
                         "bootstrap indices (resamples x the largest base size)")
+        if s.budget is not None:
+            require_runs("study.sensitivity.budget.points", s.budget.points,
+                         3 * s.budget.points, "runs at least (the pilot's points at its "
+                         "reference and one rung or more, the check's 100x tighter)")
         key = culprit(c, ["seeds", "spread_seeds"],
                       lambda x: 2 * x.seeds + x.spread_seeds <= MAX_FITS)
         require(2 * c.seeds + c.spread_seeds <= MAX_FITS, f"study.calibration.{key}",

@@ -17,12 +17,15 @@ from dataclasses import dataclass, field
 from enum import StrEnum
 from typing import Any
 
+from creatio.dynamics.solvers import METHODS
 from creatio.errors import ConfigError
+from creatio.studies.budget import Rung, ladder
 from creatio.studies.material_schema import MaterialConfig
 from creatio.studies.schema import (
     MISSING,
     DynamicConfig,
     GeometryConfig,
+    Method,
     PhasesConfig,
     check_bases,
     require,
@@ -31,7 +34,7 @@ from creatio.studies.schema import (
     vary,
 )
 
-__all__ = ["AllocationConfig", "BASE", "BeyondGrid", "En06Config", "En06Study",
+__all__ = ["AllocationConfig", "BASE", "BeyondGrid", "BudgetConfig", "En06Config", "En06Study",
            "FatigueCheckConfig", "FatigueGrid", "Interval", "JointConfig", "RibsConfig",
            "SobolConfig", "SpecConfig", "StrainGrid", "TiltCheckConfig", "ToleranceInput",
            "TolerancesConfig"]
@@ -310,6 +313,67 @@ class JointConfig:
 
 
 @dataclass
+class BudgetConfig:
+    """The accuracy budget of the tolerance parts (docs/accuracy.md): when enabled, each
+    runs at the first setting a pilot finds within the part's budget, trying the methods in
+    order (the ``candidates``, cheapest first as measured on EN-02's transport, then
+    ``method``), each on its ladder from rtol ``loosest_rtol`` down to rtol/atol (factors
+    of 10), loosest first: a choice that does not depend on the machine's timing;
+    verified on ``points`` seeded points at 100x tighter tolerances and tightened 10x (at
+    most ``max_tighten`` times) when broken. The budgets are fractions of what each part's
+    answer resolves: the Sobol' outputs' standard deviation over the design
+    (``sobol_fraction``), the spec's bounds for the joint fraction (``joint_fraction``) and
+    the bisection's resolution for the allocation (``allocation_fraction``). Disabled, every
+    run is bases.en02's own solver."""
+
+    enabled: bool = False
+    candidates: list[Method] = field(default_factory=list)
+    method: Method = Method.radau5
+    rtol: float = 1e-8
+    atol: float = 1e-10
+    loosest_rtol: float = 1e-4
+    sobol_fraction: float = 1e-3
+    joint_fraction: float = 1e-2
+    allocation_fraction: float = 1e-2
+    points: int = 16
+    seed: int = 37
+    max_tighten: int = 3
+
+    def check(self, path: str) -> None:
+        """An adaptive method, tolerances > 0 with rtol <= loosest_rtol, fractions in (0, 1],
+        at least 16 points, 0 <= max_tighten <= 6."""
+        require(METHODS[str(self.method)].adaptive, f"{path}.method", str(self.method),
+                "must be an adaptive method (the ladder varies its tolerances)")
+        for i, m in enumerate(self.candidates):
+            require(METHODS[str(m)].adaptive, f"{path}.candidates[{i}]", str(m),
+                    "must be an adaptive method (the ladder varies its tolerances)")
+        for key in ("rtol", "atol", "loosest_rtol"):
+            v = getattr(self, key)
+            require(math.isfinite(v) and 0.0 < v < 1.0, f"{path}.{key}", v,
+                    "must lie in (0, 1)")
+        require(self.loosest_rtol >= self.rtol, f"{path}.loosest_rtol", self.loosest_rtol,
+                f"must be >= rtol ({self.rtol})")
+        for key in ("sobol_fraction", "joint_fraction", "allocation_fraction"):
+            v = getattr(self, key)
+            require(math.isfinite(v) and 0.0 < v <= 1.0, f"{path}.{key}", v,
+                    "must lie in (0, 1] (a fraction of what the answer resolves)")
+        require(self.points >= 16, f"{path}.points", self.points,
+                "must be >= 16 (the verification's subsample)")
+        require(self.seed >= 0, f"{path}.seed", self.seed, "must be >= 0")
+        require(0 <= self.max_tighten <= 6, f"{path}.max_tighten", self.max_tighten,
+                "must lie in [0, 6] (10x tightenings)")
+
+    def rungs(self) -> list[Rung]:
+        """The pilot's ladders, each loosest first: each candidate's, then method's (its
+        rtol/atol last, the pilot's reference 100x tighter)."""
+        out = []
+        for m in [*dict.fromkeys(str(c) for c in self.candidates if c != self.method),
+                  str(self.method)]:
+            out += ladder(Rung(m, self.rtol, self.atol), self.loosest_rtol)
+        return out
+
+
+@dataclass
 class TolerancesConfig:
     """EN-06 part 4 (docs/materials.md s.8): the inputs with their declared tolerances,
     the spec, and the sizes of the Sobol' indices, the allocation and the joint sample."""
@@ -319,6 +383,7 @@ class TolerancesConfig:
     sobol: SobolConfig = field(default_factory=SobolConfig)
     allocation: AllocationConfig = field(default_factory=AllocationConfig)
     joint: JointConfig = field(default_factory=JointConfig)
+    budget: BudgetConfig = field(default_factory=BudgetConfig)
 
     def check(self, path: str, base: DynamicConfig) -> None:
         """At least one input, distinct keys, each valid on the base; every size bounded."""
@@ -334,6 +399,7 @@ class TolerancesConfig:
         sides = sum(int(c > 0.0) for i in self.inputs.values() for c in i.cap)
         self.allocation.check(f"{path}.allocation", max(sides, 1))
         self.joint.check(f"{path}.joint")
+        self.budget.check(f"{path}.budget")
 
     @property
     def names(self) -> list[str]:

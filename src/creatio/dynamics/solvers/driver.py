@@ -16,8 +16,10 @@ modules under one contract: ``workspace(n, params)`` their arrays and carried st
 the method's parameters, creatio.dynamics.solvers.Method.params), ``step(...)`` one try at one
 step (outcome, step factor, work counters: evaluations, Jacobians, LU decompositions, Newton
 iterations; whether the end-of-step evaluation is done), ``dense(ws, t, yout)`` the dense
-output inside the last accepted step. A new implicit kind is such a module and an entry of
-STEPPERS; the explicit kind's arrays are the driver's own (see below).
+output inside the last accepted step, or ``dense_step(ws, t, yout, t0, y0, f0, t1, y1, f1)``
+from that step's ends where a kind has it, with ``passed(ws, t0, y0, f0)`` after each dense
+step (radau5: a quintic Hermite interpolant over two steps). A new implicit kind is such a
+module and an entry of STEPPERS; the explicit kind's arrays are the driver's own (see below).
 
 * Fixed step (RK4, or any method with ``fixed``): step i runs from t_i = i dt to t_{i+1};
   histories are every ``stride`` steps, and the run is ``n_steps`` steps long.
@@ -91,8 +93,14 @@ def _implicit_step(stepper, t, t_next, h, y, f, ynew, fnew, dbuf, ws, tol, fixed
     raise NotImplementedError("called only from compiled code")
 
 
-def _implicit_dense(stepper, ws, tg, yout):
-    """The implicit stepper's dense output at tg inside its last accepted step (compiled code
+def _implicit_dense(stepper, ws, tg, yout, t, y, f, t_next, ynew, fnew):
+    """The implicit stepper's dense output at tg inside its last accepted step t -> t_next
+    (start y, f; end ynew, fnew) (compiled code only; resolved at compile time)."""
+    raise NotImplementedError("called only from compiled code")
+
+
+def _implicit_passed(stepper, ws, t, y, f):
+    """Tell the implicit stepper that the dense step from (t, y, f) is done (compiled code
     only; resolved at compile time)."""
     raise NotImplementedError("called only from compiled code")
 
@@ -115,15 +123,33 @@ def _implicit_step_of(stepper, t, t_next, h, y, f, ynew, fnew, dbuf, ws, tol, fi
 
 
 @overload(_implicit_dense, prefer_literal=True, inline="always")
-def _implicit_dense_of(stepper, ws, tg, yout):
-    """The kind's dense output; a stand-in never run for the explicit kind."""
+def _implicit_dense_of(stepper, ws, tg, yout, t, y, f, t_next, ynew, fnew):
+    """The kind's dense output: ``dense_step`` (from the step's ends) where the module has
+    one, else ``dense``; a stand-in never run for the explicit kind."""
     if not isinstance(stepper, types.IntegerLiteral):
         return None
     module = _IMPLICIT.get(stepper.literal_value)
     if module is None:
-        return lambda stepper, ws, tg, yout: None
+        return lambda stepper, ws, tg, yout, t, y, f, t_next, ynew, fnew: None
+    if hasattr(module, "dense_step"):
+        dense_step = module.dense_step
+        return lambda stepper, ws, tg, yout, t, y, f, t_next, ynew, fnew: dense_step(
+            ws, tg, yout, t, y, f, t_next, ynew, fnew)
     dense = module.dense
-    return lambda stepper, ws, tg, yout: dense(ws, tg, yout)
+    return lambda stepper, ws, tg, yout, t, y, f, t_next, ynew, fnew: dense(ws, tg, yout)
+
+
+@overload(_implicit_passed, prefer_literal=True, inline="always")
+def _implicit_passed_of(stepper, ws, t, y, f):
+    """The kind's ``passed`` (what its dense output keeps of a finished step) where the module
+    has one; else nothing."""
+    if not isinstance(stepper, types.IntegerLiteral):
+        return None
+    module = _IMPLICIT.get(stepper.literal_value)
+    if module is None or not hasattr(module, "passed"):
+        return lambda stepper, ws, t, y, f: None
+    passed = module.passed
+    return lambda stepper, ws, t, y, f: passed(ws, t, y, f)
 
 
 def _arrays(n: int, n_dense: int, en: bool) -> tuple:
@@ -369,7 +395,7 @@ def _drive(stepper, p, lawc, y, arrays, iws, t_end, interval, h0, n_steps, strid
                                             en)
                     extras_done = yes
                 else:
-                    _implicit_dense(stepper, iws, tg, yout)
+                    _implicit_dense(stepper, iws, tg, yout, t, y, f, t_next, ynew, fnew)
                 d = rhs_of(free, tg, yout, kst, pp, lc, rot, en, True)
                 evals += 1
                 status, wrote = observe(no, tg, yout, d, pp, ext, out, rows, no, yes, rot, en,
@@ -380,6 +406,8 @@ def _drive(stepper, p, lawc, y, arrays, iws, t_end, interval, h0, n_steps, strid
                     break
             if status != st.OK:
                 break
+            if stepper != EXPLICIT:
+                _implicit_passed(stepper, iws, t, y, f)
         steps += 1
         for j in range(n):
             y[j] = ynew[j]

@@ -12,7 +12,11 @@ scipy runs take comparable steps.
 
 What a step carries to the next lives in a small float array (RS_*) and the work arrays of
 :func:`workspace`; :func:`step` is one try at one step, under the stepper contract of
-creatio.dynamics.solvers.driver.
+creatio.dynamics.solvers.driver. Dense output (free steps, rows between them) is the quintic
+Hermite interpolant through (y, f) at the ends of the last two accepted steps
+(:func:`dense_step`): local error O(h^6), against the collocation polynomial's O(h^4)
+(:func:`dense`, stage order 3), so the rows are good to a tight tolerance without the steps
+landing on them.
 """
 
 from __future__ import annotations
@@ -36,9 +40,9 @@ from creatio.dynamics.solvers.linalg import lu_factor, lu_solve
 from creatio.dynamics.sphere import control_columns, rhs_of, store
 
 __all__ = ["NWS", "THETA", "WS_ERR", "WS_F", "WS_JAC", "WS_LU_COMPLEX", "WS_LU_REAL",
-           "WS_PIV_COMPLEX", "WS_PIV_REAL", "WS_Q_OLD", "WS_RES_COMPLEX", "WS_RES_REAL", "WS_RS",
-           "WS_TMP", "WS_W", "WS_WORK", "WS_Y_OLD", "WS_Z", "WS_Z0", "dense", "jacobian", "step",
-           "workspace"]
+           "WS_PIV_COMPLEX", "WS_PIV_REAL", "WS_PREVIOUS", "WS_Q_OLD", "WS_RES_COMPLEX",
+           "WS_RES_REAL", "WS_RS", "WS_TMP", "WS_W", "WS_WORK", "WS_Y_OLD", "WS_Z", "WS_Z0",
+           "dense", "dense_step", "hermite5", "jacobian", "passed", "step", "workspace"]
 
 NEWTON_MAXITER = 6
 #: Newton contraction rate above which the Jacobian is refreshed (Hairer's THET).
@@ -57,9 +61,10 @@ _TI_C = tb.RADAU_TI[1] + 1j * tb.RADAU_TI[2]
 
 # Slots of the carried state: whether a Jacobian exists / is fresh at the current point, the
 # h of the current LU factors (-1: none), whether the previous step's collocation polynomial
-# exists, its start time and step, and the last accepted step and error (controller memory).
-RS_HAVE_JAC, RS_CURRENT_JAC, RS_LU_H, RS_HAVE_OLD, RS_T_OLD, RS_H_PREV, RS_H_OLD, RS_ERR_OLD = (
-    range(8))
+# exists, its start time and step, and the last accepted step and error (controller memory);
+# whether the start of the step before the last is kept (dense output) and its time.
+(RS_HAVE_JAC, RS_CURRENT_JAC, RS_LU_H, RS_HAVE_OLD, RS_T_OLD, RS_H_PREV, RS_H_OLD, RS_ERR_OLD,
+ RS_HAVE_PREVIOUS, RS_T_PREVIOUS) = range(10)
 
 
 #: Slots of the workspace tuple (:func:`workspace`), as the layouts of
@@ -67,10 +72,12 @@ RS_HAVE_JAC, RS_CURRENT_JAC, RS_LU_H, RS_HAVE_OLD, RS_T_OLD, RS_H_PREV, RS_H_OLD
 #: Jacobian, the real and complex LU factors and their pivots, the stage increments Z, their
 #: prediction Z0, W = TI Z, the stage derivatives F, the previous step's collocation
 #: polynomial and its start y, the real and complex Newton residuals, the error estimate, a
-#: trial state and a trial derivative.
+#: trial state and a trial derivative, and (y, f) at the start of the step before the last
+#: (dense output's interpolant, :func:`dense_step`).
 (WS_RS, WS_JAC, WS_LU_REAL, WS_LU_COMPLEX, WS_PIV_REAL, WS_PIV_COMPLEX, WS_Z, WS_Z0, WS_W, WS_F,
- WS_Q_OLD, WS_Y_OLD, WS_RES_REAL, WS_RES_COMPLEX, WS_ERR, WS_WORK, WS_TMP) = range(17)
-NWS = 17
+ WS_Q_OLD, WS_Y_OLD, WS_RES_REAL, WS_RES_COMPLEX, WS_ERR, WS_WORK, WS_TMP, WS_PREVIOUS) = (
+    range(18))
+NWS = 18
 
 
 @njit(cache=True)
@@ -78,7 +85,7 @@ def workspace(n, params):
     """Carried state and work arrays of step for a state of size n, in the WS_* order:
     nothing computed yet (params, the method's parameters of the driver's contract, are not
     used)."""
-    rs = np.zeros(8)
+    rs = np.zeros(10)
     rs[RS_LU_H] = -1.0
     rs[RS_H_OLD] = -1.0
     rs[RS_ERR_OLD] = -1.0
@@ -100,6 +107,7 @@ def workspace(n, params):
         np.empty(n),                            # WS_ERR: error estimate
         np.empty(n),                            # WS_WORK: a trial state
         np.empty(n),                            # WS_TMP: a trial derivative
+        np.empty((2, n)),                       # WS_PREVIOUS: y, f before the last step
     )
 
 
@@ -396,3 +404,58 @@ def dense(ws, tg, yout):
     x3 = x2 * x
     for j in range(yold.size):
         yout[j] = yold[j] + Qold[j, 0] * x + Qold[j, 1] * x2 + Qold[j, 2] * x3
+
+
+@njit(cache=True)
+def hermite5(ta, ya, fa, tb, yb, fb, tc, yc, fc, tg, yout):
+    """The quintic through (y, y') at three times ta < tb < tc, at tg, into yout: Newton's
+    divided differences on the doubled nodes (ta, ta, tb, tb, tc, tc); its error is
+    y^(6) (tg - ta)^2 (tg - tb)^2 (tg - tc)^2 / 6!, O(h^6) for steps of h."""
+    hab = tb - ta
+    hbc = tc - tb
+    hac = tc - ta
+    wa = tg - ta
+    wb = tg - tb
+    wc = tg - tc
+    for j in range(yout.size):
+        dab = (yb[j] - ya[j]) / hab
+        dbc = (yc[j] - yb[j]) / hbc
+        d_aab = (dab - fa[j]) / hab
+        d_abb = (fb[j] - dab) / hab
+        d_bbc = (dbc - fb[j]) / hbc
+        d_bcc = (fc[j] - dbc) / hbc
+        d_aabb = (d_abb - d_aab) / hab
+        d_abbc = (d_bbc - d_abb) / hac
+        d_bbcc = (d_bcc - d_bbc) / hbc
+        d_aabbc = (d_abbc - d_aabb) / hac
+        d_abbcc = (d_bbcc - d_abbc) / hac
+        d5 = (d_abbcc - d_aabbc) / hac
+        yout[j] = ya[j] + wa * (fa[j] + wa * (d_aab + wb * (d_aabb + wb * (d_aabbc + wc * d5))))
+
+
+@njit(cache=True)
+def dense_step(ws, tg, yout, t, y, f, t_next, ynew, fnew):
+    """Dense output at tg inside the last accepted step t -> t_next (start y, f; end ynew,
+    fnew): the quintic Hermite interpolant through (y, f) at the start of the step before it,
+    its start and its end (:func:`hermite5`, local error O(h^6) from values the steps already
+    have, no evaluation), good to the run's tolerance where the collocation polynomial
+    (:func:`dense`, order 3) is not; the collocation polynomial in the first step."""
+    rs = ws[WS_RS]
+    if rs[RS_HAVE_PREVIOUS] == 0.0:
+        dense(ws, tg, yout)
+        return
+    prev = ws[WS_PREVIOUS]
+    hermite5(rs[RS_T_PREVIOUS], prev[0], prev[1], t, y, f, t_next, ynew, fnew, tg, yout)
+
+
+@njit(cache=True)
+def passed(ws, t, y, f):
+    """Keep (t, y, f), the start of the step just accepted, as the first node of the next
+    step's interpolant (:func:`dense_step`): the driver calls it after each dense step."""
+    rs = ws[WS_RS]
+    prev = ws[WS_PREVIOUS]
+    for j in range(y.size):
+        prev[0, j] = y[j]
+        prev[1, j] = f[j]
+    rs[RS_T_PREVIOUS] = t
+    rs[RS_HAVE_PREVIOUS] = 1.0
