@@ -60,12 +60,7 @@ def test_arrival_rule_on_the_histories(cfg) -> None:
     """Arrival is the first recorded time within the band, settling the first time after the
     last one outside it, the overshoot the largest excursion past the goal; u recomputed from
     the histories never exceeds what the servo could ask at the recorded states."""
-    c = cfg.study.control
-    base = cfg.bases[c.base]
-    nominal = base.sphere_problem().replace(t_end=c.duration, interval=base.solver.dt)
-    ctl = controller(c, nominal, en04.closed_forms(base).roll_alpha ** 2,
-                     ControllerPoint(2.0, 20.0, 4.0, 20.0))
-    res = simulate(nominal.replace(control=ctl))
+    c, base, nominal, ctl, res = _controlled_run(cfg)
     goal, tol = math.radians(c.theta_goal_deg), math.radians(c.arrival_tol_deg)
     m = measure(res, goal, tol, float(base.geometry.Ka), ctl)
     theta = res.histories.alpha - res.histories.alpha[0]
@@ -124,6 +119,18 @@ def test_mass_does_not_change_the_closed_loop(cfg) -> None:
     assert runs[2].extrema.min_N == pytest.approx(4.0 * runs[0].extrema.min_N, rel=1e-9)
 
 
+def _controlled_run(cfg):
+    """EN-02 under one controller (omega_max 2 rad/s, delta_max 20 deg, omega_c 4 rad/s,
+    omega_n 20 rad/s) over the control part's duration, recorded at every step: the config's
+    parts, the controller and the run."""
+    c = cfg.study.control
+    base = cfg.bases[c.base]
+    nominal = base.sphere_problem().replace(t_end=c.duration, interval=base.solver.dt)
+    ctl = controller(c, nominal, en04.closed_forms(base).roll_alpha ** 2,
+                     ControllerPoint(2.0, 20.0, 4.0, 20.0))
+    return c, base, nominal, ctl, simulate(nominal.replace(control=ctl))
+
+
 def test_actuation_figures_along_a_controlled_run_against_its_closed_forms(cfg) -> None:
     """The actuation figures along a controlled EN-02 run (flat annulus, phi_r = 0) against
     what its own histories give in closed form (docs/model.md s.12.1): K_m = sigma pi A^2 M
@@ -136,13 +143,8 @@ def test_actuation_figures_along_a_controlled_run_against_its_closed_forms(cfg) 
     from creatio.model import actuation as act
     from creatio.studies.en04_control import DemandSettings, demand_figures
 
-    c = cfg.study.control
-    base = cfg.bases[c.base]
-    nominal = base.sphere_problem().replace(t_end=c.duration, interval=base.solver.dt)
+    c, base, nominal, ctl, res = _controlled_run(cfg)
     Ka = float(base.geometry.Ka)
-    ctl = controller(c, nominal, en04.closed_forms(base).roll_alpha ** 2,
-                     ControllerPoint(2.0, 20.0, 4.0, 20.0))
-    res = simulate(nominal.replace(control=ctl))
     h = res.histories
     surface = base.geometry.surface()
     rule = act.quadrature(surface, 23, 15)
@@ -276,13 +278,8 @@ def test_the_compiled_servo_and_the_skipped_search_change_no_figure(cfg, monkeyp
     from creatio.model import actuation as act
     from creatio.studies import en04_control as ec
 
-    c = cfg.study.control
-    base = cfg.bases[c.base]
-    nominal = base.sphere_problem().replace(t_end=c.duration, interval=base.solver.dt)
+    c, base, nominal, ctl, res = _controlled_run(cfg)
     Ka = float(base.geometry.Ka)
-    ctl = controller(c, nominal, en04.closed_forms(base).roll_alpha ** 2,
-                     ControllerPoint(2.0, 20.0, 4.0, 20.0))
-    res = simulate(nominal.replace(control=ctl))
     h = res.histories
     u, delta = ec.servo_along(res, ctl, Ka)
     want = ctl.acceleration(Ka, h.alpha, h.alphadot, h.phi_a, h.phi_a_rate)

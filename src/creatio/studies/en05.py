@@ -522,6 +522,23 @@ def _stderr(J: np.ndarray, r: np.ndarray) -> np.ndarray:
     return np.sqrt(np.abs(np.diag(s2 * np.linalg.pinv(J.T @ J))))
 
 
+def _intervals(JtJ: np.ndarray, s2: float, x: np.ndarray, dof: int, confidence: float
+               ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The Gauss-Newton standard errors, correlations and t intervals of the estimate x from
+    s^2 (J^T J)^-1 (infinite where J^T J is singular)."""
+    from scipy import stats
+
+    try:
+        cov = s2 * np.linalg.inv(JtJ)
+    except np.linalg.LinAlgError:
+        cov = np.full(JtJ.shape, np.inf)
+    stderr = np.sqrt(np.abs(np.diag(cov)))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        corr = cov / np.outer(stderr, stderr)
+    q = float(stats.t.ppf(0.5 + confidence / 2.0, dof))
+    return stderr, corr, np.column_stack([x - q * stderr, x + q * stderr])
+
+
 def _gn_step(J: np.ndarray, r: np.ndarray, lam: float) -> np.ndarray:
     """The Levenberg-Marquardt step (J^T J + lam diag(J^T J)) dx = -J^T r (lam 0: Gauss-
     Newton), by least squares so a singular J^T J gives the minimum-norm step."""
@@ -628,7 +645,6 @@ def fit_track(cfg: DynamicConfig, track: Track, keys: Sequence[str],
     while over budget). A key is flagged "not identifiable from this track" when its
     interval is wider than its physical range (``ranges``) or J^T J
     is near singular. ``cache`` shares runs between fits of one config, keys and frames."""
-    from scipy import stats
 
     keys = list(keys)
     model = _Model(cfg, track, keys, cache)
@@ -725,15 +741,7 @@ def fit_track(cfg: DynamicConfig, track: Track, keys: Sequence[str],
     with np.errstate(divide="ignore", invalid="ignore"):
         scaled = JtJ / np.outer(norms, norms)
         condition = float(np.linalg.cond(scaled)) if np.all(norms > 0) else math.inf
-    try:
-        cov = s2 * np.linalg.inv(JtJ)
-    except np.linalg.LinAlgError:
-        cov = np.full((p, p), np.inf)
-    stderr = np.sqrt(np.abs(np.diag(cov)))
-    with np.errstate(divide="ignore", invalid="ignore"):
-        corr = cov / np.outer(stderr, stderr)
-    q = float(stats.t.ppf(0.5 + confidence / 2.0, dof))
-    ival = np.column_stack([x - q * stderr, x + q * stderr])
+    stderr, corr, ival = _intervals(JtJ, s2, x, dof, confidence)
     flags = {}
     for j, k in enumerate(keys):
         why = []
@@ -811,7 +819,6 @@ def fit_linearised(cfg: DynamicConfig, track: Track, keys: Sequence[str], lin: L
     Jacobian lin.jacobian(x) (no run for it), one run of the model at lin.rung per step,
     until the step is below ``tol`` of every standard error; the last step and the
     residual at its end are linear. The covariance s^2 (J^T J)^-1 with J at the estimate."""
-    from scipy import stats
 
     keys = list(keys)
     model = _Model(cfg, track, keys, cache)
@@ -834,15 +841,7 @@ def fit_linearised(cfg: DynamicConfig, track: Track, keys: Sequence[str], lin: L
     n, p = r.size, len(keys)
     dof = max(n - p, 1)
     s2 = float(r @ r) / dof
-    try:
-        cov = s2 * np.linalg.inv(J.T @ J)
-    except np.linalg.LinAlgError:
-        cov = np.full((p, p), np.inf)
-    stderr = np.sqrt(np.abs(np.diag(cov)))
-    with np.errstate(divide="ignore", invalid="ignore"):
-        corr = cov / np.outer(stderr, stderr)
-    q = float(stats.t.ppf(0.5 + confidence / 2.0, dof))
-    ival = np.column_stack([x - q * stderr, x + q * stderr])
+    stderr, corr, ival = _intervals(J.T @ J, s2, x, dof, confidence)
     R = r.reshape(track.xyz.shape)
     return Fit(keys, lin.x.copy(), x, stderr, ival, corr, R, R + track.xyz,
                float(np.sqrt(np.mean(r * r))), s2, dof, math.nan, "ok", True, model.runs,

@@ -221,10 +221,8 @@ def _run_rows(model: Model, keys: Sequence[str], X: np.ndarray, nom: Transport,
     return rows
 
 
-def _runner(models: Models, keys: Sequence[str], X: np.ndarray, what: str
-            ) -> tuple[bd.Runner, Callable[[bd.Rung], Transport]]:
-    """The budget's run(rung, idx) over the rows of X (errors from the nominal at the same
-    rung) and the nominal at a rung, each rung's model and nominal made once."""
+def _at_rungs(models: Models) -> Callable[[bd.Rung], tuple[Model, Transport]]:
+    """A rung's model and its nominal transport, each made once per rung."""
     cache: dict[bd.Rung, tuple[Model, Transport]] = {}
 
     def at(rung: bd.Rung) -> tuple[Model, Transport]:
@@ -232,6 +230,15 @@ def _runner(models: Models, keys: Sequence[str], X: np.ndarray, what: str
             m = models(rung)
             cache[rung] = (m, nominal(m))
         return cache[rung]
+
+    return at
+
+
+def _runner(models: Models, keys: Sequence[str], X: np.ndarray, what: str
+            ) -> tuple[bd.Runner, Callable[[bd.Rung], Transport]]:
+    """The budget's run(rung, idx) over the rows of X (errors from the nominal at the same
+    rung) and the nominal at a rung, each rung's model and nominal made once."""
+    at = _at_rungs(models)
 
     def run(rung: bd.Rung, idx: np.ndarray) -> dict[str, np.ndarray]:
         m, nom = at(rung)
@@ -471,14 +478,7 @@ def _budgeted_search(cfg: En06Config, models: Models, sides: Sequence[_Side]
     central difference 2^10 resolutions wide at that loosest rung)."""
     tol, bgt = cfg.study.tolerances, cfg.study.tolerances.budget
     al = tol.allocation
-    cache: dict[bd.Rung, tuple[Model, Transport]] = {}
-
-    def at(rung: bd.Rung) -> tuple[Model, Transport]:
-        if rung not in cache:
-            m = models(rung)
-            cache[rung] = (m, nominal(m))
-        return cache[rung]
-
+    at = _at_rungs(models)
     rungs = bgt.rungs()
     start = next(r for r in rungs if r.method == rungs[-1].method)
     rung = start
