@@ -12,8 +12,10 @@ all: $(STAMP)
 	@echo "results: data/index.html (every study, run, sweep, scene and benchmark built;" \
 	  "in a terminal: $(BIN)/creatio ls, then $(BIN)/creatio open NAME)"
 
+# The quick tier on every core, up to 4 (pytest-xdist): whole test modules per worker, so a
+# module's fixtures are built once; `pytest` alone runs it in one process.
 test: $(STAMP)
-	$(BIN)/python -m pytest
+	$(BIN)/python -m pytest -n auto --maxprocesses 4 --dist loadfile
 
 test-long: $(STAMP)
 	$(BIN)/python -m pytest -m 'long and not slow'

@@ -259,6 +259,26 @@ LONG = (
     "test_indices_agree_with_the_configured_tolerance_within_their_intervals",
     "tests/pipeline/test_calibrate.py::"
     "test_a_fit_that_leaves_the_range_is_held_at_the_bound_and_never_printed",
+    # Issue 39 item 8 again (which compiled loop each quick test called, recorded per test
+    # at creatio.dynamics.jit.ensure_compiled): EN-05's fits and design run radau5 (its
+    # trajectory loop compiled 45 s, load 4, in the round trip's module fixture), and h0's
+    # check runs radau5 with energy (39 s)
+    *(f"tests/studies/test_en05.py::test_{name}" for name in (
+        "a_design_run_too_loosely_is_caught_and_tightened",
+        "a_fit_counts_its_runs_and_most_are_cheap",
+        "a_loose_rung_is_caught_by_the_check_and_tightened",
+        "a_track_of_a_sticking_sphere_flags_both_keys_not_identifiable",
+        "design_step_check_and_lost_runs_follow_the_runs",
+        "intervals_cover_the_truth_about_95_percent_of_seeds",
+        "cramer_rao_sigma_matches_the_spread_of_fitted_mu",
+        "seeds_sharing_one_jacobian_agree_with_their_own_fits",
+        "the_chosen_rung_is_within_the_noise_budget_on_the_check",
+        "the_fast_fit_agrees_with_the_full_accuracy_fit_to_1e3_of_its_interval")),
+    "tests/studies/test_schema_solver.py::test_a_configured_h0_is_the_first_step_each_run_takes",
+    # and radau5 with energy in a sweep's absurd point, and in EN-05's raw-run rows
+    "tests/trust/test_trust.py::test_a_sweep_point_with_absurd_checks_is_recorded_checks_failed",
+    "tests/pipeline/test_points.py::"
+    "test_a_point_row_from_the_raw_run_equals_the_outputs_of_its_dataset",
 )
 
 

@@ -350,13 +350,13 @@ def test_a_looser_polish_tolerance_stops_earlier_near_the_same_maximum(
     t = np.linspace(0.0, 30.0, 601)
     _, wt = act.time_maximum(lambda x: act.normal_rate_bounds(SURFACE, MIXED, x)[0], 0, 30)
     calls = []
-    wave = act.Wave
+    normal = act._normal
 
     def counted(*args: object, **kwargs: object) -> object:
         calls.append(1)
-        return wave(*args, **kwargs)
+        return normal(*args, **kwargs)
 
-    monkeypatch.setattr(act, "Wave", counted)
+    monkeypatch.setattr(act, "_normal", counted)
     counts, values = [], []
     for ftol in (act.NM_FTOL, 1e-6):
         calls.clear()
@@ -366,3 +366,102 @@ def test_a_looser_polish_tolerance_stops_earlier_near_the_same_maximum(
     assert counts[1] < counts[0]
     assert values[0] == pytest.approx(wt, rel=1e-9)
     assert values[1] == pytest.approx(wt, rel=1e-5) and values[1] <= values[0]
+
+
+#: An inclined membrane (gamma' and gamma'' nonzero) with both phases moving, one of them
+#: sampled: every term of Frame's c_t and c_tt is exercised.
+_TS = np.linspace(0.0, 30.0, 301)
+INCLINED = Motion(Law.linear(0.4, 0.3),
+                  act.SampledLaw(_TS, 1.1 + 0.2 * _TS + 0.01 * _TS**2, 0.2 + 0.02 * _TS,
+                                 np.full(_TS.size, 0.02)),
+                  Law.quintic(0.05, 0.3, 30.0))
+
+
+@pytest.mark.parametrize("motion", [MIXED, INCLINED], ids=["flat", "inclined"])
+def test_membrane_integrals_are_frames_numbers_bit_for_bit(motion: Motion) -> None:
+    """The integrals (computed without Frame on the ideal surface: the frame vectors on
+    (alpha, t), the sines on (R, t)) are exactly those of Frame's c_t and c_tt reduced as
+    the docstring says, at many times and at one, and K_m alone (the search's) likewise."""
+    rule = act.quadrature(SURFACE, 23, 15)
+    t = np.linspace(0.3, 29.7, 377)
+    a, R, w = rule.alpha[None, :, None], rule.R[None, None, :], rule.weight[None, :, :]
+    frame = Frame(SURFACE, motion, a, R, t[:, None, None])
+    ct, ctt = frame.c_t, frame.c_tt
+    speed2 = np.einsum("...i,...i->...", ct, ct)
+    power = np.einsum("...i,...i->...", ct, ctt)
+    mi = act.membrane_integrals(SURFACE, motion, t, rule, SIGMA, 0.7, G)
+    assert np.array_equal(mi.kinetic, 0.5 * SIGMA * np.sum(w * speed2, axis=(1, 2)))
+    assert np.array_equal(mi.inertia, SIGMA * np.sum(w * power, axis=(1, 2)))
+    assert np.array_equal(mi.gravity, SIGMA * np.sum(w * (G * ct[..., 2]), axis=(1, 2)))
+    assert np.array_equal(mi.damping, 0.7 * np.sum(w * speed2, axis=(1, 2)))
+    assert np.max(np.abs(mi.inertia)) > 0.0 and np.max(np.abs(mi.gravity)) > 0.0
+    one = act.membrane_integrals(SURFACE, motion, t[5:6], rule, SIGMA, 0.0, G)
+    assert np.array_equal(one.kinetic, mi.kinetic[5:6])
+    assert np.array_equal(act._kinetic_energy(SURFACE, motion, t, rule, SIGMA), mi.kinetic)
+
+
+@pytest.mark.parametrize("motion", [MIXED, INCLINED], ids=["flat", "inclined"])
+def test_normal_motion_is_waves_numbers_bit_for_bit(motion: Motion) -> None:
+    """W, W_t, W_tt of the extrema's evaluator equal Wave's exactly: on a (t, alpha, R)
+    grid, along the times at one point (with the phases evaluated beforehand) and at one
+    point and time."""
+    rng = np.random.default_rng(7)
+    alpha = rng.uniform(0.0, 2.0 * math.pi, 11)[None, :, None]
+    R = rng.uniform(0.0, SURFACE.dR, 7)[None, None, :]
+    t = rng.uniform(0.0, 30.0, 13)
+    cases = [(alpha, R, t[:, None, None], False), (0.4, 1.1, t, True),
+             (np.float64(2.5), np.float64(0.3), np.float64(17.2), False)]
+    for a, r, s, given in cases:
+        wave = act.Wave(SURFACE, motion, a, r, s)
+        fast = act._normal(SURFACE, motion, a, r, s,
+                           act._laws_at(motion, s, gamma=False) if given else None)
+        for name in ("W", "W_t", "W_tt"):
+            assert np.array_equal(getattr(fast, name), getattr(wave, name)), name
+
+
+def _hermite_reference(law: act.SampledLaw, t: float) -> tuple[float, float, float]:
+    """SampledLaw's definition at one time through NumPy's clip and searchsorted on a 0-d
+    array (the array machinery the one-time path skips)."""
+    ts = law.t
+    x = np.clip(np.asarray(t, float), ts[0], ts[-1])
+    i = np.clip(np.searchsorted(ts, x, side="right") - 1, 0, ts.size - 2)
+    h = ts[i + 1] - ts[i]
+    s = (x - ts[i]) / h
+    h00, h10 = (1.0 + 2.0 * s) * (1.0 - s) ** 2, s * (1.0 - s) ** 2
+    h01, h11 = s * s * (3.0 - 2.0 * s), s * s * (s - 1.0)
+    v, d1, d2 = law.value, law.d1, law.d2
+    return (h00 * v[i] + h10 * h * d1[i] + h01 * v[i + 1] + h11 * h * d1[i + 1],
+            h00 * d1[i] + h10 * h * d2[i] + h01 * d1[i + 1] + h11 * h * d2[i + 1],
+            (1.0 - s) * d2[i] + s * d2[i + 1])
+
+
+def test_sampled_law_at_one_time_is_the_array_definition() -> None:
+    """At one time (a local search's), the sampled law gives exactly the numbers of its
+    definition through np.clip and np.searchsorted: between samples, at them, at the ends,
+    outside them (clamped), at -0.0; a 1-element array still takes the array path."""
+    rng = np.random.default_rng(11)
+    ts = np.concatenate([[0.0], np.cumsum(rng.uniform(1e-3, 1e-2, 400))])
+    law = act.SampledLaw(ts, rng.normal(size=ts.size), rng.normal(size=ts.size),
+                         rng.normal(size=ts.size))
+    times = [*rng.uniform(-0.5, ts[-1] + 0.5, 2000), *ts[:50], ts[-1], -0.0, 0.0]
+    for t in times:
+        got = law(t)
+        want = _hermite_reference(law, t)
+        for x, y in zip((got.value, got.d1, got.d2), want, strict=True):
+            assert x == y and np.signbit(x) == np.signbit(y) and np.ndim(x) == 0, t
+    assert law(ts[7]).value == law.value[7] and law(ts[-1] + 3.0).d1 == law.d1[-1]
+    assert law(np.array([ts[3]])).value.shape == (1,)
+
+
+def test_demands_shared_time_samplings_give_time_maximums_numbers() -> None:
+    """actuation_demand's closed-form maxima and bandwidth (the phases evaluated once on the
+    common sampling) are exactly time_maximum's, each on its own sampling."""
+    t = np.linspace(0.0, 30.0, 301)
+    rule = act.quadrature(SURFACE, 9, 5)
+    d = act.actuation_demand(SURFACE, INCLINED, t, np.zeros(t.size), rule, SIGMA, 0.0, G,
+                             extrema=(8, 5), polish=False)
+    _, wt = act.time_maximum(lambda x: act.normal_rate_bounds(SURFACE, INCLINED, x)[0], 0, 30)
+    _, wtt = act.time_maximum(lambda x: act.normal_rate_bounds(SURFACE, INCLINED, x)[1], 0, 30)
+    _, f = act.time_maximum(lambda x: act.local_frequency(INCLINED, x), 0, 30)
+    assert (d.max_W_t_closed_form, d.max_W_tt_closed_form, d.bandwidth) == (wt, wtt, f)
+    assert wt > 0.0 and wtt > 0.0 and f > 0.0

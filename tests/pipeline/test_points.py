@@ -147,6 +147,68 @@ def test_a_design_float_is_read_as_hydra_reads_it():
     assert all(a == b for a, b in zip(fast, slow, strict=True))
 
 
+def test_a_point_row_from_the_raw_run_equals_the_outputs_of_its_dataset(tmp_path):
+    """A batch row of EN-05 is read from the point's raw run (en05.point_row), never its
+    EN-02 dataset: the same status and the same floats as the outputs read from the dataset
+    of the study's first part and its summary (what the rows held before), for two points
+    of a batch and a run its evaluation budget stops (NaN, carried 0); a point the model
+    refuses is NaN with status invalid in the batch."""
+    from creatio.pipeline.sweep import _base, point_changes
+    from creatio.reports import summary
+    from creatio.studies import registry
+    from creatio.studies.schema import vary
+
+    _, sample = _sample(tmp_path)
+    plan = points.PointPlan(
+        "en02", (("sphere.mu", ("0.1", "0.25", "-0.1")), ("sphere.eps", ("0.01", "0.003",
+                                                                       "0.01"))),
+        tuple(points.merged_overrides(sample.base, Rung("radau5", 1e-6, 1e-8).overrides())),
+        "three", str(tmp_path / "three"), 3, outputs="creatio.studies.en05:point_row")
+    run_batch(plan, 0)
+    rows = points.collect(plan, list(en05.OUTPUTS))
+    base = _base(plan)
+    configs = [vary(base.obj, point_changes(plan, base, i)) for i in (0, 1)]
+    configs.append(vary(configs[0], {"solver.max_rhs_evals": 2000}))
+    entry = registry.get("en02")
+    for i, cfg in enumerate(configs):
+        ds = entry.run_function()(cfg, **entry.parts(cfg)[0].args)
+        ds.attrs["study"] = "en02"
+        want = {"status": summary(ds)["status"], **en05.point_outputs(ds, cfg)}
+        got = en05.point_row(cfg) if i == 2 else {k: rows[k][i] for k in want}
+        assert got["status"] == want["status"] == ("ok" if i < 2 else "budget_exceeded")
+        np.testing.assert_array_equal([got[k] for k in en05.OUTPUTS],
+                                      [want[k] for k in en05.OUTPUTS])
+    assert math.isnan(got["final_radius"]) and got["carried"] == 0.0
+    assert rows["status"][2] == "invalid" and "sphere.mu" in rows["message"][2]
+    assert all(math.isnan(rows[k][2]) for k in en05.OUTPUTS)
+
+
+def test_a_batch_job_reads_the_design_the_pilot_kept_and_only_under_its_key(tmp_path,
+                                                                           monkeypatch):
+    """The pilot keeps the design's values in the point store; a job that finds them under
+    its key (sample, code, library versions) takes them, SALib not called; a file under
+    another key is ignored and the design computed anew; the same array every way."""
+    _, sample = _sample(tmp_path)
+    points._DESIGNS.clear()
+    computed = sample.inputs()
+    assert computed.shape == (8 * 8, 6) and not (tmp_path / "sweeps").exists()
+    sample.inputs(keep=True)
+    points._DESIGNS.clear()
+
+    def refuse(*args, **kwargs):
+        raise AssertionError("the design was computed, not read")
+
+    monkeypatch.setattr(en05, "sobol_design", refuse)
+    np.testing.assert_array_equal(sample.inputs(), computed)
+    np.savez(sample.design_file, X=computed + 1.0, key=np.array("another key"))
+    points._DESIGNS.clear()
+    with pytest.raises(AssertionError, match="computed, not read"):
+        sample.inputs()
+    monkeypatch.undo()
+    np.testing.assert_array_equal(sample.inputs(), computed)
+    points._DESIGNS.clear()
+
+
 def test_overrides_merge_later_keys_over_earlier_ones():
     """A rung's solver.rtol replaces the base's; the group override keeps one place."""
     got = points.merged_overrides(["sphere.b=0.13", "solver=radau5", "solver.rtol=1e-9"],
@@ -163,7 +225,8 @@ def test_a_batch_needs_the_pilot_first_and_a_fixed_step_sample_has_no_budget(tmp
     _, rk4 = _sample(tmp_path, "study.sensitivity.overrides=['solver=rk4','solver.dt=0.0005']")
     with pytest.raises(ConfigError, match="adaptive solver"):
         points.pilot(rk4)
-    assert not (tmp_path / "sweeps").exists() or not list((tmp_path / "sweeps").rglob("*.json"))
+    assert not (tmp_path / "sweeps").exists() or not [
+        f for f in (tmp_path / "sweeps").rglob("*") if f.is_file()]
 
 
 def test_unresolved_outputs_are_those_no_rung_can_resolve():

@@ -72,7 +72,7 @@ def test_base_overrides_are_judged_with_each_point(tmp_path):
 def test_batched_points_equal_one_run_per_point(tmp_path):
     """Each batched point (one composition, values varied in place; T swept, so the study
     duration that follows it too) gives exactly the figures of its own composed run."""
-    plan = plan_sweep("en02", ["sphere.mu=0,0.1", "phases.T=2,3"],
+    plan = plan_sweep("en02", ["sphere.mu=0.05,0.1", "phases.T=2,3"],
                       ["study.outputs=[trajectory]"], data_dir=str(tmp_path), batch_size=3)
     ds = xr.load_dataset(write_sweep(plan, compute_missing=True)["nc"])
     for i in range(plan.n_points):

@@ -136,6 +136,31 @@ def load_cached(disp, sig) -> bool:  # type: ignore[no-untyped-def]
         return True
 
 
+#: (dispatcher, argument layout) pairs whose specialisation is known loaded in this process:
+#: numba's typing of a sample's 18 arguments took 1 ms of a 7 ms run (EN-05). A layout that
+#: maps two signatures to one key would only skip the announcement: the call still compiles.
+_READY: set = set()
+
+
+def _layout(a):  # type: ignore[no-untyped-def]
+    """What numba's type of a depends on, cheaply: an array's dtype, rank and flags, a
+    tuple's items, a number's or flag's Python type, any other value itself."""
+    import numpy as np
+
+    if isinstance(a, np.ndarray):
+        f = a.flags
+        return (a.dtype.str, a.ndim, f.c_contiguous, f.f_contiguous, f.writeable, f.aligned)
+    if isinstance(a, tuple):
+        return (type(a), tuple(_layout(x) for x in a))
+    if isinstance(a, bool | int | float | complex | str | np.generic):
+        return type(a)
+    try:
+        hash(a)
+    except TypeError:
+        return (type(a), id(a))
+    return (type(a), a)
+
+
 def ensure_compiled(disp, args: tuple, what: str) -> None:  # type: ignore[no-untyped-def]
     """Make the specialisation of dispatcher disp for args ready before it is called: loaded
     from memory or numba's on-disk cache as a call would, else compiled here after one line
@@ -144,8 +169,12 @@ def ensure_compiled(disp, args: tuple, what: str) -> None:  # type: ignore[no-un
     import sys
     import time
 
+    layout = (disp, _layout(args))
+    if layout in _READY:
+        return
     sig = tuple(disp.typeof_pyval(a) for a in args)
     if sig in disp.overloads or load_cached(disp, sig):
+        _READY.add(layout)
         return
     name = disp.py_func.__name__
     seconds, source = compile_estimate(name)

@@ -1,7 +1,8 @@
 """What a prescribed cycle asks of the actuators (docs/model.md s.12.1).
 
 Pure NumPy over the surface of creatio.model.surface (its material velocity c_t and
-acceleration c_tt, evaluated once here through :class:`~creatio.model.surface.Frame`):
+acceleration c_tt by :class:`~creatio.model.surface.Frame`'s formulas, on the quadrature's
+grids with only the fields they use and the same numbers):
 
 * the load: the power the membrane puts into the sphere, P_surface = (N n + f) . c_t at the
   contact point, from a run's recorded (t, R, alpha, N, f) (:func:`load_power`);
@@ -26,6 +27,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Collection, Sequence
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -99,6 +101,135 @@ def quadrature(surface: Surface, n_alpha: int, n_R: int) -> Quadrature:
     return Quadrature(alpha, R, weight)
 
 
+def _laws_at(motion: Motion, t: ArrayLike, gamma: bool = True) -> tuple[LawValue, ...]:
+    """The motion's laws at times t (phi_r, phi_a and, with ``gamma``, the inclination), each
+    part an array (0-d at one time), as :class:`~creatio.model.surface.Wave` broadcasts them."""
+    t = np.asarray(t, float)
+    laws = (motion.phi_r, motion.phi_a, motion.gamma) if gamma else (motion.phi_r, motion.phi_a)
+    return tuple(LawValue(*(np.asarray(x, float) for x in (v.value, v.d1, v.d2)))
+                 for v in (law(t) for law in laws))
+
+
+class _Normal:
+    """W, W_t and W_tt of :class:`~creatio.model.surface.Wave` on the ideal surface, from
+    the phases already evaluated at the times (:func:`_laws_at`): the same operations in the
+    same order element by element, so the same numbers, but only the fields asked for, and
+    each sine and cosine taken on the shape it depends on ((R, t) or (alpha, t)) before
+    the products broadcast it (the membrane's grids are times x nodes)."""
+
+    def __init__(self, surface: Surface, pr: LawValue, pa: LawValue, alpha: ArrayLike,
+                 R: ArrayLike) -> None:
+        self.A = surface.A
+        self.u = surface.k * np.asarray(R, float) + pr.value
+        self.v = surface.Ka * np.asarray(alpha, float) + pa.value
+        self.pr, self.pa = pr, pa
+
+    @cached_property
+    def su(self) -> Array:
+        """sin u, u = k R + phi_r."""
+        return np.sin(self.u)
+
+    @cached_property
+    def cu(self) -> Array:
+        """cos u."""
+        return np.cos(self.u)
+
+    @cached_property
+    def sv(self) -> Array:
+        """sin v, v = Ka alpha + phi_a."""
+        return np.sin(self.v)
+
+    @cached_property
+    def cv(self) -> Array:
+        """cos v."""
+        return np.cos(self.v)
+
+    @cached_property
+    def W(self) -> Array:
+        """W = A sin u cos v."""
+        return self.A * self.su * self.cv
+
+    @cached_property
+    def W_t(self) -> Array:
+        """W_t = A (phi_r' cos u cos v - phi_a' sin u sin v)."""
+        r1, a1 = self.pr.d1, self.pa.d1
+        return self.A * (r1 * self.cu * self.cv - a1 * self.su * self.sv)
+
+    @cached_property
+    def W_tt(self) -> Array:
+        """W_tt, Wave's formula."""
+        r1, r2, a1, a2 = self.pr.d1, self.pr.d2, self.pa.d1, self.pa.d2
+        su, cu, sv, cv = self.su, self.cu, self.sv, self.cv
+        return self.A * (
+            r2 * cu * cv - a2 * su * sv - (r1**2 + a1**2) * su * cv - 2.0 * r1 * a1 * cu * sv
+        )
+
+
+def _normal(surface: Surface, motion: Motion, alpha: ArrayLike, R: ArrayLike, t: ArrayLike,
+            laws: tuple[LawValue, ...] | None = None) -> _Normal | Wave:
+    """W and its time derivatives at (alpha, R, t): :class:`_Normal` on the ideal surface
+    (``laws``: the phases at t when the caller has them), Wave itself on a rib skin."""
+    if surface.ribs is not None:
+        return Wave(surface, motion, alpha, R, t)
+    pr, pa = laws[:2] if laws is not None else _laws_at(motion, t, gamma=False)
+    return _Normal(surface, pr, pa, alpha, R)
+
+
+def _combine(a: Array, u: Sequence[Array], b: Array, v: Sequence[Array]) -> Array:
+    """The vector field a u + b v, shape a.shape + (3,), from the components of u and v
+    (each broadcast against a): the surface frame's ``a[..., None] * u + b[..., None] * v``
+    element by element, built one contiguous component at a time (three times faster than
+    broadcasting into a last axis of length 3)."""
+    out = np.empty(np.broadcast_shapes(np.shape(a), np.shape(b), *(np.shape(x) for x in u),
+                                       *(np.shape(x) for x in v)) + (3,))
+    for j in range(3):
+        np.add(a * u[j], b * v[j], out=out[..., j])
+    return out
+
+
+class _Rates:
+    """c_t and c_tt of :class:`~creatio.model.surface.Frame` on the ideal surface: Frame's
+    formulas in its order, so the same numbers, but the frame vectors e_rho, e_z, e_g, e_n
+    kept as components on the shape of (alpha, t), the phases' sines on those of (R, t) and
+    (alpha, t) (:class:`_Normal`), and none of the fields c_t and c_tt do not use."""
+
+    def __init__(self, surface: Surface, motion: Motion, alpha: ArrayLike, R: ArrayLike,
+                 t: ArrayLike) -> None:
+        pr, pa, gm = _laws_at(motion, t)
+        alpha, self.R = np.asarray(alpha, float), np.asarray(R, float)
+        self.w = _Normal(surface, pr, pa, alpha, self.R)
+        sa, ca = np.sin(alpha), np.cos(alpha)
+        sg, cg = np.sin(gm.value), np.cos(gm.value)
+        self.dg, self.ddg = gm.d1, gm.d2
+        e_rho = (ca, sa, 0.0 * ca)
+        e_z = (0.0 * ca, 0.0 * ca, 1.0 + 0.0 * ca)
+        self.e_g = [cg * x + sg * z for x, z in zip(e_rho, e_z, strict=True)]
+        self.e_n = [-sg * x + cg * z for x, z in zip(e_rho, e_z, strict=True)]
+
+    @cached_property
+    def c_t(self) -> Array:
+        """dc/dt = (W_t + R gamma') e_n - W gamma' e_g."""
+        w, dg = self.w, self.dg
+        return _combine(w.W_t + self.R * dg, self.e_n, -w.W * dg, self.e_g)
+
+    @cached_property
+    def c_tt(self) -> Array:
+        """d2c/dt2 = (W_tt + R g'' - W g'^2) e_n - (2 W_t g' + W g'' + R g'^2) e_g."""
+        w, R, dg, ddg = self.w, self.R, self.dg, self.ddg
+        a = w.W_tt + R * ddg - w.W * dg**2
+        b = 2.0 * w.W_t * dg + w.W * ddg + R * dg**2
+        return _combine(a, self.e_n, -b, self.e_g)
+
+
+def _material_rates(surface: Surface, motion: Motion, alpha: ArrayLike, R: ArrayLike,
+                    t: ArrayLike) -> _Rates | Frame:
+    """c_t and c_tt at (alpha, R, t), each computed when first asked for: :class:`_Rates`
+    on the ideal surface, Frame itself on a rib skin."""
+    if surface.ribs is not None:
+        return Frame(surface, motion, alpha, R, t)
+    return _Rates(surface, motion, alpha, R, t)
+
+
 @dataclass(frozen=True)
 class MembraneIntegrals:
     """The membrane integrals at times t (docs/model.md s.12.1), each shape t.shape:
@@ -145,9 +276,8 @@ def membrane_integrals(surface: Surface, motion: Motion, t: ArrayLike, rule: Qua
     w = rule.weight[None, :, :]
     for start in range(0, t.size, step):
         tt = t[start:start + step, None, None]
-        frame = Frame(surface, motion, a, R, tt)
-        ct = frame.c_t
-        ctt = frame.c_tt
+        rates = _material_rates(surface, motion, a, R, tt)
+        ct, ctt = rates.c_t, rates.c_tt
         speed2 = np.einsum("...i,...i->...", ct, ct)
         power = np.einsum("...i,...i->...", ct, ctt)
         lift = g * ct[..., 2]  # -g_vec . c_t with g_vec = (0, 0, -g)
@@ -162,6 +292,24 @@ def membrane_integrals(surface: Surface, motion: Motion, t: ArrayLike, rule: Qua
         scale[sl, 2] = sigma * np.sum(w * np.abs(lift), axis=(1, 2))
         scale[sl, 3] = out[sl, 3]
     return MembraneIntegrals(t, out[:, 0], out[:, 1], out[:, 2], out[:, 3], square, scale)
+
+
+def _kinetic_energy(surface: Surface, motion: Motion, t: ArrayLike, rule: Quadrature,
+                    sigma: float, chunk: int = 100_000) -> Array:
+    """K_m of :func:`membrane_integrals` alone (the same chunks and operations, without
+    c_tt or the other integrals): what a search of K_m's largest value evaluates."""
+    t = np.atleast_1d(np.asarray(t, float))
+    step = max(1, chunk // rule.weight.size)
+    out = np.empty(t.size)
+    a = rule.alpha[None, :, None]
+    R = rule.R[None, None, :]
+    w = rule.weight[None, :, :]
+    for start in range(0, t.size, step):
+        tt = t[start:start + step, None, None]
+        ct = _material_rates(surface, motion, a, R, tt).c_t
+        speed2 = np.einsum("...i,...i->...", ct, ct)
+        out[start:start + tt.shape[0]] = 0.5 * sigma * np.sum(w * speed2, axis=(1, 2))
+    return out
 
 
 @dataclass(frozen=True)
@@ -276,8 +424,11 @@ def normal_rate_bounds(surface: Surface, motion: Motion, t: ArrayLike) -> tuple[
     v, so each maximum is A times the largest singular value: A max(|phi_r'|, |phi_a'|) and
     A sigma_max(M). W does not depend on gamma, so this holds on every surface of the family.
     """
-    pr, pa = motion.phi_r(t), motion.phi_a(t)
-    A = surface.A
+    return _rate_bounds(surface.A, motion.phi_r(t), motion.phi_a(t))
+
+
+def _rate_bounds(A: float, pr: LawValue, pa: LawValue) -> tuple[Array, Array]:
+    """:func:`normal_rate_bounds` from the phases already evaluated."""
     w_t = A * np.maximum(np.abs(pr.d1), np.abs(pa.d1))
     m11, m12 = pr.d2, -2.0 * pr.d1 * pa.d1
     m21, m22 = -(pr.d1**2 + pa.d1**2), -pa.d2
@@ -287,8 +438,12 @@ def normal_rate_bounds(surface: Surface, motion: Motion, t: ArrayLike) -> tuple[
     return np.asarray(w_t, float), np.asarray(A * smax, float)
 
 
-def time_maximum(fun: Callable[[Array], Array], t0: float, t1: float, samples: int = 20001
-                 ) -> tuple[float, float]:
+#: The uniform sampling of :func:`time_maximum` before its refinement.
+TIME_SAMPLES = 20001
+
+
+def time_maximum(fun: Callable[[Array], Array], t0: float, t1: float,
+                 samples: int = TIME_SAMPLES) -> tuple[float, float]:
     """(t*, max) of a smooth scalar function of time on [t0, t1]: the best of a uniform
     sampling, refined by :func:`refine_maximum`."""
     t = np.linspace(t0, t1, samples)
@@ -404,7 +559,7 @@ def normal_rate_maxima(surface: Surface, motion: Motion, t: ArrayLike, n_alpha: 
     step = max(1, 100_000 // (n_alpha * n_R))
     for start in range(0, t.size, step):
         tt = t[start:start + step]
-        w = Wave(surface, motion, alpha[None, :, None], R[None, None, :], tt[:, None, None])
+        w = _normal(surface, motion, alpha[None, :, None], R[None, None, :], tt[:, None, None])
         hi = np.maximum(hi, w.W.max(axis=0))
         lo = np.minimum(lo, w.W.min(axis=0))
         awt = np.abs(w.W_t)
@@ -426,18 +581,19 @@ def normal_rate_maxima(surface: Surface, motion: Motion, t: ArrayLike, n_alpha: 
     worst = (float(alpha[wi[0]]), float(R[wi[1]]))
     max_wtt = best_tt[0]
     t0, t1 = float(t[0]), float(t[-1])
+    laws = None if surface.ribs is not None else _laws_at(motion, t, gamma=False)
 
     def at(x: Sequence[float], name: str) -> float:
         a_, r_, s_ = x
         if not (0.0 <= r_ <= surface.dR and t0 <= s_ <= t1):
             return 0.0
-        return float(abs(getattr(Wave(surface, motion, a_, r_, s_), name)))
+        return float(abs(getattr(_normal(surface, motion, a_, r_, s_), name)))
 
     def span(x: Sequence[float]) -> float:
         a_, r_ = x
         if not 0.0 <= r_ <= surface.dR:
             return 0.0
-        w = Wave(surface, motion, a_, r_, t).W
+        w = _normal(surface, motion, a_, r_, t, laws).W
         return float(w.max() - w.min())
 
     if "max_W_t" in polished:
@@ -509,8 +665,12 @@ def _nelder_mead(fun: Callable[[Sequence[float]], float], x0: list[float], f0: f
 def local_frequency(motion: Motion, t: ArrayLike) -> Array:
     """The highest local frequency of W at times t (Hz): W = (A/2)[sin(u + v) + sin(u - v)]
     at a fixed point turns at |phi_r' +- phi_a'|, so (|phi_r'| + |phi_a'|) / (2 pi)."""
-    return np.asarray((np.abs(motion.phi_r(t).d1) + np.abs(motion.phi_a(t).d1))
-                      / (2.0 * math.pi), float)
+    return _local_frequency(motion.phi_r(t), motion.phi_a(t))
+
+
+def _local_frequency(pr: LawValue, pa: LawValue) -> Array:
+    """:func:`local_frequency` from the phases already evaluated."""
+    return np.asarray((np.abs(pr.d1) + np.abs(pa.d1)) / (2.0 * math.pi), float)
 
 
 def energy_frequency(signal: ArrayLike, dt: float, fraction: float = 0.99, pad: int = 8
@@ -573,8 +733,16 @@ class SampledLaw:
         ts = self.t
         if ts.size == 1:
             return LawValue(self.value[0] + 0.0 * t, self.d1[0] + 0.0 * t, self.d2[0] + 0.0 * t)
-        x = np.clip(t, ts[0], ts[-1])
-        i = np.clip(np.searchsorted(ts, x, side="right") - 1, 0, ts.size - 2)
+        if t.ndim == 0 and math.isfinite(t):
+            # one time (a local search's): np.clip's and np.searchsorted's results without
+            # their array machinery (the call 2.5 times faster); the formulas below are shared
+            x = t[()]
+            x = x if x > ts[0] else ts[0]
+            x = x if x < ts[-1] else ts[-1]
+            i = min(max(int(ts.searchsorted(x, side="right")) - 1, 0), ts.size - 2)
+        else:
+            x = np.clip(t, ts[0], ts[-1])
+            i = np.clip(np.searchsorted(ts, x, side="right") - 1, 0, ts.size - 2)
         h = ts[i + 1] - ts[i]
         s = (x - ts[i]) / h
         # cubic Hermite basis: exactly (1, 0, 0, 0) at s = 0 and (0, 0, 1, 0) at s = 1
@@ -660,15 +828,22 @@ def actuation_demand(surface: Surface, motion: Motion, t: ArrayLike, P_surface: 
     P_act = P_s + mi.inertia + mi.gravity + mi.damping
 
     def K_quad(x: Array) -> Array:
-        return membrane_integrals(surface, motion, x, rule, sigma, 0.0, g).kinetic
+        return _kinetic_energy(surface, motion, x, rule, sigma)
 
     t_K, K_max = (refine_maximum(K_quad, t, mi.kinetic, xtol) if t.size
                   else (math.nan, math.nan))
     ex = normal_rate_maxima(surface, motion, grid_t, extrema[0], extrema[1], polish, ftol)
-    _, wt_cf = time_maximum(lambda x: normal_rate_bounds(surface, motion, x)[0], t0, t1)
-    _, wtt_cf = time_maximum(lambda x: normal_rate_bounds(surface, motion, x)[1], t0, t1)
-    W_t_worst = Wave(surface, motion, ex.worst[0], ex.worst[1], grid_t).W_t
-    _, bandwidth = time_maximum(lambda x: local_frequency(motion, x), t0, t1)
+    # the three time maxima (time_maximum's) share the phases on their common sampling
+    ts = np.linspace(t0, t1, TIME_SAMPLES)
+    pr, pa = motion.phi_r(ts), motion.phi_a(ts)
+    bounds = _rate_bounds(surface.A, pr, pa)
+    _, wt_cf = refine_maximum(lambda x: normal_rate_bounds(surface, motion, x)[0], ts,
+                              np.asarray(bounds[0], float))
+    _, wtt_cf = refine_maximum(lambda x: normal_rate_bounds(surface, motion, x)[1], ts,
+                               np.asarray(bounds[1], float))
+    W_t_worst = _normal(surface, motion, ex.worst[0], ex.worst[1], grid_t).W_t
+    _, bandwidth = refine_maximum(lambda x: local_frequency(motion, x), ts,
+                                  np.asarray(_local_frequency(pr, pa), float))
     bandwidth99 = energy_frequency(W_t_worst, sample_interval, energy_fraction)
     return ActuationDemand(t, P_s, mi, P_act, K_max, t_K, ex, wt_cf, wtt_cf, grid_t,
                            np.asarray(W_t_worst, float), bandwidth, bandwidth99)
