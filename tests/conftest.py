@@ -282,6 +282,26 @@ LONG = (
 )
 
 
+@pytest.hookimpl(tryfirst=True)  # before pytest-xdist starts its workers (its hook is trylast)
+def pytest_sessionstart(session: pytest.Session) -> None:
+    """Under pytest-xdist (`make test`), compile the default loops into numba's cache first,
+    in two processes (tests/warm_loops.py): on a cold cache every worker would otherwise
+    compile each of them itself. Best effort: a part that fails leaves its compile to the
+    tests, which then say so on stderr as any run does."""
+    import subprocess
+    import sys
+
+    config = session.config
+    workers = getattr(config.option, "numprocesses", None)
+    if not isinstance(workers, int) or workers < 2 or hasattr(config, "workerinput"):
+        return
+    script = str(REPO / "tests" / "warm_loops.py")
+    parts = [subprocess.Popen([sys.executable, script, part], stdout=subprocess.DEVNULL)
+             for part in ("full", "trajectory")]
+    for p in parts:
+        p.wait()
+
+
 @pytest.hookimpl(tryfirst=True)  # before -m and -k deselect: every collected item is here
 def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
     """Mark the tests LONG names ``long``; an entry that names no test of a module collected
