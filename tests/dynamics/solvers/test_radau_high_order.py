@@ -3,9 +3,11 @@
 What is checked against what: the stability functions of the registered methods against the
 A- and L-stability their registry entries state (no stability limit on dt); the observed
 order of radau9 and radau13 on EN-02 at fixed steps, at the steps and between them (dense
-output), against a reference of a different method (dop853 at rtol 1e-13); the variable-order
-method's stage counts on EN-02 at a loose and a tight tolerance; agreement with radau5 at a
-common tolerance; the work counts the driver returns against the stepper's own.
+output), against a reference of a different method (dop853 at rtol 1e-13); the dense output's
+order against the collocation polynomial's on an oscillator with a known solution; the
+variable-order method's stage counts on EN-02 at a loose and a tight tolerance; agreement
+with radau5 at a common tolerance; the work counts the driver returns against the stepper's
+own.
 """
 
 from __future__ import annotations
@@ -14,16 +16,25 @@ import math
 
 import numpy as np
 import pytest
+from numba import njit
 
 from creatio.dynamics import simulate
 from creatio.dynamics.solvers import METHODS, RADAU_VO
 from creatio.dynamics.solvers import radau_variable_order as vo
+from creatio.dynamics.solvers.explicit import ACCEPTED
 from creatio.dynamics.solvers.radau_coefficients import (
     coefficients,
     pade_denominator,
     stability_function,
 )
-from creatio.dynamics.solvers.radau_high_order import PRM_S_MAX, PRM_S_MIN, solve
+from creatio.dynamics.solvers.radau_high_order import (
+    PRM_S_MAX,
+    PRM_S_MIN,
+    defect_shapes,
+    dense,
+    dense_step,
+    solve,
+)
 from creatio.pipeline.config import resolve
 
 NEW = ("radau9", "radau13", "radau")
@@ -112,8 +123,10 @@ def test_observed_order_at_fixed_steps_on_en02(en02, en02_reference, name, order
 
 @pytest.mark.parametrize(("name", "s"), [("radau9", 5), ("radau13", 7)])
 def test_dense_output_order_between_steps_on_en02(en02, en02_reference, name, s) -> None:
-    """Rows inside the steps come from the collocation polynomial (degree s), whose error
-    there is O(h^(s + 1)) (measured: radau9 6.3, radau13 8.0)."""
+    """Rows inside the steps come from the collocation polynomial corrected by its defect at
+    the step's start (degree s + 1), whose error there is O(h^(s + 2)) (measured: radau9
+    7.4, radau13 9.5), an order above the collocation polynomial's O(h^(s + 1)) (measured
+    before the correction: 6.3, 8.0, which this bound refuses)."""
     ref = en02_reference
     errs = []
     for dt in STEPS[name]:
@@ -124,7 +137,7 @@ def test_dense_output_order_between_steps_on_en02(en02, en02_reference, name, s)
         idx = np.searchsorted(ref.histories.t, res.histories.t - 1e-9)
         errs.append(np.abs(res.histories.X[off] - ref.histories.X[idx][off]).max())
     observed = _observed(errs, STEPS[name])
-    assert s <= observed <= s + 1.5, (errs, observed)
+    assert s + 1.5 <= observed <= s + 3.0, (errs, observed)
 
 
 def test_order_switch_raises_the_order_at_tighter_tolerance_on_en02(en02) -> None:
@@ -176,3 +189,119 @@ def test_driver_counts_match_the_stepper(en02) -> None:
     assert f.status == "ok" and f.rejected_steps == 0 and f.steps == 10
     r5 = simulate(en02.replace(method="radau5", rtol=1e-8, atol=1e-10, fixed_step=False))
     assert r5.counts.newton_iterations >= r5.counts.steps
+
+
+@njit(cache=True)
+def _osc_rhs(t, y, out, ctx):
+    """The damped, weakly nonlinear forced oscillator of test_radau_coefficients, whose exact
+    solution is (sin w t, cos w t)."""
+    k, e, w = ctx
+    s = math.sin(w * t)
+    c = math.cos(w * t)
+    out[0] = w * y[1] - k * (y[0] - s) + e * (y[1] * y[1] - c * c)
+    out[1] = -w * y[0] - k * (y[1] - c) + e * (y[0] * y[0] - s * s)
+
+
+@njit(cache=True)
+def _both_dense(ctx, y0, t_end, h, s, td, coll, corrected):
+    """Fixed steps of h at s stages (Newton to rtol 1e-14) with the driver's contract: at
+    each time of td inside a step, the collocation polynomial (radau_high_order.dense) into
+    coll and the corrected one (radau_high_order.dense_step) into corrected."""
+    ws = vo.workspace(2, s, s, s, 60, vo.THET)
+    y = y0.copy()
+    f = np.empty(2)
+    ynew = np.empty(2)
+    _osc_rhs(0.0, y, f, ctx)
+    t = 0.0
+    jd = 0
+    while t < t_end - 1e-12:
+        outcome, _, _, _, _, _ = vo.step(_osc_rhs, None, ctx, t, t + h, h, y, f, ynew, ws,
+                                         (1e-14, 1e-14), True, False)
+        if outcome != ACCEPTED:
+            return False
+        while jd < td.size and td[jd] <= t + h:
+            dense(ws, td[jd], coll[jd])
+            dense_step(ws, td[jd], corrected[jd], t, y, f, t + h, ynew, ynew)
+            jd += 1
+        t += h
+        y[:] = ynew
+        _osc_rhs(t, y, f, ctx)
+    return True
+
+
+@pytest.mark.parametrize(("s", "hs"), [(3, (0.04, 0.02, 0.01)), (5, (0.16, 0.1, 0.0625)),
+                                       (7, (0.4, 0.25, 0.16))])
+def test_corrected_dense_output_gains_an_order_on_the_collocation_polynomial(
+        s: int, hs: tuple) -> None:
+    """Dense output between steps (radau_high_order.dense_step): the collocation polynomial
+    corrected by its defect at the step's start. At 200 random off-step times of the damped
+    oscillator (w = 10) at fixed steps, its error falls as h^(s+2) (measured 5.0, 7.0, 9.0)
+    where the collocation polynomial's falls as h^(s+1) (4.1-4.3, 5.9-6.0, 7.9), and it is
+    the smaller at every h (by 2.4-15x, more at smaller h)."""
+    w = 10.0
+    ctx = (1.0, 0.05, w)
+    td = np.sort(np.random.default_rng(1).uniform(1.0, 10.0, 200))
+    errs = []
+    for h in hs:
+        coll = np.full((td.size, 2), np.nan)
+        corrected = np.full((td.size, 2), np.nan)
+        y0 = np.array([0.0, 1.0])
+        assert _both_dense(ctx, y0, 10.0, h, s, td, coll, corrected)
+        x = np.modf(td / h)[0]
+        off = (x > 0.05) & (x < 0.95)
+        assert off.sum() > 150
+        exact = np.stack([np.sin(w * td), np.cos(w * td)], axis=-1)
+        errs.append([np.max(np.abs(v[off] - exact[off])) for v in (coll, corrected)])
+    errs = np.array(errs)
+    ratios = np.asarray(hs[:-1]) / np.asarray(hs[1:])
+    slopes = np.log(errs[:-1] / errs[1:]) / np.log(ratios)[:, None]
+    assert np.all(np.abs(slopes[:, 0] - (s + 1)) < 0.35), slopes
+    assert np.all(np.abs(slopes[:, 1] - (s + 2)) < 0.35), slopes
+    assert np.all(errs[:, 1] < errs[:, 0] / 2.0), errs
+
+
+def test_defect_shapes_vanish_at_both_ends_with_unit_start_slope() -> None:
+    """The correction's shape per stage count: W(0) = W(1) = 0 (so dense output keeps the
+    step's ends), W'(0) = 1 and W'(c_i) = 0 at every stage (so its derivative keeps the
+    collocation polynomial's at the stages), each to the rounding of its coefficients (a few
+    eps times their sum: the coefficients reach 1e3 at 7 stages, where prod c_i is small)."""
+    from creatio.dynamics.solvers.radau_coefficients import STAGES
+
+    shapes = defect_shapes()
+    for k, s in enumerate(STAGES):
+        poly = np.polynomial.Polynomial(shapes[k])
+        assert poly.trim().degree() == s + 1
+        c = coefficients(s).c
+        rounding = 8.0 * np.finfo(float).eps * np.abs(poly.deriv().coef).sum()
+        np.testing.assert_allclose([poly(0.0), poly(1.0)], 0.0, atol=rounding)
+        np.testing.assert_allclose(poly.deriv()(0.0), 1.0, rtol=0, atol=rounding)
+        np.testing.assert_allclose(poly.deriv()(c), 0.0, atol=rounding)
+
+
+def test_jacobians_ahead_cut_the_newton_iterations_of_long_free_steps() -> None:
+    """Free steps at 7 stages over EN-02's first 60 s (rtol 1e-11, steps of 0.3-0.6 s): with
+    the Jacobian at the stages' centroid (what the driver's dense runs do), the Newton
+    iterations per try fall to at most 0.85 of radau.f's Jacobian at the step's start
+    (measured 4.8 against 6.3, with Newton's tolerance FNEWT_AHEAD times radau.f's), and
+    both runs keep their rows every second within 100 rtol of a reference of a different
+    method (dop853 at rtol 1e-13) in R and in R alpha (measured 1.4e-12 and 4.8e-12 m,
+    3.8e-11 and 1.2e-10 m)."""
+    prob = resolve("en02", []).obj.sphere_problem().replace(energy=False, t_end=60.0)
+    ref = simulate(prob.replace(method="dop853", rtol=1e-13, atol=1e-15, fixed_step=False,
+                                interval=1.0))
+    assert ref.counts.status == "ok"
+    y0 = prob.initial_state(True, False)
+    p, lawc = prob.parameter_vector(), prob.law_matrix()
+    td = np.arange(1.0, 61.0)
+    rtol = 1e-11
+    per_try = {}
+    for ahead in (False, True):
+        ok, _, out, cnt, _, steps, _, _ = solve(p, lawc, y0, 60.0, 1e-3, rtol, rtol * 1e-2, 7,
+                                                7, 7, False, 100000, td, vo.THET, ahead)
+        assert ok
+        tries = steps + cnt[vo.CNT_REJECTED_ERROR] + cnt[vo.CNT_REJECTED_NEWTON]
+        per_try[ahead] = cnt[vo.CNT_NEWTON] / tries
+        R, alpha = ref.histories.R[1:], ref.histories.alpha[1:]
+        assert np.abs(out[:, 0] - R).max() < 100 * rtol
+        assert np.abs(R * (out[:, 1] - alpha)).max() < 100 * rtol
+    assert per_try[True] <= 0.85 * per_try[False], per_try
