@@ -33,7 +33,17 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from creatio.model.laws import L_AMPLITUDE, L_DELTA, L_PHI0, L_RATE, LawKind, LawValue
-from creatio.model.surface import Frame, Motion, Surface, Wave
+from creatio.model.surface import (
+    Frame,
+    Motion,
+    Surface,
+    Wave,
+    acceleration_parts,
+    ideal_W,
+    ideal_W_t,
+    ideal_W_tt,
+    velocity_parts,
+)
 
 __all__ = [
     "INTEGRALS",
@@ -146,23 +156,19 @@ class _Normal:
 
     @cached_property
     def W(self) -> Array:
-        """W = A sin u cos v."""
-        return self.A * self.su * self.cv
+        """W (creatio.model.surface.ideal_W)."""
+        return ideal_W(self.A, self.su, self.cv)
 
     @cached_property
     def W_t(self) -> Array:
-        """W_t = A (phi_r' cos u cos v - phi_a' sin u sin v)."""
-        r1, a1 = self.pr.d1, self.pa.d1
-        return self.A * (r1 * self.cu * self.cv - a1 * self.su * self.sv)
+        """W_t (creatio.model.surface.ideal_W_t)."""
+        return ideal_W_t(self.A, self.pr.d1, self.pa.d1, self.su, self.cu, self.sv, self.cv)
 
     @cached_property
     def W_tt(self) -> Array:
-        """W_tt, Wave's formula."""
-        r1, r2, a1, a2 = self.pr.d1, self.pr.d2, self.pa.d1, self.pa.d2
-        su, cu, sv, cv = self.su, self.cu, self.sv, self.cv
-        return self.A * (
-            r2 * cu * cv - a2 * su * sv - (r1**2 + a1**2) * su * cv - 2.0 * r1 * a1 * cu * sv
-        )
+        """W_tt (creatio.model.surface.ideal_W_tt)."""
+        return ideal_W_tt(self.A, self.pr.d1, self.pr.d2, self.pa.d1, self.pa.d2, self.su,
+                          self.cu, self.sv, self.cv)
 
 
 def _normal(surface: Surface, motion: Motion, alpha: ArrayLike, R: ArrayLike, t: ArrayLike,
@@ -208,17 +214,16 @@ class _Rates:
 
     @cached_property
     def c_t(self) -> Array:
-        """dc/dt = (W_t + R gamma') e_n - W gamma' e_g."""
-        w, dg = self.w, self.dg
-        return _combine(w.W_t + self.R * dg, self.e_n, -w.W * dg, self.e_g)
+        """dc/dt (creatio.model.surface.velocity_parts on e_n and e_g)."""
+        a, b = velocity_parts(self.w.W, self.w.W_t, self.R, self.dg)
+        return _combine(a, self.e_n, b, self.e_g)
 
     @cached_property
     def c_tt(self) -> Array:
-        """d2c/dt2 = (W_tt + R g'' - W g'^2) e_n - (2 W_t g' + W g'' + R g'^2) e_g."""
-        w, R, dg, ddg = self.w, self.R, self.dg, self.ddg
-        a = w.W_tt + R * ddg - w.W * dg**2
-        b = 2.0 * w.W_t * dg + w.W * ddg + R * dg**2
-        return _combine(a, self.e_n, -b, self.e_g)
+        """d2c/dt2 (creatio.model.surface.acceleration_parts on e_n and e_g)."""
+        w = self.w
+        a, b = acceleration_parts(w.W, w.W_t, w.W_tt, self.R, self.dg, self.ddg)
+        return _combine(a, self.e_n, b, self.e_g)
 
 
 def _material_rates(surface: Surface, motion: Motion, alpha: ArrayLike, R: ArrayLike,

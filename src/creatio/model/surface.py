@@ -24,7 +24,8 @@ from numpy.typing import ArrayLike, NDArray
 from creatio.model.laws import Law, LawValue
 from creatio.model.ribs import Ribs, check_rib_count, skin_jets
 
-__all__ = ["Frame", "Motion", "Surface", "Wave", "inverse", "wavenumber"]
+__all__ = ["Frame", "Motion", "Surface", "Wave", "acceleration_parts", "ideal_W", "ideal_W_t",
+           "ideal_W_tt", "inverse", "velocity_parts", "wavenumber"]
 
 Array = NDArray[np.float64]
 
@@ -95,6 +96,39 @@ class Motion:
         return self.phi_r(t), self.phi_a(t), self.gamma(t)
 
 
+def ideal_W(A: float, su: ArrayLike, cv: ArrayLike) -> Array:
+    """W = A sin u cos v on the ideal surface (u = k R + phi_r, v = Ka alpha + phi_a)."""
+    return A * su * cv
+
+
+def ideal_W_t(A: float, r1: ArrayLike, a1: ArrayLike, su: ArrayLike, cu: ArrayLike,
+              sv: ArrayLike, cv: ArrayLike) -> Array:
+    """W_t = A (phi_r' cos u cos v - phi_a' sin u sin v) on the ideal surface."""
+    return A * (r1 * cu * cv - a1 * su * sv)
+
+
+def ideal_W_tt(A: float, r1: ArrayLike, r2: ArrayLike, a1: ArrayLike, a2: ArrayLike,
+               su: ArrayLike, cu: ArrayLike, sv: ArrayLike, cv: ArrayLike) -> Array:
+    """W_tt on the ideal surface, from the phases' first and second derivatives."""
+    return A * (r2 * cu * cv - a2 * su * sv - (r1**2 + a1**2) * su * cv - 2.0 * r1 * a1 * cu * sv)
+
+
+def velocity_parts(W: ArrayLike, W_t: ArrayLike, R: ArrayLike, dg: ArrayLike
+                   ) -> tuple[Array, Array]:
+    """The material velocity's coefficients on (e_n, e_g): c_t = (W_t + R gamma') e_n
+    - W gamma' e_g."""
+    return W_t + R * dg, -W * dg
+
+
+def acceleration_parts(W: ArrayLike, W_t: ArrayLike, W_tt: ArrayLike, R: ArrayLike,
+                       dg: ArrayLike, ddg: ArrayLike) -> tuple[Array, Array]:
+    """The material acceleration's coefficients on (e_n, e_g): c_tt = (W_tt + R g'' - W g'^2)
+    e_n - (2 W_t g' + W g'' + R g'^2) e_g."""
+    a = W_tt + R * ddg - W * dg**2
+    b = 2.0 * W_t * dg + W * ddg + R * dg**2
+    return a, -b
+
+
 class Wave:
     """W and its partial derivatives up to second order at (alpha, R, t) for one surface motion.
 
@@ -120,18 +154,16 @@ class Wave:
         su, cu, sv, cv = np.sin(u), np.cos(u), np.sin(v), np.cos(v)
         r1, r2, a1, a2 = pr_1, pr_2, pa_1, pa_2
         if surface.ribs is None:
-            self.W = A * su * cv
+            self.W = ideal_W(A, su, cv)
             self.W_R = A * k * cu * cv
             self.W_a = -A * Ka * su * sv
-            self.W_t = A * (r1 * cu * cv - a1 * su * sv)
+            self.W_t = ideal_W_t(A, r1, a1, su, cu, sv, cv)
             self.W_RR = -(k**2) * self.W
             self.W_aa = -(Ka**2) * self.W
             self.W_Ra = -A * k * Ka * cu * sv
             self.W_Rt = A * k * (-r1 * su * cv - a1 * cu * sv)
             self.W_at = -A * Ka * (r1 * cu * sv + a1 * su * cv)
-            self.W_tt = A * (
-                r2 * cu * cv - a2 * su * sv - (r1**2 + a1**2) * su * cv - 2.0 * r1 * a1 * cu * sv
-            )
+            self.W_tt = ideal_W_tt(A, r1, r2, a1, a2, su, cu, sv, cv)
         else:
             # the rib skin: W = A sin(u) H(alpha, t) (creatio.model.ribs)
             H, Ha, Ht, Haa, Hat, Htt, _, _, _ = skin_jets(surface.skin_table, alpha, pa_v, a1,
@@ -189,7 +221,8 @@ class Frame:
     def c_t(self) -> Array:
         """dc/dt at fixed (alpha, R) = (W_t + R gamma') e_n - W gamma' e_g (material velocity)."""
         w = self.w
-        return _lin(w.W_t + w.R * w.dg, self.e_n, -w.W * w.dg, self.e_g)
+        a, b = velocity_parts(w.W, w.W_t, w.R, w.dg)
+        return _lin(a, self.e_n, b, self.e_g)
 
     # --- second derivatives --------------------------------------------------------------
     @property
@@ -229,9 +262,8 @@ class Frame:
     def c_tt(self) -> Array:
         """d2c/dt2 = (W_tt + R g'' - W g'^2) e_n - (2 W_t g' + W g'' + R g'^2) e_g."""
         w = self.w
-        a = w.W_tt + w.R * w.ddg - w.W * w.dg**2
-        b = 2.0 * w.W_t * w.dg + w.W * w.ddg + w.R * w.dg**2
-        return _lin(a, self.e_n, -b, self.e_g)
+        a, b = acceleration_parts(w.W, w.W_t, w.W_tt, w.R, w.dg, w.ddg)
+        return _lin(a, self.e_n, b, self.e_g)
 
     # --- metric, Jacobian, normal --------------------------------------------------------
     def metric(self) -> tuple[Array, Array, Array]:
