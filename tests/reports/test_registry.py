@@ -4,6 +4,7 @@ study of the kinematic or sphere kind needs no line of its own."""
 from __future__ import annotations
 
 import dataclasses
+from pathlib import Path
 
 import pytest
 
@@ -20,6 +21,15 @@ def test_every_registered_study_has_a_writer(study_id: str) -> None:
     if study_id not in reports.WRITERS:
         module, _, name = reports.BY_KIND[studies.get(study_id).kind.name].partition(":")
         assert (fn.__module__, fn.__name__) == (f"creatio.reports.{module}", name)
+
+
+@pytest.mark.parametrize("study_id", [s for s in studies.STUDIES
+                                      if (Path(reports.__file__).parent / f"{s}.py").is_file()])
+def test_a_study_with_a_report_module_of_its_own_is_served_by_it(study_id: str) -> None:
+    """A study whose report has a module of its own (creatio/reports/<id>.py) is written by
+    it: without its line in WRITERS, its kind's writer would serve it silently (EN-03 would
+    get the plain sphere report)."""
+    assert reports.writer(study_id).__module__ == f"creatio.reports.{study_id}"
 
 
 def test_a_new_study_of_a_kind_with_a_writer_needs_no_line(monkeypatch) -> None:  # type: ignore[no-untyped-def]
