@@ -102,6 +102,31 @@ def test_an_absent_worker_or_a_slurm_job_runs_in_its_own_process(tmp_path, monke
         worker.stop(proc)
 
 
+def test_a_worker_that_listens_between_the_clients_looks_is_found(tmp_path, monkeypatch):
+    """A worker binds, listens, then removes its .starting file: a client whose connection
+    attempt fails just before the worker listens, and who then finds the file gone, must
+    still connect (the race that made a warm-up of 2.5 s look like a failed start)."""
+    path = tmp_path / "w.sock"
+    starting = path.with_name(path.name + ".starting")
+    starting.write_text(str(os.getpid()))
+    listener = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
+    read_text = Path.read_text
+
+    def worker_comes_up(self: Path, *args, **kwargs):
+        if self == starting and listener.fileno() >= 0 and not path.exists():
+            listener.bind(str(path))  # the worker's last steps, in its order
+            listener.listen(1)
+            starting.unlink()
+        return read_text(self, *args, **kwargs)
+
+    monkeypatch.setattr(Path, "read_text", worker_comes_up)
+    with listener:
+        sock = worker._connect(path, wait=5.0)
+        assert sock is not None
+        sock.close()
+    assert worker._connect(path, wait=5.0) is None  # none listens and none is coming
+
+
 def test_a_worker_with_other_code_or_another_environment_serves_no_one(tmp_path):
     """The worker compares the package's code version (creatio.pipeline.code) at every
     request with the one it started with: a difference refuses the job and stops the worker;

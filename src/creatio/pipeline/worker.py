@@ -257,20 +257,17 @@ def _connect(path: Path, wait: float) -> socket.socket | None:
     """A connection to the worker at path, waiting up to `wait` s while it starts (its
     ``.starting`` file names a live process); None when there is none."""
     deadline = time.monotonic() + wait
-    starting = path.with_name(path.name + ".starting")
     while True:
+        # looked at before connecting: a worker listens before it removes its .starting
+        # file, so a file gone before the attempt means no worker is coming
+        coming = _starting(path)
         sock = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
         try:
             sock.connect(str(path))
             return sock
         except OSError:
             sock.close()
-        try:
-            pid = int(starting.read_text())
-            os.kill(pid, 0)
-        except (OSError, ValueError):
-            return None
-        if time.monotonic() > deadline:
+        if not coming or time.monotonic() > deadline:
             return None
         time.sleep(0.02)
 
@@ -1043,12 +1040,13 @@ def ensure(path: Path, env: Mapping[str, str], idle: float, log: Path
     lock = os.open(path.with_name(path.name + ".lock"), os.O_CREAT | os.O_RDWR, 0o600)
     try:
         fcntl.flock(lock, fcntl.LOCK_EX)
+        coming = _starting(path)  # before asking: a worker listens, then removes the file
         state = control(path, "status")
         if state is not None and not state.get("stopping"):
             if state.get("version") == package_version():
                 return None
             control(path, "stop")  # older code: it finishes its jobs, a new one serves
-        elif state is None and _starting(path):
+        elif state is None and coming:
             return None  # a worker that another invocation started is warming up
         return start(path, idle=idle, log=log, env=env)
     finally:
