@@ -165,7 +165,8 @@ class Method:
     description: str
     tableau: Tableau | None = None
     #: order of the dense output between steps (interpolant's degree; Radau IIA 5: its
-    #: collocation cubic); None: the tableau's
+    #: collocation cubic; radau9, radau13, radau: the collocation polynomial of s stages
+    #: corrected by its defect, degree s + 1, at their fewest stages); None: the tableau's
     dense_order_override: int | None = field(default=None, repr=False)
     exact_stability_bound: float | None = field(default=None, repr=False)
     #: the stepper's parameters when its kind runs several methods (radau_high_order's PRM_*:
@@ -260,14 +261,14 @@ METHODS: dict[str, Method] = {
                dense_order_override=3),
         Method("radau9", RADAU_VO, 9, 5,
                "Radau IIA order 9 (5 stages), adaptive, L-stable (Hairer's RADAU control)",
-               dense_order_override=5, params=(5, 5, 5, _THET)),
+               dense_order_override=6, params=(5, 5, 5, _THET)),
         Method("radau13", RADAU_VO, 13, 7,
                "Radau IIA order 13 (7 stages), adaptive, L-stable (Hairer's RADAU control)",
-               dense_order_override=7, params=(7, 7, 7, _THET)),
+               dense_order_override=8, params=(7, 7, 7, _THET)),
         Method("radau", RADAU_VO, 5, 3,
                "Radau IIA of variable order 5, 9, 13 (3, 5, 7 stages) by the Newton "
                "contraction, adaptive, L-stable (Hairer's RADAU)",
-               dense_order_override=3, params=(3, 7, 3, _THET)),
+               dense_order_override=4, params=(3, 7, 3, _THET)),
         Method("rodas4", ROSENBROCK, 4, 3,
                "Rosenbrock RODAS4, adaptive, L-stable, linearly implicit (Jacobian every step)",
                dense_order_override=3),
