@@ -17,6 +17,7 @@ from fractions import Fraction
 import numpy as np
 import pytest
 from numba import njit
+from oscillator import osc_jac, osc_rhs
 from scipy.integrate import solve_ivp
 from scipy.linalg import expm
 
@@ -306,9 +307,8 @@ def test_stability_function_is_the_pade_approximant_a_and_l_stable(s: int) -> No
 
 # ---------------------------------------------------------------------------- the stepper
 # Three problems, each one compiled entry (the stepper is inlined into it):
-# * a forced oscillator with a weak quadratic nonlinearity, y = (sin wt, cos wt) exactly:
-#   y1' = w y2 - k (y1 - sin wt) + e (y2^2 - cos^2 wt), y2' = -w y1 - k (y2 - cos wt)
-#   + e (y1^2 - sin^2 wt); undamped (k = 0) its global error grows with t and keeps the
+# * a forced oscillator with a weak quadratic nonlinearity, y = (sin wt, cos wt) exactly
+#   (oscillator.py); undamped (k = 0) its global error grows with t and keeps the
 #   order-13 errors above rounding, damped (k = 1) the dense output's own error shows;
 # * Van der Pol at mu = 1000 in Hairer's scaling (eps = 1 / mu^2 = 1e-6, t in [0, 2]);
 # * a linear stiff system y' = A (y - g(t)) + g'(t), eigenvalues -1, -1e3, -1e6, exact
@@ -316,27 +316,8 @@ def test_stability_function_is_the_pade_approximant_a_and_l_stable(s: int) -> No
 
 
 @njit(cache=True)
-def _osc_rhs(t, y, out, ctx):
-    k, e, w = ctx
-    s = math.sin(w * t)
-    c = math.cos(w * t)
-    out[0] = w * y[1] - k * (y[0] - s) + e * (y[1] * y[1] - c * c)
-    out[1] = -w * y[0] - k * (y[1] - c) + e * (y[0] * y[0] - s * s)
-
-
-@njit(cache=True)
-def _osc_jac(t, y, f, jac, work, tmp, ctx):
-    k, e, w = ctx
-    jac[0, 0] = -k
-    jac[0, 1] = w + 2.0 * e * y[1]
-    jac[1, 0] = -w + 2.0 * e * y[0]
-    jac[1, 1] = -k
-    return 0
-
-
-@njit(cache=True)
 def _osc(ctx, y0, t_end, h, rtol, s_min, s_max, fixed, t_dense):
-    return solve(_osc_rhs, _osc_jac, ctx, 0.0, y0, t_end, h, rtol, rtol, s_min, s_max, s_min,
+    return solve(osc_rhs, osc_jac, ctx, 0.0, y0, t_end, h, rtol, rtol, s_min, s_max, s_min,
                  fixed, 200000, t_dense, 60)
 
 

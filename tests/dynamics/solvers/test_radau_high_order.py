@@ -17,6 +17,7 @@ import math
 import numpy as np
 import pytest
 from numba import njit
+from oscillator import osc_rhs
 
 from creatio.dynamics import simulate
 from creatio.dynamics.solvers import METHODS, RADAU_VO
@@ -192,17 +193,6 @@ def test_driver_counts_match_the_stepper(en02) -> None:
 
 
 @njit(cache=True)
-def _osc_rhs(t, y, out, ctx):
-    """The damped, weakly nonlinear forced oscillator of test_radau_coefficients, whose exact
-    solution is (sin w t, cos w t)."""
-    k, e, w = ctx
-    s = math.sin(w * t)
-    c = math.cos(w * t)
-    out[0] = w * y[1] - k * (y[0] - s) + e * (y[1] * y[1] - c * c)
-    out[1] = -w * y[0] - k * (y[1] - c) + e * (y[0] * y[0] - s * s)
-
-
-@njit(cache=True)
 def _both_dense(ctx, y0, t_end, h, s, td, coll, corrected):
     """Fixed steps of h at s stages (Newton to rtol 1e-14) with the driver's contract: at
     each time of td inside a step, the collocation polynomial (radau_high_order.dense) into
@@ -211,11 +201,11 @@ def _both_dense(ctx, y0, t_end, h, s, td, coll, corrected):
     y = y0.copy()
     f = np.empty(2)
     ynew = np.empty(2)
-    _osc_rhs(0.0, y, f, ctx)
+    osc_rhs(0.0, y, f, ctx)
     t = 0.0
     jd = 0
     while t < t_end - 1e-12:
-        outcome, _, _, _, _, _ = vo.step(_osc_rhs, None, ctx, t, t + h, h, y, f, ynew, ws,
+        outcome, _, _, _, _, _ = vo.step(osc_rhs, None, ctx, t, t + h, h, y, f, ynew, ws,
                                          (1e-14, 1e-14), True, False)
         if outcome != ACCEPTED:
             return False
@@ -225,7 +215,7 @@ def _both_dense(ctx, y0, t_end, h, s, td, coll, corrected):
             jd += 1
         t += h
         y[:] = ynew
-        _osc_rhs(t, y, f, ctx)
+        osc_rhs(t, y, f, ctx)
     return True
 
 
