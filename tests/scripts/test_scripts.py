@@ -74,3 +74,15 @@ def test_scene_costs_one_repeat(tmp_path: Path) -> None:
     out = _run(sys.executable, "scripts/scene_costs.py", "--repeats", "1", "--out",
                str(tmp_path / "costs.md"))
     assert (tmp_path / "costs.md").exists() and out.strip()
+
+
+@pytest.mark.slow
+def test_target_cpu_counts_the_workers_jobs() -> None:
+    """A cheap target (CT-02's dataset, one job) with the shared worker: the worker started
+    for the run, so its warm-up and the job it forked are counted beside the invocation."""
+    out = _run(sys.executable, "scripts/target_cpu.py", "data/studies/ct02/ct02.nc")
+    line = next(x for x in out.splitlines() if x.startswith("worker run 1: CPU"))
+    worker = float(line.split("worker ")[2].split(",")[0])
+    jobs = float(line.split("its jobs ")[1].split(")")[0])
+    assert worker > 0.5 and jobs > 0.0, out
+    assert "worker median CPU" in out
