@@ -127,6 +127,8 @@ LONG = (
     "tests/trust/test_trust.py::test_re_invoked_jobs_get_only_shell_inert_config_text",
     "tests/pipeline/test_worker.py::test_a_job_in_the_worker_writes_the_same_data_as_its_own_process",
     "tests/pipeline/test_worker.py::"
+    "test_a_calibration_in_the_worker_writes_the_same_data_as_its_own_process",
+    "tests/pipeline/test_worker.py::"
     "test_a_worker_killed_mid_job_stops_the_job_and_the_command_runs_alone",
     "tests/pipeline/test_worker.py::test_ctrl_c_of_a_served_job_exits_130_in_one_line",
     "tests/pipeline/test_worker.py::test_snakemake_jobs_run_in_the_shared_worker_across_invocations",

@@ -82,6 +82,24 @@ def test_a_job_in_the_worker_writes_the_same_data_as_its_own_process(warm, tmp_p
     _same_data(tmp_path / "warm.nc", tmp_path / "alone.nc")
 
 
+def test_a_calibration_in_the_worker_writes_the_same_data_as_its_own_process(warm, tmp_path):
+    """`creatio calibrate` (a job of `snakemake en05`) served by the worker: the example
+    track's fit, its dataset bit for bit as one process alone writes it."""
+    from creatio.pipeline.calibrate import EXAMPLE_OVERRIDES, EXAMPLE_TRACK
+
+    args = ["calibrate", "study=en02", f"track={EXAMPLE_TRACK}", "fit=[sphere.mu,sphere.eps]",
+            *EXAMPLE_OVERRIDES]
+    env = {**_environ(), worker.ENV: str(warm)}
+    before = worker.control(warm, "status")["served"]
+    served = _run([*args, f"out={tmp_path / 'warm'}"], env, tmp_path)
+    assert served.returncode == 0, served.stderr
+    assert worker.control(warm, "status")["served"] == before + 1  # the worker ran it
+    alone = _run([*args, f"out={tmp_path / 'alone'}"], {**_environ(), worker.ENV: "off"},
+                 tmp_path)
+    assert alone.returncode == 0, alone.stderr
+    _same_data(tmp_path / "warm" / "calibration.nc", tmp_path / "alone" / "calibration.nc")
+
+
 def test_an_absent_worker_or_a_slurm_job_runs_in_its_own_process(tmp_path, monkeypatch):
     """No socket, no starting worker: the command runs alone at once (delegate says None);
     a SLURM job never asks a worker, even a live one."""

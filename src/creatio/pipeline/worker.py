@@ -87,8 +87,9 @@ __all__ = [
 
 #: The variable that names a worker's socket for the commands (or ``off``).
 ENV = "CREATIO_WORKER"
-#: Commands a worker runs (`creatio task ...`, `creatio run ...`); the rest run in place.
-COMMANDS = ("task", "run")
+#: Commands a worker runs (`creatio task ...`, `creatio run ...`, `creatio calibrate ...`,
+#: which `snakemake en05` runs as a job); the rest run in place.
+COMMANDS = ("task", "run", "calibrate")
 #: The only environment variables in which a client may differ from its worker (besides
 #: :data:`CALL_TIME`): every other one may be read when a library or the dynamic loader
 #: loads (``LD_PRELOAD``, ``NUMBA_*``, ``SCIPY_ARRAY_API``, ``NETCDF_PLUGIN_DIR``, ...), so
@@ -451,6 +452,7 @@ WARM_MODULES = (
     "hydra", "omegaconf", "yaml", "creatio.pipeline.config",
     "creatio.pipeline.run", "creatio.pipeline.provenance", "creatio.pipeline.sweep",
     "creatio.pipeline.points", "creatio.pipeline.checks", "creatio.pipeline.index",
+    "creatio.pipeline.calibrate",
 )
 
 
