@@ -195,19 +195,15 @@ def result_outputs(prob: SphereProblem, res: SimulationResult, m: float, g: floa
     """:func:`run_outputs` of a raw run (its problem and result), without the EN-02 dataset:
     the same arrays and formulas as creatio.studies.sphere.result_dataset builds them, so
     the same floats, at a fraction of a dataset's cost per point."""
-    from creatio.studies.sphere import pattern
+    from creatio.studies.sphere import angular_lag, result_pattern
 
     ok = str(res.counts.status) == "ok"
     carried = float(ok and int(res.carried) == 1)
     if not ok:
         return {**{name: math.nan for name in OUTPUTS}, "carried": carried}
     h = res.histories
-    if prob.controlled:  # the pattern angle as the dataset's (creatio.studies.sphere)
-        pattern_t = prob.start.alpha - (h.phi_a - h.phi_a[:1]) / prob.model.surface.Ka
-    else:
-        pattern_t = pattern(prob, h.t)
     rho = np.hypot(h.X[:, 0], h.X[:, 1])
-    lag = np.degrees(h.azimuth) - np.degrees(pattern_t)
+    lag = angular_lag(h, result_pattern(prob, h))
     return {
         "final_radius": float(rho[-1]),
         "max_abs_lag": float(np.max(np.abs(lag))),

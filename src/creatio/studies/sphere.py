@@ -13,12 +13,12 @@ import math
 import numpy as np
 import xarray as xr
 
-from creatio.dynamics import SimulationResult, SphereProblem, simulate
+from creatio.dynamics import Histories, SimulationResult, SphereProblem, simulate
 from creatio.model.cavity import pattern_angle
 from creatio.studies.en04_control import measure
 from creatio.studies.schema import ControlGroup, DynamicConfig
 
-__all__ = ["COMPONENTS", "pattern", "result_dataset", "run"]
+__all__ = ["COMPONENTS", "angular_lag", "pattern", "result_dataset", "result_pattern", "run"]
 
 COMPONENTS = ["x", "y", "z"]
 
@@ -27,6 +27,20 @@ def pattern(prob: SphereProblem, t: np.ndarray) -> np.ndarray:
     """Pattern angle (rad) of a problem's phases at times t, measured from the initial
     contact angle alpha_init (docs/model.md s.3.1)."""
     return pattern_angle(prob.model.surface, prob.model.motion, t, prob.start.alpha)[0]
+
+
+def result_pattern(prob: SphereProblem, h: Histories) -> np.ndarray:
+    """Pattern angle (rad) at a run's history times: it starts at the initial contact angle
+    and turns at -phi_a' / Ka (on the controlled path phi_a is the state's, recorded with
+    the run)."""
+    if prob.controlled:
+        return prob.start.alpha - (h.phi_a - h.phi_a[:1]) / prob.model.surface.Ka
+    return pattern(prob, h.t)
+
+
+def angular_lag(h: Histories, pattern_t: np.ndarray) -> np.ndarray:
+    """Centre azimuth minus pattern angle (degree) at the history's times."""
+    return np.degrees(h.azimuth) - np.degrees(pattern_t)
 
 
 def run(cfg: DynamicConfig, dt: float) -> xr.Dataset:
@@ -44,12 +58,7 @@ def result_dataset(prob: SphereProblem, res: SimulationResult,
     h = res.histories
     t = h.t
     dt = prob.solver.dt
-    # The pattern angle starts at the initial contact angle and turns at -phi_a' / Ka
-    # (on the controlled path phi_a is the state's, recorded with the run).
-    if prob.controlled:
-        pattern_t = prob.start.alpha - (h.phi_a - h.phi_a[:1]) / prob.model.surface.Ka
-    else:
-        pattern_t = pattern(prob, t)
+    pattern_t = result_pattern(prob, h)
     rho = np.hypot(h.X[:, 0], h.X[:, 1])
     vec = ("time", "component")
     coords = {
@@ -83,7 +92,7 @@ def result_dataset(prob: SphereProblem, res: SimulationResult,
         "pattern_angle": ("time", np.degrees(pattern_t),
                           {"long_name": "pattern angle from the initial contact angle",
                            "units": "degree"}),
-        "angular_lag": ("time", np.degrees(h.azimuth) - np.degrees(pattern_t),
+        "angular_lag": ("time", angular_lag(h, pattern_t),
                         {"long_name": "centre azimuth minus pattern angle", "units": "degree"}),
         "cavity_R": ("time", h.cavity_R, {"long_name": "radial coordinate of the cavity",
                                             "units": "m"}),
